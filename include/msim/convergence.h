@@ -1,0 +1,11 @@
+/* -msim_monitor_convergence FILE: per nonlinear iteration of each implicit step, the solver's wall
+   time (monitoring itself excluded), Phi(x_k) and |g(x_k)|, so studies can plot relative energy
+   (Phi_k - Phi*)/(Phi_0 - Phi*) against iterations and seconds. */
+#pragma once
+#include <msim/implicit.h>
+
+typedef struct _n_MSimConvergenceMonitor *MSimConvergenceMonitor;
+PetscErrorCode MSimConvergenceMonitorCreate(MSimSystem sys, MSimConvergenceMonitor *mon); /* NULL when off */
+PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES snes, MSimImplicit imp);
+PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon);
+PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon);

@@ -1,0 +1,40 @@
+/* Implicit Euler in position form, shared by the integrator, the pd SNES type and the tests:
+   y = x_n + h v_n + h^2 M^-1 (m g + c w),
+   g(x) = M (x - y) - h^2 f_spring(x) + h c (x - x_n) + h kd sum_s A_s^T n n^T A_s (x - x_n),
+   the gradient of
+   Phi(x) = 1/2 (x-y)^T M (x-y) + h^2 E(x) + h c/2 |x - x_n|^2 + h kd/2 sum_s (n . A_s (x - x_n))^2,
+   where A_s x = x_i - x_j (fixed ends from b(t)) and the damping axes n are those of x_n. */
+#pragma once
+#include <msim/system.h>
+#include <msim/solvers.h>
+
+typedef struct _n_MSimImplicit *MSimImplicit;
+struct _n_MSimImplicit {
+  MSimSystem sys;
+  PetscReal  h, t;            /* step and start time of the current step */
+  Vec        Xn, Y;           /* x_n and y */
+  PetscBool  psd;             /* project spring Hessian blocks to PSD in the Jacobian */
+  /* projective dynamics: scalar matrix A = M + h c I + sum_s (h^2 k_s + h kd) L_s over free
+     vertices, factored once (KSP prefix pd_), three columns solved together */
+  Mat        A;
+  KSP        pdksp;
+  Mat        B, Xd;           /* dense nown x 3: right-hand sides and solutions */
+  PetscInt   nfactor;         /* numeric factorizations done by the PD solves */
+  Vec        rhs;
+  MSimPDProblem pd;
+};
+
+PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp);
+PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp);
+/* start a step from (X, V) at t: sets x_n, y. */
+PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V);
+PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G);
+PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi);
+PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
+/* PD pieces */
+PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp);
+PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs);
+PetscErrorCode MSimImplicitPDSolve(MSimImplicit imp, Vec rhs, Vec X);
+/* A kron I3 as a shell Mat whose only use is as a KSP operator for the PD-factor PC */
+PetscErrorCode MSimImplicitPDCreateShell(MSimImplicit imp, Mat *J);
+PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp);

@@ -1,0 +1,60 @@
+/* Integrators layer: a registry of time integrators chosen by -msim_integrator, PETSc style. */
+#pragma once
+#include <msim/system.h>
+
+#define MSIMEXPLICITEULER   "explicit_euler"
+#define MSIMSYMPLECTICEULER "symplectic_euler"
+#define MSIMRK4             "rk4"
+#define MSIMTS              "ts"
+#define MSIMIMPLICITEULER   "implicit_euler"
+
+typedef struct _n_MSimIntegrator *MSimIntegrator;
+typedef struct {
+  PetscErrorCode (*setfromoptions)(MSimIntegrator);
+  PetscErrorCode (*setup)(MSimIntegrator);
+  PetscErrorCode (*step)(MSimIntegrator, PetscReal t, Vec X, Vec V); /* advance (X, V) from t to t + dt */
+  PetscErrorCode (*view)(MSimIntegrator, PetscViewer);
+  PetscErrorCode (*destroy)(MSimIntegrator);
+} MSimIntegratorOps;
+
+struct _n_MSimIntegrator {
+  MPI_Comm          comm;
+  char              type[64];
+  MSimSystem        sys;
+  PetscReal         dt;
+  PetscInt          steps;
+  MSimIntegratorOps ops;
+  void             *data;
+  PetscBool         setupcalled;
+  /* stability of an explicit method without damping: stable iff dt * omega_max <= stability_limit
+     (0: no step is stable; PETSC_INFINITY: unconditionally stable) */
+  PetscReal         stability_limit;
+  /* what the last step reports to monitors */
+  PetscInt          nonlinear_its, linear_its;
+  PetscReal         residual;
+  PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
+  void             *convergence_monitor; /* MSimConvergenceMonitor, for implicit methods */
+};
+
+PetscErrorCode MSimIntegratorRegister(const char name[], PetscErrorCode (*create)(MSimIntegrator));
+PetscErrorCode MSimIntegratorRegisterAll(void);
+PetscErrorCode MSimIntegratorFinalizePackage(void);
+PetscErrorCode MSimIntegratorCreate(MSimSystem sys, MSimIntegrator *integ);
+PetscErrorCode MSimIntegratorSetType(MSimIntegrator integ, const char type[]);
+PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ);
+PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ);
+PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec V);
+PetscErrorCode MSimIntegratorView(MSimIntegrator integ, PetscViewer viewer);
+PetscErrorCode MSimIntegratorDestroy(MSimIntegrator *integ);
+
+/* a = M^-1 F (pointwise) */
+PetscErrorCode MSimSystemAcceleration(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A);
+
+PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_ExplicitEuler(MSimIntegrator);
+PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_SymplecticEuler(MSimIntegrator);
+PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_RK4(MSimIntegrator);
+PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_TS(MSimIntegrator);
+PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator);
+
+/* Numeric factorizations of the PD matrix so far (0 when PD was never used). */
+PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt *n);

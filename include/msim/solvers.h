@@ -1,0 +1,20 @@
+/* msim's own nonlinear solver types, registered with SNESRegister. */
+#pragma once
+#include <msim/sys.h>
+#include <petscsnes.h>
+
+#define SNESPD "pd"
+
+/* Registers "pd" once. */
+PetscErrorCode MSimSolversRegisterAll(void);
+
+/* What the pd type needs from the problem it solves, composed on the SNES's DM under the name
+   "MSimPDProblem" by whoever sets the problem up, so the type finds it also when it runs as the
+   nonlinear preconditioner of another SNES (which shares the DM). */
+typedef struct {
+  /* global step: solve A x = rhs for the constant PD matrix A */
+  PetscErrorCode (*global_solve)(void *ctx, Vec rhs, Vec x);
+  /* local step and right-hand side: rhs = M y + h^2 sum_s k_s A_s^T d_s(x) + boundary terms */
+  PetscErrorCode (*rhs)(void *ctx, Vec x, Vec rhs);
+  void *ctx;
+} MSimPDProblem;

@@ -1,0 +1,75 @@
+/* Springs layer: the distributed spring system. State Vecs (block size 3) hold only the free
+   vertices, each rank a contiguous block; fixed vertices live in a boundary vector b(t) =
+   b0 + t v_fix known to every rank (the references' K and b). Each rank owns the springs whose
+   first free endpoint it owns, and gathers the ghost positions it needs with one VecScatter. */
+#pragma once
+#include <msim/scene.h>
+#include <vector>
+
+typedef struct {
+  PetscInt  i, j; /* local vertex slots: [0, nown) owned, [nown, nown+nghost) ghosts, then fixed */
+  PetscReal k, L;
+} MSimSpring;
+
+typedef struct _n_MSimSystem *MSimSystem;
+struct _n_MSimSystem {
+  MPI_Comm    comm;
+  PetscMPIInt rank, size;
+  PetscInt    nv;                   /* input vertices, fixed included */
+  PetscInt    nfree, nown, rstart;  /* free vertices: global, owned, first owned (blocks) */
+  PetscInt    nghost, nfix, nloc;   /* nloc = nown + nghost + nfix local slots */
+  PetscInt    nspring_global;
+  std::vector<MSimSpring> springs;  /* owned springs */
+  std::vector<PetscInt>   local_to_global; /* global block of each owned/ghost slot */
+  std::vector<PetscReal>  b0;       /* 3 nfix fixed positions at t = 0 */
+  PetscReal   fix_velocity[3];
+  PetscReal   gravity[3], wind[3], drag, damping;
+  PetscReal   total_mass, diameter;
+  Vec         mass;                 /* per dof (block size 3), global layout */
+  Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
+  VecScatter  g2l;                  /* global free -> owned+ghost slots */
+  Vec         X0, V0;               /* initial state */
+  /* rank 0 only: what output needs in input vertex order */
+  std::vector<char>     fixed_flag; /* nv */
+  std::vector<PetscInt> out_si, out_sj;
+  Vec                   gathered;   /* 3 nfree on rank 0, 0 elsewhere */
+  VecScatter            gather;     /* global -> rank 0 in input order */
+  std::string           scene_name;
+};
+
+/* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition). */
+PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *sys);
+PetscErrorCode MSimSystemDestroy(MSimSystem *sys);
+PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v);
+
+/* Local slots from global X at time t (fixed slots from b(t)); the returned array is sys->xloc's. */
+PetscErrorCode MSimSystemGlobalToLocal(MSimSystem sys, PetscReal t, Vec X, Vec xloc);
+PetscErrorCode MSimSystemVelocityToLocal(MSimSystem sys, Vec V, Vec vloc);
+/* F += sum of local slot contributions (ghost parts go to their owners) */
+PetscErrorCode MSimSystemLocalToGlobalAdd(MSimSystem sys, Vec floc, Vec F);
+PetscErrorCode MSimSystemBoundary(MSimSystem sys, PetscReal t, PetscReal *b); /* fills 3 nfix */
+
+/* F = f_springs(x) + f_damping(x, v) + m g + drag (wind - v). V may be NULL when damping and drag
+   are zero. */
+PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F);
+/* Spring energy + gravity potential of the free vertices; kinetic energy of V (may be NULL). */
+PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V, PetscReal *kinetic, PetscReal *potential);
+/* Sum of spring energies only (for the incremental potential). */
+PetscErrorCode MSimSystemSpringEnergy(MSimSystem sys, PetscReal t, Vec X, PetscReal *E);
+
+/* Positions of all nv vertices in input order, on rank 0 (array of 3 nv; NULL elsewhere).
+   Collective. */
+PetscErrorCode MSimSystemGatherPositions(MSimSystem sys, PetscReal t, Vec X, std::vector<PetscReal> &all);
+/* The same for a displacement-like Vec (fixed vertices get zero). */
+PetscErrorCode MSimSystemGatherVector(MSimSystem sys, Vec X, std::vector<PetscReal> &all);
+
+/* Matrix over free vertices, block size 3, AIJ (works with every factorization and PC), with the
+   spring graph's nonzero pattern preallocated once. */
+PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A);
+/* A = mass_coef M + diag_coef I + stiff_coef K(X) + damp_coef sum_s n_s n_s^T (spring axes at Xn,
+   the start of the step; pass NULL to skip). psd: project each spring block to PSD. */
+PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, Vec Xn, PetscReal damp_coef, Mat A);
+/* Lumped mass as a diagonal Mat. */
+PetscErrorCode MSimSystemCreateMassMatrix(MSimSystem sys, Mat *M);
+/* Gershgorin bound on omega_max^2 of (K, M): max_i (2/m_i) sum_j k_ij, over free vertices. */
+PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2);

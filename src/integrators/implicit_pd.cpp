@@ -1,0 +1,232 @@
+/* Projective dynamics pieces of the implicit step (Liu et al. 2013), with spring damping and drag
+   folded in exactly: Phi = 1/2|x-y|_M^2 + sum_s [h^2 k_s/2 |A_s x - d_s|^2 + h kd/2 |A_s x - e_s|^2]
+   + h c/2 |x - x_n|^2, minimised over the projections d_s (|d_s| = L_s) and e_s (A_s x_n plus any
+   vector normal to the spring's axis at x_n), which reproduces Phi of msim/implicit.h. The
+   x-step matrix A = M + h c I + sum_s (h^2 k_s + h kd) L_s is constant: factor once per h. */
+#include <msim/implicit.h>
+#include <msim/kernels.hpp>
+
+using msim::Vec3;
+typedef Eigen::Map<const Vec3> CMap3;
+typedef Eigen::Map<Vec3>       Map3;
+
+PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
+{
+  MSimSystem         sys = imp->sys;
+  const PetscInt     nfl = sys->nown + sys->nghost;
+  const PetscReal    h   = imp->h;
+  const PetscScalar *m;
+  std::vector<PetscInt> dnz(sys->nown, 1), onz(sys->nown, 0);
+  Vec                cnt, gcnt;
+  PetscScalar       *c;
+  const PetscScalar *gc;
+  PC                 pc;
+
+  PetscFunctionBeginUser;
+  if (imp->A) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
+  /* preallocation of the scalar graph Laplacian: counts per local slot, ghosts summed to owners */
+  PetscCall(VecDuplicate(sys->floc, &cnt));
+  PetscCall(VecZeroEntries(cnt));
+  PetscCall(VecGetArray(cnt, &c));
+  for (const MSimSpring &s : sys->springs) {
+    if (s.i >= nfl || s.j >= nfl) continue;
+    const int off = (s.i < sys->nown && s.j < sys->nown) ? 0 : 1;
+    c[3 * s.i + off] += 1;
+    c[3 * s.j + off] += 1;
+  }
+  PetscCall(VecRestoreArray(cnt, &c));
+  PetscCall(VecDuplicate(sys->mass, &gcnt));
+  PetscCall(VecZeroEntries(gcnt));
+  PetscCall(MSimSystemLocalToGlobalAdd(sys, cnt, gcnt));
+  PetscCall(VecGetArrayRead(gcnt, &gc));
+  for (PetscInt i = 0; i < sys->nown; i++) {
+    dnz[i] = PetscMin(1 + (PetscInt)gc[3 * i], sys->nown);
+    onz[i] = PetscMin((PetscInt)gc[3 * i + 1], sys->nfree - sys->nown);
+  }
+  PetscCall(VecRestoreArrayRead(gcnt, &gc));
+  PetscCall(VecDestroy(&cnt));
+  PetscCall(VecDestroy(&gcnt));
+  PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
+  PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
+  for (const MSimSpring &s : sys->springs) {
+    const PetscReal w  = h * h * s.k + h * sys->damping;
+    const bool      fi = s.i < nfl, fj = s.j < nfl;
+    const PetscInt  gi = fi ? sys->local_to_global[s.i] : -1, gj = fj ? sys->local_to_global[s.j] : -1;
+    const PetscScalar wn = -w;
+    if (fi) PetscCall(MatSetValue(imp->A, gi, gi, w, ADD_VALUES));
+    if (fj) PetscCall(MatSetValue(imp->A, gj, gj, w, ADD_VALUES));
+    if (fi && fj) {
+      PetscCall(MatSetValue(imp->A, gi, gj, wn, ADD_VALUES));
+      PetscCall(MatSetValue(imp->A, gj, gi, wn, ADD_VALUES));
+    }
+  }
+  PetscCall(VecGetArrayRead(sys->mass, &m));
+  for (PetscInt i = 0; i < sys->nown; i++) PetscCall(MatSetValue(imp->A, sys->rstart + i, sys->rstart + i, m[3 * i] + h * sys->drag, ADD_VALUES));
+  PetscCall(VecRestoreArrayRead(sys->mass, &m));
+  PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
+
+  /* the factorization: preonly + Cholesky; CHOLMOD serially (fastest here, FACTS), MUMPS in parallel */
+  PetscCall(KSPCreate(sys->comm, &imp->pdksp));
+  PetscCall(KSPSetOptionsPrefix(imp->pdksp, "pd_"));
+  PetscCall(KSPSetOperators(imp->pdksp, imp->A, imp->A));
+  PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
+  PetscCall(KSPGetPC(imp->pdksp, &pc));
+  PetscCall(PCSetType(pc, PCCHOLESKY));
+  PetscCall(PCFactorSetMatSolverType(pc, sys->size > 1 ? MATSOLVERMUMPS : MATSOLVERCHOLMOD));
+  PetscCall(KSPSetFromOptions(imp->pdksp));
+  PetscCall(KSPSetUp(imp->pdksp));
+  PetscCall(MatCreateDense(sys->comm, sys->nown, PETSC_DECIDE, sys->nfree, 3, NULL, &imp->B));
+  PetscCall(MatCreateDense(sys->comm, sys->nown, PETSC_DECIDE, sys->nfree, 3, NULL, &imp->Xd));
+  PetscCall(VecDuplicate(sys->X0, &imp->rhs));
+  PetscCall(PetscLogEventEnd(MSIM_PDSetUp, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X. */
+PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs)
+{
+  MSimSystem         sys = imp->sys;
+  const PetscInt     nfl = sys->nown + sys->nghost;
+  const PetscReal    h = imp->h, hkd = h * sys->damping, hc = h * sys->drag;
+  const PetscScalar *x, *xn = NULL, *y, *m, *xng;
+  PetscScalar       *f, *r;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, rhs, 0, 0));
+  PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
+  if (hkd > 0) {
+    PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
+    PetscCall(VecGetArrayRead(sys->vloc, &xn));
+  }
+  PetscCall(VecZeroEntries(sys->floc));
+  PetscCall(VecGetArrayRead(sys->xloc, &x));
+  PetscCall(VecGetArray(sys->floc, &f));
+  for (const MSimSpring &s : sys->springs) {
+    const Vec3 xi = CMap3(x + 3 * s.i), xj = CMap3(x + 3 * s.j);
+    const PetscReal w1 = h * h * s.k;
+    Vec3 p = w1 * msim::SpringProjection(xi, xj, s.L);
+    if (xn) {
+      const Vec3 dn = CMap3(xn + 3 * s.i) - CMap3(xn + 3 * s.j), n = dn.normalized(), u = xi - xj - dn;
+      p += hkd * (dn + u - n.dot(u) * n);
+    }
+    /* a fixed end moves its coupling term to the right-hand side */
+    const PetscReal w = w1 + hkd;
+    if (s.j >= nfl) p += w * xj;
+    if (s.i >= nfl) p -= w * xi;
+    Map3(f + 3 * s.i) += p;
+    Map3(f + 3 * s.j) -= p;
+  }
+  PetscCall(VecRestoreArray(sys->floc, &f));
+  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
+  if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
+  PetscCall(VecZeroEntries(rhs));
+  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, rhs));
+  PetscCall(VecGetArray(rhs, &r));
+  PetscCall(VecGetArrayRead(imp->Y, &y));
+  PetscCall(VecGetArrayRead(imp->Xn, &xng));
+  PetscCall(VecGetArrayRead(sys->mass, &m));
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] += m[i] * y[i] + hc * xng[i];
+  PetscCall(VecRestoreArrayRead(sys->mass, &m));
+  PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
+  PetscCall(VecRestoreArrayRead(imp->Y, &y));
+  PetscCall(VecRestoreArray(rhs, &r));
+  PetscCall(PetscLogEventEnd(MSIM_PDLocal, X, rhs, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* A X = rhs, the x, y and z columns in one KSPMatSolve over the single factor. */
+PetscErrorCode MSimImplicitPDSolve(MSimImplicit imp, Vec rhs, Vec X)
+{
+  MSimSystem         sys = imp->sys;
+  const PetscInt     n   = sys->nown;
+  const PetscScalar *r;
+  PetscScalar       *b, *x;
+  PetscInt           ldb, ldx;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSetUp(imp));
+  PetscCall(PetscLogEventBegin(MSIM_PDGlobal, rhs, X, 0, 0));
+  PetscCall(MatDenseGetLDA(imp->B, &ldb));
+  PetscCall(VecGetArrayRead(rhs, &r));
+  PetscCall(MatDenseGetArrayWrite(imp->B, &b));
+  for (PetscInt i = 0; i < n; i++)
+    for (int c = 0; c < 3; c++) b[c * ldb + i] = r[3 * i + c];
+  PetscCall(MatDenseRestoreArrayWrite(imp->B, &b));
+  PetscCall(VecRestoreArrayRead(rhs, &r));
+  {
+    /* count numeric factorizations done inside this solve (PETSc's own log counters, which
+       MSimInitialize switches on) */
+    PetscInt before, after;
+    PetscCall(MSimFactorizationCount(&before));
+    PetscCall(KSPMatSolve(imp->pdksp, imp->B, imp->Xd));
+    PetscCall(MSimFactorizationCount(&after));
+    imp->nfactor += after - before;
+  }
+  PetscCall(MatDenseGetLDA(imp->Xd, &ldx));
+  PetscCall(MatDenseGetArrayRead(imp->Xd, (const PetscScalar **)&x));
+  {
+    PetscScalar *xo;
+    PetscCall(VecGetArray(X, &xo));
+    for (PetscInt i = 0; i < n; i++)
+      for (int c = 0; c < 3; c++) xo[3 * i + c] = x[c * ldx + i];
+    PetscCall(VecRestoreArray(X, &xo));
+  }
+  PetscCall(MatDenseRestoreArrayRead(imp->Xd, (const PetscScalar **)&x));
+  PetscCall(PetscLogEventEnd(MSIM_PDGlobal, rhs, X, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* (A kron I3) x, for the shell Jacobian of L-BFGS */
+static PetscErrorCode PDShellMult(Mat J, Vec x, Vec y)
+{
+  MSimImplicit imp;
+  Vec          xs, ys;
+  PetscFunctionBeginUser;
+  PetscCall(MatShellGetContext(J, &imp));
+  PetscCall(MatCreateVecs(imp->A, &xs, &ys));
+  for (PetscInt c = 0; c < 3; c++) {
+    PetscCall(VecStrideGather(x, c, xs, INSERT_VALUES));
+    PetscCall(MatMult(imp->A, xs, ys));
+    PetscCall(VecStrideScatter(ys, c, y, INSERT_VALUES));
+  }
+  PetscCall(VecDestroy(&xs));
+  PetscCall(VecDestroy(&ys));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitPDCreateShell(MSimImplicit imp, Mat *J)
+{
+  MSimSystem sys = imp->sys;
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSetUp(imp));
+  PetscCall(MatCreateShell(sys->comm, 3 * sys->nown, 3 * sys->nown, 3 * sys->nfree, 3 * sys->nfree, imp, J));
+  PetscCall(MatShellSetOperation(*J, MATOP_MULT, (void (*)(void))PDShellMult));
+  PetscCall(MatSetBlockSize(*J, 3));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDShellPCApply(PC pc, Vec r, Vec x)
+{
+  MSimImplicit imp;
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &imp));
+  PetscCall(MSimImplicitPDSolve(imp, r, x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The constant PD factor as a preconditioner (L-BFGS initial Hessian, or CG for Newton). */
+PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
+{
+  PC pc;
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSetUp(imp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCSHELL));
+  PetscCall(PCShellSetContext(pc, imp));
+  PetscCall(PCShellSetApply(pc, PDShellPCApply));
+  PetscCall(PCShellSetName(pc, "msim projective-dynamics factor (M + h c I + h^2 L + h kd L) kron I3"));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,211 @@
+/* Implicit Euler: one SNES (unprefixed) per step on g(x) = 0 (msim/implicit.h). The SNES type picks
+   the method: newtonls (Newton, analytic Jacobian, line search on Phi), ksponly (Baraff-Witkin: one
+   linearized step from x0 = x_n + h v_n), pd (projective dynamics), anderson/ngmres with
+   -npc_snes_type pd (accelerated PD), qn with -snes_qn_scale_type jacobian (L-BFGS whose initial
+   Hessian is the PD factor). */
+#include <msim/integrator.h>
+#include <msim/implicit.h>
+#include <msim/convergence.h>
+
+typedef struct {
+  MSimImplicit           imp;
+  SNES                   snes;
+  Mat                    J;
+  Vec                    G;
+  PetscBool              jacobian_is_pd; /* L-BFGS: constant shell Jacobian, PD factor as PC */
+  PetscBool              pc_pd;
+  PetscInt               unconverged;
+  MSimConvergenceMonitor conv;
+} ImplicitEuler;
+
+static PetscErrorCode FormFunction(SNES snes, Vec X, Vec G, void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitResidual((MSimImplicit)ctx, X, G));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode FormObjective(SNES snes, Vec X, PetscReal *phi, void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitObjective((MSimImplicit)ctx, X, phi));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitJacobian((MSimImplicit)ctx, X, P));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* L-BFGS: the PD matrix is constant; returning without touching it keeps one factorization. */
+static PetscErrorCode FormJacobianConstant(SNES snes, Vec X, Mat J, Mat P, void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDRHS(void *ctx, Vec X, Vec rhs)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDRHS((MSimImplicit)ctx, X, rhs));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSolve((MSimImplicit)ctx, rhs, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
+{
+  ImplicitEuler *ie  = (ImplicitEuler *)integ->data;
+  MSimSystem     sys = integ->sys;
+  KSP            ksp;
+  PC             pc;
+  DM             dm;
+  PetscContainer c;
+  SNESType       type;
+  PetscBool      needs_jacobian = PETSC_TRUE, has_pc, is_qn;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitCreate(sys, &ie->imp));
+  ie->imp->h = integ->dt;
+  PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
+  PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable)", NULL, ie->imp->psd, &ie->imp->psd, NULL));
+  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
+  PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, PETSC_FALSE, NULL, NULL));
+  PetscOptionsEnd();
+  PetscCall(VecDuplicate(sys->X0, &ie->G));
+  PetscCall(SNESCreate(integ->comm, &ie->snes));
+  PetscCall(SNESSetFunction(ie->snes, ie->G, FormFunction, ie->imp));
+  PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
+  /* The PD steps travel with the DM, so pd also finds them as the NPC of another SNES. */
+  ie->imp->pd.rhs          = PDRHS;
+  ie->imp->pd.global_solve = PDGlobal;
+  ie->imp->pd.ctx          = ie->imp;
+  PetscCall(SNESGetDM(ie->snes, &dm));
+  PetscCall(PetscContainerCreate(integ->comm, &c));
+  PetscCall(PetscContainerSetPointer(c, &ie->imp->pd));
+  PetscCall(PetscObjectCompose((PetscObject)dm, "MSimPDProblem", (PetscObject)c));
+  PetscCall(PetscContainerDestroy(&c));
+  /* defaults a user overrides with the usual options: Newton, line search on Phi, CG with ICC
+     (block Jacobi-ICC in parallel) on the PSD-projected Jacobian */
+  PetscCall(SNESSetType(ie->snes, SNESNEWTONLS));
+  PetscCall(SNESGetKSP(ie->snes, &ksp));
+  PetscCall(KSPSetType(ksp, KSPCG));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, sys->size > 1 ? PCBJACOBI : PCICC));
+  /* |g| has units of mass x length: below 1e-10 of total mass x scene size the step is converged
+     to roundoff, and line searches on Phi can only fail there */
+  PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, 10000));
+  PetscCall(SNESSetFromOptions(ie->snes));
+  if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ie->imp));
+
+  PetscCall(SNESGetType(ie->snes, &type));
+  for (const char *t : {SNESPD, SNESANDERSON, SNESNGMRES, SNESNCG, SNESNRICHARDSON, SNESSHELL})
+    if (type && !strcmp(type, t)) needs_jacobian = PETSC_FALSE;
+  is_qn = (PetscBool)(type && !strcmp(type, SNESQN));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-pc_type", &has_pc));
+  if (is_qn && !has_pc) ie->pc_pd = PETSC_TRUE;
+  if (is_qn && ie->pc_pd) {
+    /* L-BFGS with the PD matrix as initial Hessian: constant shell Jacobian, PD factor as PC */
+    ie->jacobian_is_pd = PETSC_TRUE;
+    PetscCall(MSimImplicitPDCreateShell(ie->imp, &ie->J));
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianConstant, ie->imp));
+    PetscCall(KSPSetType(ksp, KSPPREONLY));
+    PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
+  } else if (needs_jacobian) {
+    PetscCall(MSimSystemCreateMatrix(sys, &ie->J));
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
+    if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
+{
+  ImplicitEuler      *ie = (ImplicitEuler *)integ->data;
+  SNESConvergedReason reason;
+  PetscInt            its, lits;
+  SNESType            type;
+  Vec                 F;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitBeginStep(ie->imp, t, integ->dt, X, V));
+  if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv));
+  /* initial guess x0 = x_n + h v_n; v_{n+1} = (x_{n+1} - x_n)/h */
+  PetscCall(VecAXPY(X, integ->dt, V));
+  PetscCall(SNESSolve(ie->snes, NULL, X));
+  PetscCall(SNESGetConvergedReason(ie->snes, &reason));
+  PetscCall(SNESGetIterationNumber(ie->snes, &its));
+  PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));
+  PetscCall(SNESGetType(ie->snes, &type));
+  integ->nonlinear_its = its;
+  integ->linear_its    = lits;
+  /* ksponly and fixed-count pd do not evaluate g at their result: do it here for the monitor */
+  PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
+  if (!strcmp(type, SNESKSPONLY) || reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
+  PetscCall(VecNorm(F, NORM_2, &integ->residual));
+  if (reason == SNES_DIVERGED_MAX_IT) ie->unconverged++;
+  else if (reason < 0) integ->failed = PETSC_TRUE;
+  if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
+  PetscCall(VecAXPBYPCZ(V, 1.0 / integ->dt, -1.0 / integ->dt, 0.0, X, ie->imp->Xn));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode View_ImplicitEuler(MSimIntegrator integ, PetscViewer viewer)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", ie->unconverged));
+  if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
+  if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_ImplicitEuler(MSimIntegrator integ)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  PetscFunctionBeginUser;
+  PetscCall(SNESDestroy(&ie->snes));
+  PetscCall(MatDestroy(&ie->J));
+  PetscCall(VecDestroy(&ie->G));
+  PetscCall(MSimImplicitDestroy(&ie->imp));
+  PetscCall(MSimConvergenceMonitorDestroy(&ie->conv));
+  PetscCall(PetscFree(integ->data));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode SetFromOptions_ImplicitEuler(MSimIntegrator integ)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  PetscFunctionBeginUser;
+  PetscCall(MSimConvergenceMonitorCreate(integ->sys, &ie->conv));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator integ)
+{
+  ImplicitEuler *ie;
+  PetscFunctionBeginUser;
+  PetscCall(PetscNew(&ie));
+  integ->data               = ie;
+  integ->ops.setfromoptions = SetFromOptions_ImplicitEuler;
+  integ->ops.setup          = Setup_ImplicitEuler;
+  integ->ops.step           = Step_ImplicitEuler;
+  integ->ops.view           = View_ImplicitEuler;
+  integ->ops.destroy        = Destroy_ImplicitEuler;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt *n)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  PetscFunctionBeginUser;
+  *n = ie->imp ? ie->imp->nfactor : 0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,137 @@
+/* Integrator object: registry, options, dispatch. */
+#include <msim/integrator.h>
+
+static PetscFunctionList MSimIntegratorList = NULL;
+static PetscBool         MSimIntegratorRegisterAllCalled = PETSC_FALSE;
+
+PetscErrorCode MSimIntegratorRegister(const char name[], PetscErrorCode (*create)(MSimIntegrator))
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListAdd(&MSimIntegratorList, name, create));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorRegisterAll(void)
+{
+  PetscFunctionBeginUser;
+  if (MSimIntegratorRegisterAllCalled) PetscFunctionReturn(PETSC_SUCCESS);
+  MSimIntegratorRegisterAllCalled = PETSC_TRUE;
+  PetscCall(MSimIntegratorRegister(MSIMEXPLICITEULER, MSimIntegratorCreate_ExplicitEuler));
+  PetscCall(MSimIntegratorRegister(MSIMSYMPLECTICEULER, MSimIntegratorCreate_SymplecticEuler));
+  PetscCall(MSimIntegratorRegister(MSIMRK4, MSimIntegratorCreate_RK4));
+  PetscCall(MSimIntegratorRegister(MSIMTS, MSimIntegratorCreate_TS));
+  PetscCall(MSimIntegratorRegister(MSIMIMPLICITEULER, MSimIntegratorCreate_ImplicitEuler));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorFinalizePackage(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListDestroy(&MSimIntegratorList));
+  MSimIntegratorRegisterAllCalled = PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorCreate(MSimSystem sys, MSimIntegrator *integ)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimIntegratorRegisterAll());
+  *integ                    = new _n_MSimIntegrator();
+  (*integ)->comm            = sys->comm;
+  (*integ)->sys             = sys;
+  (*integ)->dt              = 2e-4;
+  (*integ)->steps           = 5000;
+  (*integ)->stability_limit = PETSC_INFINITY;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorSetType(MSimIntegrator integ, const char type[])
+{
+  PetscErrorCode (*create)(MSimIntegrator);
+  PetscBool same;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscStrcmp(integ->type, type, &same));
+  if (same) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscFunctionListFind(MSimIntegratorList, type, &create));
+  PetscCheck(create, integ->comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_integrator %s is not known (see -help for the list)", type);
+  if (integ->ops.destroy) PetscCall((*integ->ops.destroy)(integ));
+  integ->ops             = MSimIntegratorOps();
+  integ->data            = NULL;
+  integ->stability_limit = PETSC_INFINITY;
+  integ->setupcalled     = PETSC_FALSE;
+  PetscCall(PetscStrncpy(integ->type, type, sizeof(integ->type)));
+  PetscCall((*create)(integ));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ)
+{
+  char type[64] = MSIMSYMPLECTICEULER;
+
+  PetscFunctionBeginUser;
+  if (integ->type[0]) PetscCall(PetscStrncpy(type, integ->type, sizeof(type)));
+  PetscOptionsBegin(integ->comm, NULL, "msim time integration", NULL);
+  PetscCall(PetscOptionsFList("-msim_integrator", "Time integrator", NULL, MSimIntegratorList, type, type, sizeof(type), NULL));
+  PetscCall(PetscOptionsReal("-msim_dt", "Time step h, s", NULL, integ->dt, &integ->dt, NULL));
+  PetscCall(PetscOptionsInt("-msim_steps", "Number of time steps", NULL, integ->steps, &integ->steps, NULL));
+  PetscOptionsEnd();
+  PetscCheck(integ->dt > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_dt must be > 0 s (got %g)", (double)integ->dt);
+  PetscCheck(integ->steps > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_steps must be >= 1 (got %" PetscInt_FMT ")", integ->steps);
+  PetscCall(MSimIntegratorSetType(integ, type));
+  if (integ->ops.setfromoptions) PetscCall((*integ->ops.setfromoptions)(integ));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ)
+{
+  PetscFunctionBeginUser;
+  if (integ->setupcalled) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!integ->type[0]) PetscCall(MSimIntegratorSetType(integ, MSIMSYMPLECTICEULER));
+  if (integ->ops.setup) PetscCall((*integ->ops.setup)(integ));
+  integ->setupcalled = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimIntegratorSetUp(integ));
+  PetscCall(PetscLogEventBegin(MSIM_Step, X, V, 0, 0));
+  integ->nonlinear_its = integ->linear_its = 0;
+  integ->residual                          = 0;
+  integ->failed                            = PETSC_FALSE;
+  PetscCall((*integ->ops.step)(integ, t, X, V));
+  PetscCall(PetscLogEventEnd(MSIM_Step, X, V, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorView(MSimIntegrator integ, PetscViewer viewer)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "msim integrator: %s, dt %g s, %" PetscInt_FMT " steps\n", integ->type, (double)integ->dt, integ->steps));
+  if (integ->ops.view) {
+    PetscCall(PetscViewerASCIIPushTab(viewer));
+    PetscCall((*integ->ops.view)(integ, viewer));
+    PetscCall(PetscViewerASCIIPopTab(viewer));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorDestroy(MSimIntegrator *integ)
+{
+  PetscFunctionBeginUser;
+  if (!*integ) PetscFunctionReturn(PETSC_SUCCESS);
+  if ((*integ)->ops.destroy) PetscCall((*(*integ)->ops.destroy)(*integ));
+  delete *integ;
+  *integ = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemAcceleration(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemComputeForce(sys, t, X, V, A));
+  PetscCall(VecPointwiseDivide(A, A, sys->mass));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,142 @@
+/* Time loop: stability guard, steps, monitors, output, divergence detection. */
+#include <msim/run.h>
+#include <msim/spectrum.h>
+#include <cmath>
+
+/* Largest stable h for an explicit method given omega_max. Without damping: limit / omega_max.
+   Explicit Euler has limit 0 undamped; with drag rate gamma = c/m it is stable iff
+   h <= gamma / omega_max^2 (|1 + h lambda| <= 1 for lambda = -gamma/2 +- i omega_d). */
+PetscErrorCode MSimStabilityLimit(MSimSystem sys, MSimIntegrator integ, PetscReal omega_max, PetscReal *hcrit)
+{
+  PetscReal mmax;
+
+  PetscFunctionBeginUser;
+  *hcrit = PETSC_INFINITY;
+  if (integ->stability_limit >= PETSC_INFINITY || omega_max <= 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (integ->stability_limit > 0) *hcrit = integ->stability_limit / omega_max;
+  else {
+    PetscCall(VecMax(sys->mass, NULL, &mmax));
+    *hcrit = sys->drag > 0 ? (sys->drag / mmax) / (omega_max * omega_max) : 0.0;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MSimGuard(MSimSystem sys, MSimIntegrator integ, Vec X, MSimRunInfo *info)
+{
+  PetscBool check = PETSC_TRUE;
+  char      bound[16] = "gershgorin";
+  PetscReal omega2, hcrit;
+  PetscBool slepc;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(sys->comm, NULL, "msim stability guard", NULL);
+  PetscCall(PetscOptionsBool("-msim_spectrum_check", "Warn before stepping when h exceeds the explicit method's stability limit", NULL, check, &check, NULL));
+  PetscCall(PetscOptionsString("-msim_spectrum_guard", "Bound the guard uses for omega_max: gershgorin (cheap) or slepc", NULL, bound, bound, sizeof(bound), NULL));
+  PetscOptionsEnd();
+  if (!check || integ->stability_limit >= PETSC_INFINITY) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscStrcmp(bound, "slepc", &slepc));
+  if (slepc) {
+    PetscCall(MSimSpectrumOmegaMax(sys, X, &omega2));
+    omega2 *= omega2;
+  } else {
+    PetscBool g;
+    PetscCall(PetscStrcmp(bound, "gershgorin", &g));
+    PetscCheck(g, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_spectrum_guard %s is not known (use gershgorin or slepc)", bound);
+    PetscCall(MSimSystemGershgorin(sys, &omega2));
+  }
+  info->omega_max_bound = PetscSqrtReal(omega2);
+  PetscCall(MSimStabilityLimit(sys, integ, info->omega_max_bound, &hcrit));
+  info->critical_dt = hcrit;
+  if (integ->dt > hcrit) {
+    info->warned = PETSC_TRUE;
+    if (hcrit > 0)
+      PetscCall(PetscPrintf(sys->comm, "msim: warning: -msim_dt %g exceeds the stability limit h <= %g of %s (omega_max <= %g from the %s bound)\n", (double)integ->dt, (double)hcrit, integ->type, (double)info->omega_max_bound, slepc ? "SLEPc" : "Gershgorin"));
+    else
+      PetscCall(PetscPrintf(sys->comm, "msim: warning: %s is unstable for every h without drag (omega_max <= %g from the %s bound); add -msim_drag or use another integrator\n", integ->type, (double)info->omega_max_bound, slepc ? "SLEPc" : "Gershgorin"));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimRunInfo *info)
+{
+  MSimMonitor mon;
+  MSimOutput  out;
+  PetscBool   want_mon, want_out;
+  PetscReal   factor = 1e3, kin, pot, E0, scale, gnorm;
+  PetscInt    check_every = 10, last_good = 0;
+  Vec         Xgood, Vgood;
+
+  PetscFunctionBeginUser;
+  *info = MSimRunInfo();
+  info->critical_dt = PETSC_INFINITY;
+  PetscOptionsBegin(sys->comm, NULL, "msim divergence detection", NULL);
+  PetscCall(PetscOptionsReal("-msim_divergence_factor", "Stop when |E - E0| exceeds this factor times the energy scale of the scene", NULL, factor, &factor, NULL));
+  PetscCall(PetscOptionsInt("-msim_divergence_check_every", "Check energy every k steps (always every step when monitoring)", NULL, check_every, &check_every, NULL));
+  PetscOptionsEnd();
+  PetscCheck(factor > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_divergence_factor must be > 0 (got %g)", (double)factor);
+  PetscCheck(check_every >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_divergence_check_every must be >= 1 (got %" PetscInt_FMT ")", check_every);
+  PetscCall(MSimMonitorCreate(sys->comm, &mon));
+  PetscCall(MSimOutputCreate(sys, &out));
+  PetscCall(MSimMonitorWanted(&mon, &want_mon));
+  PetscCall(MSimIntegratorSetUp(integ));
+  PetscCall(MSimGuard(sys, integ, X, info));
+  /* all input is valid from here on: create the output directory */
+  PetscCall(MSimOutputSetUp(out));
+
+  /* Energy scale: what gravity can release over the scene's size, what moving handles carry, and
+     the initial energy. Divergence is an energy change many times larger than all of them. */
+  PetscCall(MSimSystemComputeEnergy(sys, 0, X, V, &kin, &pot));
+  E0    = kin + pot;
+  gnorm = PetscSqrtReal(sys->gravity[0] * sys->gravity[0] + sys->gravity[1] * sys->gravity[1] + sys->gravity[2] * sys->gravity[2]);
+  scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2]) + PETSC_SMALL;
+  if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0));
+  PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
+  if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X));
+  PetscCall(VecDuplicate(X, &Xgood));
+  PetscCall(VecDuplicate(V, &Vgood));
+  PetscCall(VecCopy(X, Xgood));
+  PetscCall(VecCopy(V, Vgood));
+
+  for (PetscInt n = 1; n <= integ->steps; n++) {
+    const PetscReal t0 = (n - 1) * integ->dt, t = n * integ->dt;
+    PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE;
+
+    PetscCall(MSimIntegratorStep(integ, t0, X, V));
+    if (integ->failed) bad = PETSC_TRUE; /* the implicit solver gave up on this step */
+    if (check && !bad) {
+      PetscCall(MSimSystemComputeEnergy(sys, t, X, V, &kin, &pot));
+      bad = (PetscBool)(PetscIsInfOrNanReal(kin + pot) || PetscAbsReal(kin + pot - E0) > factor * scale);
+    }
+    if (bad) {
+      char limit[128] = "";
+      if (info->critical_dt < PETSC_INFINITY) PetscCall(PetscSNPrintf(limit, sizeof(limit), ", predicted limit h <= %g", (double)info->critical_dt));
+      info->diverged   = PETSC_TRUE;
+      info->steps_done = n;
+      info->t          = t;
+      PetscCall(MSimOutputWriteExtra(out, "last_finite", last_good * integ->dt, Xgood));
+      PetscCall(VecCopy(Xgood, X));
+      PetscCall(VecCopy(Vgood, V));
+      PetscCall(MSimMonitorDestroy(sys->comm, &mon));
+      PetscCall(MSimOutputDestroy(&out));
+      PetscCall(VecDestroy(&Xgood));
+      PetscCall(VecDestroy(&Vgood));
+      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "diverged at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, n, (double)t, integ->type, (double)integ->dt, limit, last_good);
+    }
+    if (check) {
+      last_good = n;
+      PetscCall(VecCopy(X, Xgood));
+      PetscCall(VecCopy(V, Vgood));
+    }
+    if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual));
+    PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
+    if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X));
+  }
+  info->steps_done = integ->steps;
+  info->t          = integ->steps * integ->dt;
+  PetscCall(MSimViewFinal(sys, info->t, X));
+  PetscCall(MSimMonitorDestroy(sys->comm, &mon));
+  PetscCall(MSimOutputDestroy(&out));
+  PetscCall(VecDestroy(&Xgood));
+  PetscCall(VecDestroy(&Vgood));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,91 @@
+#include <msim/convergence.h>
+#include <cstdio>
+
+struct _n_MSimConvergenceMonitor {
+  MSimSystem     sys;
+  MSimImplicit   imp;
+  char           path[PETSC_MAX_PATH_LEN];
+  FILE          *fp;
+  PetscInt       step;
+  PetscLogDouble start, spent; /* step start, time spent inside the monitor */
+  Vec            G;
+};
+
+PetscErrorCode MSimConvergenceMonitorCreate(MSimSystem sys, MSimConvergenceMonitor *mon)
+{
+  char      path[PETSC_MAX_PATH_LEN] = "";
+  PetscBool set;
+
+  PetscFunctionBeginUser;
+  *mon = NULL;
+  PetscOptionsBegin(sys->comm, NULL, "msim convergence monitor", NULL);
+  PetscCall(PetscOptionsString("-msim_monitor_convergence", "CSV per nonlinear iteration: step,iteration,wall_s,phi,gnorm", NULL, path, path, sizeof(path), &set));
+  PetscOptionsEnd();
+  if (!set || !path[0]) PetscFunctionReturn(PETSC_SUCCESS);
+  *mon        = new _n_MSimConvergenceMonitor();
+  (*mon)->sys = sys;
+  PetscCall(PetscStrncpy((*mon)->path, path, sizeof((*mon)->path)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MSimConvergenceMonitorIterate(SNES snes, PetscInt its, PetscReal fnorm, void *ctx)
+{
+  MSimConvergenceMonitor mon = (MSimConvergenceMonitor)ctx;
+  PetscLogDouble         t0, t1;
+  PetscReal              phi, gnorm;
+  Vec                    X;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscTime(&t0));
+  PetscCall(SNESGetSolution(snes, &X));
+  if (!mon->G) PetscCall(VecDuplicate(X, &mon->G));
+  PetscCall(MSimImplicitObjective(mon->imp, X, &phi));
+  PetscCall(MSimImplicitResidual(mon->imp, X, mon->G));
+  PetscCall(VecNorm(mon->G, NORM_2, &gnorm));
+  if (mon->sys->rank == 0) {
+    if (!mon->fp) {
+      char tmp[PETSC_MAX_PATH_LEN + 8];
+      PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->path));
+      mon->fp = fopen(tmp, "w");
+      PetscCheck(mon->fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "-msim_monitor_convergence: cannot write %s", tmp);
+      fprintf(mon->fp, "step,iteration,wall_s,phi,gnorm\n");
+    }
+    fprintf(mon->fp, "%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.17e,%.6e\n", mon->step, its, t0 - mon->start - mon->spent, (double)phi, (double)gnorm);
+  }
+  PetscCall(PetscTime(&t1));
+  mon->spent += t1 - t0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES snes, MSimImplicit imp)
+{
+  PetscFunctionBeginUser;
+  mon->imp = imp;
+  PetscCall(SNESMonitorSet(snes, MSimConvergenceMonitorIterate, mon, NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon)
+{
+  PetscFunctionBeginUser;
+  mon->step++;
+  mon->spent = 0;
+  PetscCall(PetscTime(&mon->start));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon)
+{
+  PetscFunctionBeginUser;
+  if (!*mon) PetscFunctionReturn(PETSC_SUCCESS);
+  if ((*mon)->fp) {
+    char tmp[PETSC_MAX_PATH_LEN + 8];
+    PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", (*mon)->path));
+    fclose((*mon)->fp);
+    PetscCheck(rename(tmp, (*mon)->path) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot rename %s", tmp);
+  }
+  PetscCall(VecDestroy(&(*mon)->G));
+  delete *mon;
+  *mon = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

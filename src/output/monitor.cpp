@@ -1,0 +1,92 @@
+/* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
+   with wall time. Energies: kinetic, potential (springs + gravity), total. */
+#include <msim/output.h>
+
+PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
+{
+  PetscMPIInt rank;
+
+  PetscFunctionBeginUser;
+  mon->ascii       = PETSC_FALSE;
+  mon->csv         = NULL;
+  mon->csv_path[0] = 0;
+  PetscOptionsBegin(comm, NULL, "msim monitors", NULL);
+  PetscCall(PetscOptionsBool("-msim_monitor", "Print one line per step: energies, iterations, residual", NULL, mon->ascii, &mon->ascii, NULL));
+  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
+  PetscOptionsEnd();
+  PetscCall(PetscTime(&mon->wall0));
+  (void)rank;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want)
+{
+  PetscFunctionBeginUser;
+  *want = (PetscBool)(mon->ascii || mon->csv_path[0]);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual)
+{
+  PetscMPIInt    rank;
+  PetscLogDouble now;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual));
+  if (mon->csv_path[0] && rank == 0) {
+    if (!mon->csv) {
+      /* written to PATH.tmp and renamed at the end, so a killed run never leaves a half file */
+      char tmp[PETSC_MAX_PATH_LEN + 8];
+      PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
+      mon->csv = fopen(tmp, "w");
+      PetscCheck(mon->csv, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s", tmp);
+      fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,wall_s\n");
+    }
+    PetscCall(PetscTime(&now));
+    fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, now - mon->wall0);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon)
+{
+  PetscFunctionBeginUser;
+  if (mon->csv) {
+    char tmp[PETSC_MAX_PATH_LEN + 8];
+    PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
+    PetscCheck(fclose(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", tmp);
+    mon->csv = NULL;
+    PetscCheck(rename(tmp, mon->csv_path) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: cannot rename %s", tmp);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimViewFinal(MSimSystem sys, PetscReal t, Vec X)
+{
+  PetscViewer            viewer;
+  PetscViewerFormat      format;
+  PetscBool              set;
+  std::vector<PetscReal> all;
+  Vec                    P;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsGetViewer(sys->comm, NULL, NULL, "-msim_view_final", &viewer, &format, &set));
+  if (!set) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSystemGatherPositions(sys, t, X, all));
+  /* every entry on rank 0: the printed vector is the same whatever the rank count */
+  PetscCall(VecCreateMPI(sys->comm, sys->rank == 0 ? 3 * sys->nv : 0, 3 * sys->nv, &P));
+  PetscCall(PetscObjectSetName((PetscObject)P, "positions"));
+  if (sys->rank == 0) {
+    PetscScalar *p;
+    PetscCall(VecGetArray(P, &p));
+    for (PetscInt i = 0; i < 3 * sys->nv; i++) p[i] = all[i];
+    PetscCall(VecRestoreArray(P, &p));
+  }
+  PetscCall(PetscViewerPushFormat(viewer, format));
+  PetscCall(VecView(P, viewer));
+  PetscCall(PetscViewerPopFormat(viewer));
+  PetscCall(VecDestroy(&P));
+  PetscCall(PetscViewerDestroy(&viewer));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,106 @@
+/* ParaView series: DIR/frame_NNNNNN.vtu every k steps and DIR/series.pvd, rewritten whole after
+   each frame so the collection always lists exactly the frames on disk. */
+#include <msim/output.h>
+#include <string>
+#include <vector>
+
+struct _n_MSimOutput {
+  MSimSystem  sys;
+  char        dir[PETSC_MAX_PATH_LEN];
+  PetscInt    every;
+  std::string pvd_entries;
+};
+
+PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
+{
+  char      dir[PETSC_MAX_PATH_LEN] = "";
+  PetscInt  every                   = 50;
+  PetscBool set;
+
+  PetscFunctionBeginUser;
+  *out = NULL;
+  PetscOptionsBegin(sys->comm, NULL, "msim output", NULL);
+  PetscCall(PetscOptionsString("-msim_output", "Directory for the ParaView series (.vtu frames + series.pvd)", NULL, dir, dir, sizeof(dir), &set));
+  PetscCall(PetscOptionsInt("-msim_output_every", "Write a frame every k steps", NULL, every, &every, NULL));
+  PetscOptionsEnd();
+  PetscCheck(every >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_output_every must be >= 1 (got %" PetscInt_FMT ")", every);
+  if (!set || !dir[0]) PetscFunctionReturn(PETSC_SUCCESS);
+  *out = new _n_MSimOutput();
+  (*out)->sys   = sys;
+  (*out)->every = every;
+  PetscCall(PetscStrncpy((*out)->dir, dir, sizeof((*out)->dir)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimOutputSetUp(MSimOutput out)
+{
+  PetscFunctionBeginUser;
+  if (!out) PetscFunctionReturn(PETSC_SUCCESS);
+  if (out->sys->rank == 0) {
+    PetscBool exists;
+    PetscCall(PetscTestDirectory(out->dir, 'w', &exists));
+    if (!exists) PetscCall(PetscMkdir(out->dir));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimOutputWanted(MSimOutput out, PetscInt step, PetscInt last, PetscBool *want)
+{
+  PetscFunctionBeginUser;
+  *want = (PetscBool)(out && (step % out->every == 0 || step == last));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char file[], PetscReal t, Vec X)
+{
+  MSimSystem             sys = out->sys;
+  std::vector<PetscReal> all;
+  char                   path[PETSC_MAX_PATH_LEN];
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemGatherPositions(sys, t, X, all));
+  if (sys->rank == 0) {
+    PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s", out->dir, file));
+    PetscCall(MSimWriteVTU(path, sys->nv, all.data(), (PetscInt)sys->out_si.size(), sys->out_si.data(), sys->out_sj.data(), sys->fixed_flag.data()));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X)
+{
+  char file[64], line[256], path[PETSC_MAX_PATH_LEN];
+
+  PetscFunctionBeginUser;
+  if (!out) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscLogEventBegin(MSIM_Output, X, 0, 0, 0));
+  PetscCall(PetscSNPrintf(file, sizeof(file), "frame_%06" PetscInt_FMT ".vtu", step));
+  PetscCall(MSimOutputWriteVTU(out, file, t, X));
+  if (out->sys->rank == 0) {
+    PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"0\" file=\"%s\"/>\n", (double)t, file));
+    out->pvd_entries += line;
+    std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n" + out->pvd_entries + "  </Collection>\n</VTKFile>\n";
+    PetscCall(PetscSNPrintf(path, sizeof(path), "%s/series.pvd", out->dir));
+    PetscCall(MSimWriteFileAtomic(path, pvd.data(), pvd.size()));
+  }
+  PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X)
+{
+  char file[PETSC_MAX_PATH_LEN];
+
+  PetscFunctionBeginUser;
+  if (!out) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscSNPrintf(file, sizeof(file), "%s.vtu", name));
+  PetscCall(MSimOutputWriteVTU(out, file, t, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimOutputDestroy(MSimOutput *out)
+{
+  PetscFunctionBeginUser;
+  delete *out;
+  *out = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

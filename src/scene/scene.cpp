@@ -1,0 +1,156 @@
+/* Scene registry and the options every scene shares: stiffness, mass, fixed vertices. */
+#include <msim/scene.h>
+#include <cmath>
+#include <algorithm>
+
+static PetscFunctionList MSimSceneList = NULL;
+static PetscBool         MSimSceneRegisterAllCalled = PETSC_FALSE;
+
+PetscErrorCode MSimSceneRegister(const char name[], MSimSceneGenerator gen)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListAdd(&MSimSceneList, name, gen));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneRegisterAll(void)
+{
+  PetscFunctionBeginUser;
+  if (MSimSceneRegisterAllCalled) PetscFunctionReturn(PETSC_SUCCESS);
+  MSimSceneRegisterAllCalled = PETSC_TRUE;
+  PetscCall(MSimSceneRegister("cloth", MSimSceneGenerate_Cloth));
+  PetscCall(MSimSceneRegister("chain", MSimSceneGenerate_Chain));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneFinalizePackage(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListDestroy(&MSimSceneList));
+  MSimSceneRegisterAllCalled = PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+void MSimSceneAddSpring(MSimSceneData *s, PetscInt i, PetscInt j, PetscReal k)
+{
+  const PetscReal *a = &s->x0[3 * i], *b = &s->x0[3 * j];
+  s->si.push_back(i);
+  s->sj.push_back(j);
+  s->sk.push_back(k);
+  s->sL.push_back(std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2])));
+}
+
+/* -msim_stiffness k, overridden per family by -msim_stiffness_<family>. Read inside the caller's
+   options block so -help lists them with the scene. */
+PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k)
+{
+  char      name[64];
+  PetscReal kf;
+  PetscBool set;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsGetReal(NULL, NULL, "-msim_stiffness", k, NULL));
+  PetscCheck(*k > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)*k);
+  if (family) {
+    PetscCall(PetscSNPrintf(name, sizeof(name), "-msim_stiffness_%s", family));
+    PetscCall(PetscOptionsGetReal(NULL, NULL, name, &kf, &set));
+    if (set) {
+      PetscCheck(kf > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be > 0 N/m (got %g)", name, (double)kf);
+      *k = kf;
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MSimSceneApplyFix(MPI_Comm comm, MSimSceneData *s, const char how[], const PetscInt *list, PetscInt nlist)
+{
+  PetscBool match;
+
+  PetscFunctionBeginUser;
+  s->fixed.assign(s->nv, 0);
+  PetscCall(PetscStrcmp(how, "none", &match));
+  if (match) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscStrcmp(how, "list", &match));
+  if (match) {
+    for (PetscInt k = 0; k < nlist; k++) {
+      PetscCheck(list[k] >= 0 && list[k] < s->nv, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: vertex %" PetscInt_FMT " is out of range [0, %" PetscInt_FMT "]", list[k], s->nv - 1);
+      s->fixed[list[k]] = 1;
+    }
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  SETERRQ(comm, PETSC_ERR_ARG_WRONG, "-msim_fix %s is not known for scene %s (use corners, edge, none or list)", how, s->name.c_str());
+}
+
+PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
+{
+  MSimScene          sc;
+  char               type[64] = "cloth", fix[64] = "corners";
+  MSimSceneGenerator gen;
+  PetscReal          mass = 1.0, k = 1000.0;
+  PetscInt           nlist = 0;
+  std::vector<PetscInt> list;
+  PetscBool          set, listset = PETSC_FALSE;
+  const char        *fixes[] = {"corners", "edge", "none", "list"};
+  PetscInt           ifix = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSceneRegisterAll());
+  sc = new _n_MSimScene();
+  sc->fix_velocity[0] = sc->fix_velocity[1] = sc->fix_velocity[2] = 0.0;
+  sc->prestretch = 1.0;
+  PetscOptionsBegin(comm, NULL, "msim scene", NULL);
+  PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimSceneList, type, type, sizeof(type), NULL));
+  PetscCall(PetscOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, k, &k, NULL));
+  PetscCall(PetscOptionsReal("-msim_mass", "Total mass, kg, lumped equally to the vertices", NULL, mass, &mass, NULL));
+  PetscCall(PetscOptionsEList("-msim_fix", "Fixed vertices", NULL, fixes, 4, fixes[0], &ifix, &set));
+  PetscCall(PetscStrncpy(fix, fixes[ifix], sizeof(fix)));
+  PetscCall(MSimOptionsVec3("-msim_fix_velocity", "Velocity of the fixed vertices (moving handles), m/s", sc->fix_velocity, NULL));
+  PetscCall(PetscOptionsReal("-msim_prestretch", "Initial positions = prestretch * rest positions", NULL, sc->prestretch, &sc->prestretch, NULL));
+  PetscOptionsEnd();
+  PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
+  PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
+  PetscCheck(sc->prestretch > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_prestretch must be > 0 (got %g)", (double)sc->prestretch);
+
+  PetscCall(PetscFunctionListFind(MSimSceneList, type, &gen));
+  PetscCheck(gen, comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_scene %s is not a known scene", type);
+  sc->data.name = type;
+  PetscCall((*gen)(comm, &sc->data));
+
+  if (ifix >= 2) {
+    PetscInt nmax = sc->data.nv;
+    list.resize(PetscMax(nmax, 1));
+    nlist = nmax;
+    PetscOptionsBegin(comm, NULL, "msim fixed vertices", NULL);
+    PetscCall(PetscOptionsIntArray("-msim_fix_list", "Fixed vertex ids (with -msim_fix list)", NULL, list.data(), &nlist, &listset));
+    PetscOptionsEnd();
+    if (!listset) nlist = 0;
+    PetscCheck(ifix != 3 || listset, comm, PETSC_ERR_ARG_WRONG, "-msim_fix list needs -msim_fix_list i,j,...");
+    PetscCall(MSimSceneApplyFix(comm, &sc->data, fix, list.data(), nlist));
+  } else {
+    const std::vector<PetscInt> &set_ids = ifix == 0 ? sc->data.corners : sc->data.edge;
+    sc->data.fixed.assign(sc->data.nv, 0);
+    for (PetscInt v : set_ids) sc->data.fixed[v] = 1;
+  }
+
+  /* Masses lumped equally (fixed vertices included, so the total is the stated one). */
+  sc->data.mass.assign(sc->data.nv, mass / sc->data.nv);
+  {
+    PetscReal lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {PETSC_MIN_REAL, PETSC_MIN_REAL, PETSC_MIN_REAL};
+    for (PetscInt v = 0; v < sc->data.nv; v++)
+      for (int c = 0; c < 3; c++) {
+        lo[c] = std::min(lo[c], sc->data.x0[3 * v + c]);
+        hi[c] = std::max(hi[c], sc->data.x0[3 * v + c]);
+      }
+    sc->data.diameter = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  }
+  *scene = sc;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneDestroy(MSimScene *scene)
+{
+  PetscFunctionBeginUser;
+  delete *scene;
+  *scene = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

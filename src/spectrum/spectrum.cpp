@@ -1,0 +1,130 @@
+/* SLEPc spectra: Krylov-Schur on the GHEP (K, M). M is diagonal, so the mass solve is exact with
+   -st_ksp_type preonly -st_pc_type jacobi (the defaults set here; options override). The top of a
+   spring spectrum is clustered: ncv defaults to max(2 nev, 64) (FACTS: 34 restarts instead of 831). */
+#include <msim/spectrum.h>
+#include <msim/output.h>
+#include <slepceps.h>
+
+static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, PetscBool largest, std::vector<PetscReal> &lambda, std::vector<Vec> *modes)
+{
+  Mat       K, M;
+  EPS       eps;
+  ST        st;
+  KSP       ksp;
+  PC        pc;
+  PetscInt  nconv, n = 3 * sys->nfree;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_Spectrum, 0, 0, 0, 0));
+  PetscCheck(nev >= 1 && nev <= n, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "number of eigenvalues must be in [1, %" PetscInt_FMT "] (got %" PetscInt_FMT ")", n, nev);
+  PetscCall(MSimSystemCreateMatrix(sys, &K));
+  PetscCall(MSimSystemAssembleMatrix(sys, 0.0, X, 0.0, 0.0, 1.0, PETSC_FALSE, NULL, 0.0, K));
+  PetscCall(MSimSystemCreateMassMatrix(sys, &M));
+  PetscCall(EPSCreate(sys->comm, &eps));
+  PetscCall(EPSSetOperators(eps, K, M));
+  PetscCall(EPSSetProblemType(eps, EPS_GHEP));
+  PetscCall(EPSSetType(eps, EPSKRYLOVSCHUR));
+  PetscCall(EPSSetDimensions(eps, nev, PetscMin(n, PetscMax(2 * nev + 16, 64)), PETSC_DEFAULT));
+  PetscCall(EPSSetTolerances(eps, 1e-12, 10000));
+  PetscCall(EPSGetST(eps, &st));
+  PetscCall(STGetKSP(st, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  if (largest) {
+    PetscCall(EPSSetWhichEigenpairs(eps, EPS_LARGEST_REAL));
+    PetscCall(KSPSetType(ksp, KSPPREONLY));
+    PetscCall(PCSetType(pc, PCJACOBI));
+  } else {
+    /* lowest modes: shift-and-invert about 0 with a direct solve */
+    PetscCall(EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE));
+    PetscCall(EPSSetTarget(eps, 0.0));
+    PetscCall(STSetType(st, STSINVERT));
+    PetscCall(KSPSetType(ksp, KSPPREONLY));
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    if (sys->size > 1) PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    PetscCall(EPSSetOptionsPrefix(eps, "low_"));
+  }
+  PetscCall(EPSSetFromOptions(eps));
+  PetscCall(EPSSolve(eps));
+  PetscCall(EPSGetConverged(eps, &nconv));
+  PetscCheck(nconv >= nev, sys->comm, PETSC_ERR_NOT_CONVERGED, "SLEPc converged %" PetscInt_FMT " of %" PetscInt_FMT " eigenvalues: raise -%seps_max_it or -%seps_ncv", nconv, nev, largest ? "" : "low_", largest ? "" : "low_");
+  lambda.resize(nev);
+  for (PetscInt k = 0; k < nev; k++) {
+    PetscScalar kr;
+    Vec         v = NULL;
+    if (modes) PetscCall(MatCreateVecs(K, &v, NULL));
+    PetscCall(EPSGetEigenpair(eps, k, &kr, NULL, v, NULL));
+    lambda[k] = PetscRealPart(kr);
+    if (modes) modes->push_back(v);
+  }
+  PetscCall(EPSDestroy(&eps));
+  PetscCall(MatDestroy(&K));
+  PetscCall(MatDestroy(&M));
+  PetscCall(PetscLogEventEnd(MSIM_Spectrum, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSpectrumLargest(MSimSystem sys, Vec X, PetscInt nev, std::vector<PetscReal> &lambda)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSpectrumSolve(sys, X, nev, PETSC_TRUE, lambda, NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSpectrumOmegaMax(MSimSystem sys, Vec X, PetscReal *omega_max)
+{
+  std::vector<PetscReal> lambda;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSpectrumLargest(sys, X, 1, lambda));
+  *omega_max = PetscSqrtReal(PetscMax(lambda[0], 0.0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
+{
+  PetscBool              on = PETSC_FALSE;
+  PetscInt               nlargest = 1, nlow = 0;
+  char                   dir[PETSC_MAX_PATH_LEN] = "";
+  std::vector<PetscReal> lambda, low;
+  std::vector<Vec>       modes;
+  PetscReal              mmax;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(sys->comm, NULL, "msim spectrum (SLEPc)", NULL);
+  PetscCall(PetscOptionsBool("-msim_spectrum", "Compute omega_max and the critical step of each explicit method, then exit", NULL, on, &on, NULL));
+  PetscCall(PetscOptionsInt("-msim_spectrum_largest", "Number of largest eigenvalues to print", NULL, nlargest, &nlargest, NULL));
+  PetscCall(PetscOptionsInt("-msim_spectrum_lowest", "Number of lowest modes (natural frequencies in Hz; options prefix low_)", NULL, nlow, &nlow, NULL));
+  PetscCall(PetscOptionsString("-msim_spectrum_modes", "Directory for the lowest mode shapes as .vtu files", NULL, dir, dir, sizeof(dir), NULL));
+  PetscOptionsEnd();
+  *ran = on;
+  if (!on) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSpectrumLargest(sys, X, nlargest, lambda));
+  const PetscReal wmax = PetscSqrtReal(PetscMax(lambda[0], 0.0));
+  PetscCall(VecMax(sys->mass, NULL, &mmax));
+  PetscCall(PetscPrintf(sys->comm, "spectrum of (K, M) at the initial state, %" PetscInt_FMT " unknowns (SLEPc %s)\n", 3 * sys->nfree, "krylovschur"));
+  PetscCall(PetscPrintf(sys->comm, "  omega_max = %.12g rad/s\n", (double)wmax));
+  for (PetscInt k = 0; k < nlargest; k++) PetscCall(PetscPrintf(sys->comm, "  lambda[%" PetscInt_FMT "] = %.15g\n", k, (double)lambda[k]));
+  PetscCall(PetscPrintf(sys->comm, "  critical time step: symplectic_euler h < %.6g s, rk4 h <= %.6g s\n", (double)(2.0 / wmax), (double)(2.0 * PETSC_SQRT2 / wmax)));
+  if (sys->drag > 0) PetscCall(PetscPrintf(sys->comm, "  explicit_euler: stable for h <= %.6g s (drag rate %g 1/s over omega_max^2)\n", (double)((sys->drag / mmax) / (wmax * wmax)), (double)(sys->drag / mmax)));
+  else PetscCall(PetscPrintf(sys->comm, "  explicit_euler: unstable for every h without drag (growth sqrt(1 + h^2 omega^2) per step)\n"));
+  if (nlow > 0) {
+    PetscCall(MSimSpectrumSolve(sys, X, nlow, PETSC_FALSE, low, dir[0] ? &modes : NULL));
+    PetscCall(PetscPrintf(sys->comm, "  lowest %" PetscInt_FMT " modes:\n", nlow));
+    for (PetscInt k = 0; k < nlow; k++) PetscCall(PetscPrintf(sys->comm, "    mode %" PetscInt_FMT ": lambda %.10g, f = %.8g Hz\n", k, (double)low[k], (double)(PetscSqrtReal(PetscMax(low[k], 0.0)) / (2 * PETSC_PI))));
+    if (dir[0]) {
+      std::vector<PetscReal> pos, disp;
+      if (sys->rank == 0) PetscCall(PetscMkdir(dir));
+      PetscCall(MSimSystemGatherPositions(sys, 0.0, X, pos));
+      for (PetscInt k = 0; k < nlow; k++) {
+        char path[PETSC_MAX_PATH_LEN];
+        PetscCall(MSimSystemGatherVector(sys, modes[k], disp));
+        if (sys->rank == 0) {
+          PetscCall(PetscSNPrintf(path, sizeof(path), "%s/mode_%03" PetscInt_FMT ".vtu", dir, k));
+          PetscCall(MSimWriteVTUWithVector(path, sys->nv, pos.data(), (PetscInt)sys->out_si.size(), sys->out_si.data(), sys->out_sj.data(), sys->fixed_flag.data(), "mode", disp.data()));
+        }
+        PetscCall(VecDestroy(&modes[k]));
+      }
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

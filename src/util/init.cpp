@@ -1,0 +1,74 @@
+/* Package initialization: log events, registries, msim's SNES type, the one-line error handler. */
+#include <msim/sys.h>
+#include <msim/scene.h>
+#include <msim/integrator.h>
+#include <msim/solvers.h>
+
+PetscClassId  MSIM_CLASSID;
+PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup;
+
+/* Users get the first message of an error as one line ("msim: error: ..."), printed by rank 0 of
+   the communicator the error was raised on; -msim_traceback restores PETSc's full trace. */
+static PetscErrorCode MSimErrorHandler(MPI_Comm comm, int line, const char *fun, const char *file, PetscErrorCode n, PetscErrorType p, const char *mess, void *ctx)
+{
+  PetscMPIInt rank = 0;
+  if (p != PETSC_ERROR_INITIAL) return n;
+  if (comm != MPI_COMM_NULL) MPI_Comm_rank(comm, &rank);
+  if (rank == 0) {
+    const char *text = NULL;
+    if (!mess || !mess[0]) PetscErrorMessage(n, &text, NULL);
+    fprintf(stderr, "msim: error: %s\n", mess && mess[0] ? mess : (text ? text : "unknown error"));
+    fflush(stderr);
+  }
+  return n;
+}
+
+PetscErrorCode MSimInitialize(void)
+{
+  PetscBool trace = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_traceback", &trace, NULL));
+  if (!trace) PetscCall(PetscPushErrorHandler(MSimErrorHandler, NULL));
+  /* the default log keeps event counts; msim reads them (MSimFactorizationCount), -log_view prints them */
+  PetscCall(PetscLogDefaultBegin());
+  PetscCall(PetscClassIdRegister("msim", &MSIM_CLASSID));
+  PetscCall(PetscLogEventRegister("MSimSetup", MSIM_CLASSID, &MSIM_Setup));
+  PetscCall(PetscLogEventRegister("MSimForce", MSIM_CLASSID, &MSIM_Force));
+  PetscCall(PetscLogEventRegister("MSimEnergy", MSIM_CLASSID, &MSIM_Energy));
+  PetscCall(PetscLogEventRegister("MSimStep", MSIM_CLASSID, &MSIM_Step));
+  PetscCall(PetscLogEventRegister("MSimOutput", MSIM_CLASSID, &MSIM_Output));
+  PetscCall(PetscLogEventRegister("MSimResidual", MSIM_CLASSID, &MSIM_Residual));
+  PetscCall(PetscLogEventRegister("MSimJacobian", MSIM_CLASSID, &MSIM_Jacobian));
+  PetscCall(PetscLogEventRegister("MSimPDSetUp", MSIM_CLASSID, &MSIM_PDSetUp));
+  PetscCall(PetscLogEventRegister("MSimPDLocal", MSIM_CLASSID, &MSIM_PDLocal));
+  PetscCall(PetscLogEventRegister("MSimPDGlobal", MSIM_CLASSID, &MSIM_PDGlobal));
+  PetscCall(PetscLogEventRegister("MSimSpectrum", MSIM_CLASSID, &MSIM_Spectrum));
+  PetscCall(MSimSceneRegisterAll());
+  PetscCall(MSimIntegratorRegisterAll());
+  PetscCall(MSimSolversRegisterAll());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimFinalize(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSceneFinalizePackage());
+  PetscCall(MSimIntegratorFinalizePackage());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimFactorizationCount(PetscInt *count)
+{
+  PetscLogEvent      ev;
+  PetscEventPerfInfo info;
+
+  PetscFunctionBeginUser;
+  *count = 0;
+  for (const char *name : {"MatCholFctrNum", "MatLUFactorNum"}) {
+    PetscCall(PetscLogEventGetId(name, &ev));
+    PetscCall(PetscLogEventGetPerfInfo(0, ev, &info));
+    *count += info.count;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
