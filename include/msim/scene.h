@@ -25,6 +25,7 @@ struct _n_MSimScene {
   MSimSceneData data;
   PetscReal     fix_velocity[3]; /* fixed vertices translate with this velocity */
   PetscReal     prestretch;      /* initial positions = prestretch * rest positions */
+  PetscReal     perturb;         /* plus a deterministic pseudo-random displacement of this size */
 };
 
 typedef PetscErrorCode (*MSimSceneGenerator)(MPI_Comm, MSimSceneData *);
@@ -35,6 +36,8 @@ PetscErrorCode MSimSceneFinalizePackage(void);
 /* Build from options (-msim_scene, stiffness, mass, fixed vertices). Collective. */
 PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene);
 PetscErrorCode MSimSceneDestroy(MSimScene *scene);
+
+PetscReal      MSimSceneHash(PetscInt v, PetscInt c);
 
 /* Helpers for generators */
 void           MSimSceneAddSpring(MSimSceneData *s, PetscInt i, PetscInt j, PetscReal k);

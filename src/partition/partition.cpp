@@ -27,7 +27,11 @@ static PetscErrorCode MSimPartitionMetis(MPI_Comm comm, PetscInt n, PetscMPIInt 
   options[METIS_OPTION_SEED] = 7;
   int ret = METIS_PartGraphKway(&nvtxs, &ncon, xa.data(), adj.data(), NULL, NULL, NULL, &nparts, NULL, NULL, options, &objval, p.data());
   PetscCheck(ret == METIS_OK, comm, PETSC_ERR_LIB, "METIS_PartGraphKway failed (code %d)", ret);
-  for (PetscInt v = 0; v < n; v++) part[v] = (PetscMPIInt)p[v];
+  std::vector<PetscInt> count(size, 0);
+  for (PetscInt v = 0; v < n; v++) count[part[v] = (PetscMPIInt)p[v]]++;
+  /* METIS may leave a part empty on tiny graphs; every rank must own a vertex */
+  for (PetscMPIInt r = 0; r < size; r++)
+    if (!count[r]) PetscCall(MSimPartitionNatural(n, size, part));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -2,6 +2,7 @@
 #include <msim/scene.h>
 #include <cmath>
 #include <algorithm>
+#include <cstdint>
 
 static PetscFunctionList MSimSceneList = NULL;
 static PetscBool         MSimSceneRegisterAllCalled = PETSC_FALSE;
@@ -98,6 +99,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   sc = new _n_MSimScene();
   sc->fix_velocity[0] = sc->fix_velocity[1] = sc->fix_velocity[2] = 0.0;
   sc->prestretch = 1.0;
+  sc->perturb    = 0.0;
   PetscOptionsBegin(comm, NULL, "msim scene", NULL);
   PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimSceneList, type, type, sizeof(type), NULL));
   PetscCall(PetscOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, k, &k, NULL));
@@ -106,9 +108,11 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscStrncpy(fix, fixes[ifix], sizeof(fix)));
   PetscCall(MSimOptionsVec3("-msim_fix_velocity", "Velocity of the fixed vertices (moving handles), m/s", sc->fix_velocity, NULL));
   PetscCall(PetscOptionsReal("-msim_prestretch", "Initial positions = prestretch * rest positions", NULL, sc->prestretch, &sc->prestretch, NULL));
+  PetscCall(PetscOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
   PetscOptionsEnd();
   PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
+  PetscCheck(sc->perturb >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_perturb must be >= 0 m (got %g)", (double)sc->perturb);
   PetscCheck(sc->prestretch > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_prestretch must be > 0 (got %g)", (double)sc->prestretch);
 
   PetscCall(PetscFunctionListFind(MSimSceneList, type, &gen));
@@ -145,6 +149,16 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   }
   *scene = sc;
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* A reproducible number in [-1, 1] for (vertex, component), the same on every rank and partition. */
+PetscReal MSimSceneHash(PetscInt v, PetscInt c)
+{
+  uint64_t z = (uint64_t)(3 * v + c) + 0x9E3779B97F4A7C15ull;
+  z          = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z          = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  z          = z ^ (z >> 31);
+  return 2.0 * (PetscReal)(z >> 11) / 9007199254740992.0 - 1.0;
 }
 
 PetscErrorCode MSimSceneDestroy(MSimScene *scene)

@@ -148,7 +148,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
       PetscInt g = gnum[freeid[v]];
       if (g < sys->rstart || g >= sys->rstart + sys->nown) continue;
       for (int c = 0; c < 3; c++) {
-        x[3 * (g - sys->rstart) + c] = scene->prestretch * S.x0[3 * v + c];
+        x[3 * (g - sys->rstart) + c] = scene->prestretch * S.x0[3 * v + c] + scene->perturb * MSimSceneHash(v, c);
         m[3 * (g - sys->rstart) + c] = S.mass[v];
       }
     }

@@ -66,6 +66,8 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
   PetscCall(TSRHSSplitSetRHSFunction(d->ts, "position", NULL, RHS_Position, integ));
   PetscCall(TSRHSSplitSetRHSFunction(d->ts, "momentum", NULL, RHS_Momentum, integ));
   PetscCall(TSSetTimeStep(d->ts, integ->dt));
+  PetscCall(TSSetMaxSteps(d->ts, PETSC_MAX_INT - 1)); /* msim drives the steps one TSStep at a time; PETSC_MAX_INT reads as unset */
+  PetscCall(TSSetMaxTime(d->ts, PETSC_MAX_REAL));
   PetscCall(TSSetSolution(d->ts, d->U));
   PetscCall(TSSetFromOptions(d->ts));
   {
@@ -73,6 +75,17 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     PetscBool symp;
     PetscCall(TSGetType(d->ts, &type));
     PetscCall(PetscStrcmp(type, TSBASICSYMPLECTIC, &symp));
+    PetscBool rk, euler;
+    PetscCall(PetscStrcmp(type, TSRK, &rk));
+    PetscCall(PetscStrcmp(type, TSEULER, &euler));
+    /* stability limits for the guard, where the type has a known one */
+    if (symp) integ->stability_limit = 2.0;
+    if (euler) integ->stability_limit = 0.0;
+    if (rk) {
+      TSRKType rktype;
+      PetscCall(TSRKGetType(d->ts, &rktype));
+      if (!strcmp(rktype, TSRK4)) integ->stability_limit = 2.0 * PETSC_SQRT2;
+    }
     PetscCheck(!symp || (sys->damping == 0 && sys->drag == 0), integ->comm, PETSC_ERR_ARG_INCOMP, "-ts_type basicsymplectic needs forces independent of velocity: set -msim_damping 0 -msim_drag 0");
   }
   PetscCall(TSSetUp(d->ts));

@@ -1,0 +1,71 @@
+/* Minimal test harness for msim's tests: checks that count failures, a scene/system/integrator
+   built from an options string, and a closing line "N passed, N failed". */
+#pragma once
+#include <msim/run.h>
+#include <msim/implicit.h>
+#include <msim/spectrum.h>
+#include <slepcsys.h>
+#include <cmath>
+
+static int msim_test_passed = 0, msim_test_failed = 0;
+
+#define CHECK(cond, ...) \
+  do { \
+    if (cond) msim_test_passed++; \
+    else { \
+      msim_test_failed++; \
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "FAIL %s:%d: ", __FILE__, __LINE__)); \
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, __VA_ARGS__)); \
+      PetscCall(PetscPrintf(PETSC_COMM_WORLD, "\n")); \
+    } \
+  } while (0)
+
+#define NOTE(...) PetscCall(PetscPrintf(PETSC_COMM_WORLD, __VA_ARGS__))
+
+typedef struct {
+  MSimSystem     sys;
+  MSimIntegrator integ;
+  Vec            X, V;
+} TestSim;
+
+/* Replace the options database with opts and build everything. */
+static inline PetscErrorCode TestSimCreate(const char *opts, TestSim *s)
+{
+  MSimScene scene;
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsClear(NULL));
+  PetscCall(PetscOptionsInsertString(NULL, opts));
+  PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
+  PetscCall(MSimSystemCreate(PETSC_COMM_WORLD, scene, &s->sys));
+  PetscCall(MSimSceneDestroy(&scene));
+  PetscCall(MSimIntegratorCreate(s->sys, &s->integ));
+  PetscCall(MSimIntegratorSetFromOptions(s->integ));
+  PetscCall(VecDuplicate(s->sys->X0, &s->X));
+  PetscCall(VecDuplicate(s->sys->X0, &s->V));
+  PetscCall(VecCopy(s->sys->X0, s->X));
+  PetscCall(VecCopy(s->sys->V0, s->V));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static inline PetscErrorCode TestSimDestroy(TestSim *s)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecDestroy(&s->X));
+  PetscCall(VecDestroy(&s->V));
+  PetscCall(MSimIntegratorDestroy(&s->integ));
+  PetscCall(MSimSystemDestroy(&s->sys));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Run the test body; print the closing line; exit non-zero on any failure. */
+#define MSIM_TEST_MAIN(body) \
+  int main(int argc, char **argv) \
+  { \
+    PetscCall(SlepcInitialize(&argc, &argv, NULL, NULL)); \
+    PetscCall(MSimInitialize()); \
+    PetscCall(body()); \
+    PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%d passed, %d failed\n", msim_test_passed, msim_test_failed)); \
+    PetscCall(MSimFinalize()); \
+    PetscCall(SlepcFinalize()); \
+    return msim_test_failed ? 1 : 0; \
+  }
