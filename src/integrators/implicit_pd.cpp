@@ -77,7 +77,13 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(PCSetType(pc, PCCHOLESKY));
   PetscCall(PCFactorSetMatSolverType(pc, sys->size > 1 ? MATSOLVERMUMPS : MATSOLVERCHOLMOD));
   PetscCall(KSPSetFromOptions(imp->pdksp));
-  PetscCall(KSPSetUp(imp->pdksp));
+  {
+    PetscInt before, after;
+    PetscCall(MSimFactorizationCount(&before));
+    PetscCall(KSPSetUp(imp->pdksp));
+    PetscCall(MSimFactorizationCount(&after));
+    imp->nfactor += after - before;
+  }
   PetscCall(MatCreateDense(sys->comm, sys->nown, PETSC_DECIDE, sys->nfree, 3, NULL, &imp->B));
   PetscCall(MatCreateDense(sys->comm, sys->nown, PETSC_DECIDE, sys->nfree, 3, NULL, &imp->Xd));
   PetscCall(VecDuplicate(sys->X0, &imp->rhs));

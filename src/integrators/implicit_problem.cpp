@@ -144,6 +144,6 @@ PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J)
 {
   MSimSystem sys = imp->sys;
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemAssembleMatrix(sys, imp->t + imp->h, X, 1.0, imp->h * sys->drag, imp->h * imp->h, imp->psd, sys->damping > 0 ? imp->Xn : NULL, imp->h, J));
+  PetscCall(MSimSystemAssembleMatrix(sys, imp->t + imp->h, X, 1.0, imp->h * sys->drag, imp->h * imp->h, imp->psd, imp->t, sys->damping > 0 ? imp->Xn : NULL, imp->h, J));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

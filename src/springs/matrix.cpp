@@ -56,7 +56,7 @@ static inline void AddBlock(Mat A, PetscInt r, PetscInt c, const Mat3 &B, PetscE
   *ierr = MatSetValuesBlocked(A, 1, &r, 1, &c, B.data(), ADD_VALUES);
 }
 
-PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, Vec Xn, PetscReal damp_coef, Mat A)
+PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, PetscReal tn, Vec Xn, PetscReal damp_coef, Mat A)
 {
   const PetscScalar *x, *xn = NULL, *m;
   const PetscInt     nfree_local = sys->nown + sys->nghost;
@@ -67,7 +67,7 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
   PetscCall(MatZeroEntries(A));
   if (Xn && damp_coef != 0) {
     /* spring axes at the start of the step, held in vloc (free during assembly) */
-    PetscCall(MSimSystemGlobalToLocal(sys, t, Xn, sys->vloc));
+    PetscCall(MSimSystemGlobalToLocal(sys, tn, Xn, sys->vloc));
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
   }
   PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));

@@ -6,6 +6,8 @@
 #include <msim/spectrum.h>
 #include <slepcsys.h>
 #include <cmath>
+#include <algorithm>
+#include <unistd.h>
 
 static int msim_test_passed = 0, msim_test_failed = 0;
 

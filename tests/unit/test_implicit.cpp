@@ -1,0 +1,260 @@
+/* Implicit Euler: every SNES method solves the same g(x) = 0.
+   - Newton, PD to tolerance, Anderson-PD and L-BFGS reach the same x_{n+1} (1e-8 relative) on a
+     small cloth with a step where explicit methods blow up;
+   - Baraff-Witkin (ksponly) equals one Newton iteration from x0 = x_n + h v_n;
+   - PD never increases Phi, and factors its matrix once over 50 steps;
+   - the analytic Jacobian matches finite differences of g (with damping and drag);
+   - implicit Euler stays bounded at h = 1/30 with k = 10^4 where both explicit Eulers diverge. */
+#include "harness.h"
+#include <cstdio>
+#include <vector>
+
+/* A moving state: 5 Newton steps from rest, then one step of the method under test. */
+static const char *kScene = "-msim_cloth_n 7 -msim_stiffness 1000 -msim_damping 0.5 -msim_drag 0.01 -msim_wind 1,0,0 -msim_dt 0.0333333333333 -msim_integrator implicit_euler";
+
+static PetscErrorCode StepWith(const char *solver, Vec result)
+{
+  TestSim s;
+  char    opts[2048];
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -ksp_rtol 1e-12", kScene));
+  PetscCall(TestSimCreate(opts, &s));
+  for (PetscInt n = 0; n < 5; n++) PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
+  PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s %s", kScene, solver));
+  /* same state, new solver */
+  {
+    TestSim t;
+    PetscCall(TestSimCreate(opts, &t));
+    PetscCall(MSimIntegratorStep(t.integ, 5 * t.integ->dt, s.X, s.V));
+    CHECK(!t.integ->failed, "%s: the step failed", solver);
+    NOTE("%-90s its %3" PetscInt_FMT " |g| %.2e\n", solver, t.integ->nonlinear_its, (double)t.integ->residual);
+    PetscCall(TestSimDestroy(&t));
+  }
+  PetscCall(VecCopy(s.X, result));
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestSolversAgree(void)
+{
+  const char *solvers[] = {
+    "-snes_type newtonls -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -ksp_rtol 1e-12",
+    "-snes_type pd -snes_atol 1e-10 -snes_rtol 1e-30 -snes_max_it 20000",
+    "-snes_type anderson -npc_snes_type pd -npc_snes_max_it 1 -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 2000",
+    "-snes_type qn -snes_qn_scale_type jacobian -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 2000",
+  };
+  TestSim   ref;
+  Vec       X[4];
+  PetscReal nref;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate(kScene, &ref));
+  for (int k = 0; k < 4; k++) {
+    PetscCall(VecDuplicate(ref.X, &X[k]));
+    PetscCall(StepWith(solvers[k], X[k]));
+  }
+  PetscCall(VecNorm(X[0], NORM_2, &nref));
+  for (int k = 1; k < 4; k++) {
+    PetscReal d;
+    PetscCall(VecAXPY(X[k], -1.0, X[0]));
+    PetscCall(VecNorm(X[k], NORM_2, &d));
+    NOTE("x_{n+1} of solver %d vs Newton: relative difference %.2e\n", k, (double)(d / nref));
+    CHECK(d <= 1e-8 * nref, "solver '%s' differs from Newton by %g relative", solvers[k], (double)(d / nref));
+  }
+  for (int k = 0; k < 4; k++) PetscCall(VecDestroy(&X[k]));
+  PetscCall(TestSimDestroy(&ref));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* ksponly vs newtonls with one iteration, full step, the same direct linear solve */
+static PetscErrorCode TestBaraffWitkin(void)
+{
+  Vec       a, b;
+  TestSim   ref;
+  PetscReal d, n;
+  const char *lin = "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps";
+  char        opts[1024];
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate(kScene, &ref));
+  PetscCall(VecDuplicate(ref.X, &a));
+  PetscCall(VecDuplicate(ref.X, &b));
+  PetscCall(PetscSNPrintf(opts, sizeof(opts), "-snes_type ksponly %s", lin));
+  PetscCall(StepWith(opts, a));
+  PetscCall(PetscSNPrintf(opts, sizeof(opts), "-snes_type newtonls -snes_max_it 1 -snes_linesearch_type basic -snes_atol 0 -snes_rtol 0 -snes_stol 0 %s", lin));
+  PetscCall(StepWith(opts, b));
+  PetscCall(VecNorm(a, NORM_2, &n));
+  PetscCall(VecAXPY(b, -1.0, a));
+  PetscCall(VecNorm(b, NORM_2, &d));
+  NOTE("Baraff-Witkin vs one Newton iteration: relative difference %.2e\n", (double)(d / n));
+  CHECK(d <= 1e-12 * n, "ksponly differs from one Newton iteration by %g", (double)(d / n));
+  PetscCall(VecDestroy(&a));
+  PetscCall(VecDestroy(&b));
+  PetscCall(TestSimDestroy(&ref));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestPDMonotoneAndOneFactorization(void)
+{
+  TestSim   s;
+  char      opts[2048], path[256];
+  PetscInt  nfact;
+  PetscMPIInt rank;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCall(PetscSNPrintf(path, sizeof(path), "test_pd_convergence_%d.csv", (int)getpid()));
+  PetscCallMPI(MPI_Bcast(path, sizeof(path), MPI_CHAR, 0, PETSC_COMM_WORLD));
+  PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s -snes_type pd -snes_max_it 10 -snes_pd_fixed -msim_monitor_convergence %s", kScene, path));
+  PetscCall(TestSimCreate(opts, &s));
+  for (PetscInt n = 0; n < 50; n++) PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
+  PetscCall(MSimImplicitEulerGetFactorizations(s.integ, &nfact));
+  NOTE("PD numeric factorizations over 50 steps: %" PetscInt_FMT "\n", nfact);
+  CHECK(nfact == 1, "PD factored %" PetscInt_FMT " times over 50 steps", nfact);
+  PetscCall(TestSimDestroy(&s)); /* closes the CSV */
+  if (rank == 0) {
+    FILE  *fp = fopen(path, "r");
+    char   line[512];
+    long   step, it, prev_step = -1, rows = 0, rises = 0;
+    double wall, phi, g, prev_phi = 0, worst = 0;
+    CHECK(fp != NULL, "no convergence CSV %s", path);
+    if (fp) {
+      PetscCheck(fgets(line, sizeof(line), fp), PETSC_COMM_SELF, PETSC_ERR_FILE_READ, "empty CSV");
+      while (fgets(line, sizeof(line), fp) && sscanf(line, "%ld,%ld,%lf,%lf,%lf", &step, &it, &wall, &phi, &g) == 5) {
+        if (step == prev_step) {
+          const double rise = (phi - prev_phi) / std::max(1e-300, std::abs(prev_phi));
+          worst = std::max(worst, rise);
+          if (rise > 1e-13) rises++;
+        }
+        prev_step = step;
+        prev_phi  = phi;
+        rows++;
+      }
+      fclose(fp);
+      remove(path);
+    }
+    NOTE("PD: %ld iterations monitored, Phi rose %ld times (largest relative rise %.1e)\n", rows, rises, worst);
+    CHECK(rows == 50 * 11, "expected 550 monitored iterations, got %ld", rows);
+    CHECK(rises == 0, "PD increased Phi %ld times", rises);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* g's Jacobian (no PSD projection) against central differences of g along random directions */
+static PetscErrorCode TestJacobianFD(void)
+{
+  TestSim      s;
+  MSimImplicit imp;
+  Mat          J;
+  Vec          dX, Xp, Xm, Gp, Gm, JdX;
+  PetscReal    eps = 1e-6, err, nrm;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate("-msim_cloth_n 6 -msim_perturb 0.02 -msim_prestretch 0.95 -msim_damping 0.7 -msim_drag 0.05 -msim_fix_velocity 0,0,0.1", &s));
+  PetscCall(MSimImplicitCreate(s.sys, &imp));
+  imp->psd = PETSC_FALSE;
+  PetscCall(VecSet(s.V, 0.3));
+  PetscCall(MSimImplicitBeginStep(imp, 0.1, 0.02, s.X, s.V));
+  PetscCall(VecAXPY(s.X, 0.02, s.V));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &J));
+  PetscCall(MSimImplicitJacobian(imp, s.X, J));
+  PetscCall(VecDuplicate(s.X, &dX));
+  PetscCall(VecDuplicate(s.X, &Xp));
+  PetscCall(VecDuplicate(s.X, &Xm));
+  PetscCall(VecDuplicate(s.X, &Gp));
+  PetscCall(VecDuplicate(s.X, &Gm));
+  PetscCall(VecDuplicate(s.X, &JdX));
+  {
+    PetscRandom r;
+    PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &r));
+    PetscCall(PetscRandomSetInterval(r, -1, 1));
+    PetscCall(VecSetRandom(dX, r));
+    PetscCall(PetscRandomDestroy(&r));
+  }
+  PetscCall(VecWAXPY(Xp, eps, dX, s.X));
+  PetscCall(VecWAXPY(Xm, -eps, dX, s.X));
+  PetscCall(MSimImplicitResidual(imp, Xp, Gp));
+  PetscCall(MSimImplicitResidual(imp, Xm, Gm));
+  PetscCall(VecAXPY(Gp, -1.0, Gm));
+  PetscCall(VecScale(Gp, 1.0 / (2 * eps)));
+  PetscCall(MatMult(J, dX, JdX));
+  PetscCall(VecNorm(JdX, NORM_2, &nrm));
+  PetscCall(VecAXPY(Gp, -1.0, JdX));
+  PetscCall(VecNorm(Gp, NORM_2, &err));
+  NOTE("Jacobian vs finite differences of g: relative error %.2e\n", (double)(err / nrm));
+  CHECK(err <= 1e-6 * nrm, "Jacobian off by %g relative", (double)(err / nrm));
+  /* and g is the gradient of Phi: (Phi(x + e d) - Phi(x - e d)) / 2e = g . d */
+  {
+    PetscReal pp, pm, gd;
+    PetscCall(MSimImplicitObjective(imp, Xp, &pp));
+    PetscCall(MSimImplicitObjective(imp, Xm, &pm));
+    PetscCall(MSimImplicitResidual(imp, s.X, Gm));
+    PetscCall(VecDot(Gm, dX, &gd));
+    NOTE("g . d %.10e vs dPhi/de %.10e\n", (double)gd, (double)((pp - pm) / (2 * eps)));
+    CHECK(std::abs(gd - (pp - pm) / (2 * eps)) <= 1e-6 * std::abs(gd) + 1e-12, "g is not the gradient of Phi");
+  }
+  PetscCall(VecDestroy(&dX));
+  PetscCall(VecDestroy(&Xp));
+  PetscCall(VecDestroy(&Xm));
+  PetscCall(VecDestroy(&Gp));
+  PetscCall(VecDestroy(&Gm));
+  PetscCall(VecDestroy(&JdX));
+  PetscCall(MatDestroy(&J));
+  PetscCall(MSimImplicitDestroy(&imp));
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode RunStiff(const char *integrator, PetscBool *diverged, PetscReal *Emax, PetscReal *E0)
+{
+  TestSim        s;
+  char           opts[1024];
+  MSimRunInfo    info;
+  PetscErrorCode ierr;
+  PetscReal      kin, pot;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(opts, sizeof(opts), "-msim_cloth_n 10 -msim_stiffness 1e4 -msim_dt 0.0333333333333 -msim_steps 60 -msim_spectrum_check 0 -msim_integrator %s", integrator));
+  PetscCall(TestSimCreate(opts, &s));
+  PetscCall(MSimSystemComputeEnergy(s.sys, 0, s.X, s.V, &kin, &pot));
+  *E0 = kin + pot;
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+  ierr = MSimRun(s.sys, s.integ, s.X, s.V, &info);
+  PetscCall(PetscPopErrorHandler());
+  PetscCheck(ierr == 0 || ierr == PETSC_ERR_NOT_CONVERGED, PETSC_COMM_WORLD, ierr, "unexpected error %d", (int)ierr);
+  *diverged = info.diverged;
+  PetscCall(MSimSystemComputeEnergy(s.sys, info.t, s.X, s.V, &kin, &pot));
+  *Emax = kin + pot;
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestImplicitStable(void)
+{
+  PetscBool div;
+  PetscReal E, E0;
+
+  PetscFunctionBeginUser;
+  PetscCall(RunStiff("implicit_euler", &div, &E, &E0));
+  NOTE("implicit Euler, h = 1/30, k = 1e4: diverged %d, total energy %g (start %g)\n", (int)div, (double)E, (double)E0);
+  CHECK(!div && std::isfinite(E) && E <= E0 + 1e-12, "implicit Euler not bounded at h = 1/30, k = 1e4");
+  PetscCall(RunStiff("explicit_euler", &div, &E, &E0));
+  CHECK(div, "explicit Euler did not diverge at h = 1/30, k = 1e4");
+  PetscCall(RunStiff("symplectic_euler", &div, &E, &E0));
+  CHECK(div, "symplectic Euler did not diverge at h = 1/30, k = 1e4");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestImplicit(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(TestJacobianFD());
+  PetscCall(TestSolversAgree());
+  PetscCall(TestBaraffWitkin());
+  PetscCall(TestPDMonotoneAndOneFactorization());
+  PetscCall(TestImplicitStable());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+MSIM_TEST_MAIN(TestImplicit)
