@@ -62,7 +62,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   MSimMonitor mon;
   MSimOutput  out;
   PetscBool   want_mon, want_out;
-  PetscReal   factor = 1e3, kin, pot, E0, scale, gnorm;
+  PetscReal   factor = 10, kin, pot, E0, scale, gnorm;
   PetscInt    check_every = 10, last_good = 0;
   Vec         Xgood, Vgood;
 
@@ -83,12 +83,13 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   /* all input is valid from here on: create the output directory */
   PetscCall(MSimOutputSetUp(out));
 
-  /* Energy scale: what gravity can release over the scene's size, what moving handles carry, and
-     the initial energy. Divergence is an energy change many times larger than all of them. */
+  /* Energy scale: the initial energy, what gravity can release over the scene's size, the kinetic
+     energy of the whole mass moving with the handles or the wind. Divergence is an energy change
+     many times larger than all of them. */
   PetscCall(MSimSystemComputeEnergy(sys, 0, X, V, &kin, &pot));
   E0    = kin + pot;
   gnorm = PetscSqrtReal(sys->gravity[0] * sys->gravity[0] + sys->gravity[1] * sys->gravity[1] + sys->gravity[2] * sys->gravity[2]);
-  scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2]) + PETSC_SMALL;
+  scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2] + sys->wind[0] * sys->wind[0] + sys->wind[1] * sys->wind[1] + sys->wind[2] * sys->wind[2]) + PETSC_SMALL;
   if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0));
   PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
   if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X));

@@ -5,7 +5,7 @@
 #include <msim/output.h>
 #include <slepceps.h>
 
-static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, PetscBool largest, std::vector<PetscReal> &lambda, std::vector<Vec> *modes)
+static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, PetscBool largest, PetscReal shift, std::vector<PetscReal> &lambda, std::vector<Vec> *modes)
 {
   Mat       K, M;
   EPS       eps;
@@ -34,9 +34,10 @@ static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, Pet
     PetscCall(KSPSetType(ksp, KSPPREONLY));
     PetscCall(PCSetType(pc, PCJACOBI));
   } else {
-    /* lowest modes: shift-and-invert about 0 with a direct solve */
+    /* lowest modes: shift-and-invert about a small negative shift (K is only semidefinite: a
+       straight chain or a flat cloth has zero-stiffness transverse modes), so K - shift M is SPD */
     PetscCall(EPSSetWhichEigenpairs(eps, EPS_TARGET_MAGNITUDE));
-    PetscCall(EPSSetTarget(eps, 0.0));
+    PetscCall(EPSSetTarget(eps, shift));
     PetscCall(STSetType(st, STSINVERT));
     PetscCall(KSPSetType(ksp, KSPPREONLY));
     PetscCall(PCSetType(pc, PCCHOLESKY));
@@ -66,7 +67,7 @@ static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, Pet
 PetscErrorCode MSimSpectrumLargest(MSimSystem sys, Vec X, PetscInt nev, std::vector<PetscReal> &lambda)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimSpectrumSolve(sys, X, nev, PETSC_TRUE, lambda, NULL));
+  PetscCall(MSimSpectrumSolve(sys, X, nev, PETSC_TRUE, 0.0, lambda, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -108,9 +109,9 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
   if (sys->drag > 0) PetscCall(PetscPrintf(sys->comm, "  explicit_euler: stable for h <= %.6g s (drag rate %g 1/s over omega_max^2)\n", (double)((sys->drag / mmax) / (wmax * wmax)), (double)(sys->drag / mmax)));
   else PetscCall(PetscPrintf(sys->comm, "  explicit_euler: unstable for every h without drag (growth sqrt(1 + h^2 omega^2) per step)\n"));
   if (nlow > 0) {
-    PetscCall(MSimSpectrumSolve(sys, X, nlow, PETSC_FALSE, low, dir[0] ? &modes : NULL));
+    PetscCall(MSimSpectrumSolve(sys, X, nlow, PETSC_FALSE, -1e-8 * lambda[0], low, dir[0] ? &modes : NULL));
     PetscCall(PetscPrintf(sys->comm, "  lowest %" PetscInt_FMT " modes:\n", nlow));
-    for (PetscInt k = 0; k < nlow; k++) PetscCall(PetscPrintf(sys->comm, "    mode %" PetscInt_FMT ": lambda %.10g, f = %.8g Hz\n", k, (double)low[k], (double)(PetscSqrtReal(PetscMax(low[k], 0.0)) / (2 * PETSC_PI))));
+    for (PetscInt k = 0; k < nlow; k++) PetscCall(PetscPrintf(sys->comm, "    mode %" PetscInt_FMT ": lambda %.10g, f = %.8g Hz\n", k, (double)(PetscAbsReal(low[k]) < 1e-10 * lambda[0] ? 0.0 : low[k]), (double)(PetscAbsReal(low[k]) < 1e-10 * lambda[0] ? 0.0 : PetscSqrtReal(PetscMax(low[k], 0.0)) / (2 * PETSC_PI))));
     if (dir[0]) {
       std::vector<PetscReal> pos, disp;
       if (sys->rank == 0) PetscCall(PetscMkdir(dir));
