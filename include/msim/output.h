@@ -16,6 +16,7 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
 /* A file NAME.vtu in the output directory outside the series (e.g. the last finite state). */
 PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X);
 PetscErrorCode MSimOutputDestroy(MSimOutput *out);
+PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[]);
 
 /* One .vtu file of points and VTK_LINE cells, raw appended binary. Rank 0 only. */
 PetscErrorCode MSimWriteVTU(const char path[], PetscInt nv, const PetscReal *x, PetscInt ns, const PetscInt *si, const PetscInt *sj, const char *fixed);
@@ -32,6 +33,7 @@ typedef struct {
 } MSimMonitor;
 
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon);
+PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
 PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual);
 PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon);

@@ -82,6 +82,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimGuard(sys, integ, X, info));
   /* all input is valid from here on: create the output directory */
   PetscCall(MSimOutputSetUp(out));
+  PetscCall(MSimMonitorSetUp(sys->comm, &mon));
 
   /* Energy scale: the initial energy, what gravity can release over the scene's size, the kinetic
      energy of the whole mass moving with the handles or the wind. Divergence is an energy change

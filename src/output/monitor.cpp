@@ -19,6 +19,28 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Opens the CSV (PATH.tmp, renamed when the run ends, so a killed run never leaves a half file);
+   collective, so a file that cannot be written is an error on every rank. */
+PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon)
+{
+  PetscMPIInt rank;
+  int         ok = 1;
+
+  PetscFunctionBeginUser;
+  if (!mon->csv_path[0]) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (rank == 0) {
+    char tmp[PETSC_MAX_PATH_LEN + 8];
+    PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
+    mon->csv = fopen(tmp, "w");
+    if (mon->csv) fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,wall_s\n");
+    ok = mon->csv != NULL;
+  }
+  PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
+  PetscCheck(ok, comm, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s.tmp", mon->csv_path);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want)
 {
   PetscFunctionBeginUser;
@@ -28,21 +50,11 @@ PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want)
 
 PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual)
 {
-  PetscMPIInt    rank;
   PetscLogDouble now;
 
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_rank(comm, &rank));
   if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual));
-  if (mon->csv_path[0] && rank == 0) {
-    if (!mon->csv) {
-      /* written to PATH.tmp and renamed at the end, so a killed run never leaves a half file */
-      char tmp[PETSC_MAX_PATH_LEN + 8];
-      PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
-      mon->csv = fopen(tmp, "w");
-      PetscCheck(mon->csv, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s", tmp);
-      fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,wall_s\n");
-    }
+  if (mon->csv) {
     PetscCall(PetscTime(&now));
     fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, now - mon->wall0);
   }

@@ -3,6 +3,9 @@
 #include <msim/output.h>
 #include <string>
 #include <vector>
+#include <cerrno>
+#include <sys/stat.h>
+#include <unistd.h>
 
 struct _n_MSimOutput {
   MSimSystem  sys;
@@ -32,15 +35,33 @@ PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* mkdir -p on rank 0; every rank learns the outcome, so a failure is a collective error. */
+PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[])
+{
+  PetscMPIInt rank;
+  int         ok = 1;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (rank == 0) {
+    std::string path(dir);
+    for (size_t pos = 1; ok && pos <= path.size(); pos++) {
+      if (pos < path.size() && path[pos] != '/') continue;
+      std::string part = path.substr(0, pos);
+      if (mkdir(part.c_str(), 0755) != 0 && errno != EEXIST) ok = 0;
+    }
+    if (ok && access(dir, W_OK) != 0) ok = 0;
+  }
+  PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
+  PetscCheck(ok, comm, PETSC_ERR_FILE_OPEN, "%s: cannot create or write directory %s", option, dir);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimOutputSetUp(MSimOutput out)
 {
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
-  if (out->sys->rank == 0) {
-    PetscBool exists;
-    PetscCall(PetscTestDirectory(out->dir, 'w', &exists));
-    if (!exists) PetscCall(PetscMkdir(out->dir));
-  }
+  PetscCall(MSimMakeDirectory(out->sys->comm, out->dir, "-msim_output"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -114,7 +114,7 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
     for (PetscInt k = 0; k < nlow; k++) PetscCall(PetscPrintf(sys->comm, "    mode %" PetscInt_FMT ": lambda %.10g, f = %.8g Hz\n", k, (double)(PetscAbsReal(low[k]) < 1e-10 * lambda[0] ? 0.0 : low[k]), (double)(PetscAbsReal(low[k]) < 1e-10 * lambda[0] ? 0.0 : PetscSqrtReal(PetscMax(low[k], 0.0)) / (2 * PETSC_PI))));
     if (dir[0]) {
       std::vector<PetscReal> pos, disp;
-      if (sys->rank == 0) PetscCall(PetscMkdir(dir));
+      PetscCall(MSimMakeDirectory(sys->comm, dir, "-msim_spectrum_modes"));
       PetscCall(MSimSystemGatherPositions(sys, 0.0, X, pos));
       for (PetscInt k = 0; k < nlow; k++) {
         char path[PETSC_MAX_PATH_LEN];

@@ -1,0 +1,34 @@
+"""Reader for the .vtu files msim writes (raw appended binary, UInt64 headers) and .pvd series."""
+import re
+import struct
+import xml.etree.ElementTree as ET
+
+import numpy as np
+
+DTYPES = {"Float64": np.float64, "Int64": np.int64, "UInt8": np.uint8}
+
+
+def read_vtu(path):
+    """Returns dict name -> array: 'points' (n,3), 'connectivity' (m,2), 'fixed' (n,), others."""
+    with open(path, "rb") as f:
+        data = f.read()
+    start = data.index(b"<AppendedData")
+    start = data.index(b"_", start) + 1
+    header = data[:start].decode("latin-1")
+    out = {}
+    for m in re.finditer(r'<DataArray type="(\w+)"(?: Name="(\w+)")?(?: NumberOfComponents="(\d+)")? format="appended" offset="(\d+)"/>', header):
+        dtype, name, ncomp, offset = m.group(1), m.group(2) or "points", int(m.group(3) or 1), int(m.group(4))
+        pos = start + offset
+        (nbytes,) = struct.unpack("<Q", data[pos:pos + 8])
+        arr = np.frombuffer(data[pos + 8:pos + 8 + nbytes], dtype=DTYPES[dtype])
+        out[name] = arr.reshape(-1, ncomp) if ncomp > 1 else arr
+    out["connectivity"] = out["connectivity"].reshape(-1, 2)
+    return out
+
+
+def read_pvd(path):
+    """Returns [(time, vtu path)] in order."""
+    import os
+    root = ET.parse(path).getroot()
+    base = os.path.dirname(path)
+    return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]

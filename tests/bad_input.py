@@ -1,0 +1,81 @@
+#!/usr/bin/env python3
+"""Bad input: each case must exit non-zero with exactly one line on stderr, 'msim: error: ...',
+naming the option (and the allowed range), and must not create the output directory. A run that
+diverges must keep the frames written before it and the last finite state."""
+import os
+import subprocess
+import sys
+import tempfile
+
+MSIM = os.path.abspath(sys.argv[1])
+CASES = [
+    (["-msim_dt", "0"], "-msim_dt must be > 0"),
+    (["-msim_dt", "-1e-3"], "-msim_dt must be > 0"),
+    (["-msim_steps", "0"], "-msim_steps must be >= 1"),
+    (["-msim_mass", "0"], "-msim_mass must be > 0"),
+    (["-msim_mass", "-2"], "-msim_mass must be > 0"),
+    (["-msim_stiffness", "0"], "-msim_stiffness must be > 0"),
+    (["-msim_stiffness_shear", "-5"], "-msim_stiffness_shear must be > 0"),
+    (["-msim_scene", "torus"], "-msim_scene"),
+    (["-msim_integrator", "leapfrog"], "-msim_integrator"),
+    (["-msim_fix", "list", "-msim_fix_list", "3,400"], "-msim_fix_list: vertex 400 is out of range [0, 399]"),
+    (["-msim_fix", "list", "-msim_fix_list", "-1"], "-msim_fix_list: vertex -1 is out of range"),
+    (["-msim_fix", "list"], "-msim_fix list needs -msim_fix_list"),
+    (["-msim_cloth_n", "1"], "-msim_cloth_n must be >= 2"),
+    (["-msim_scene", "chain", "-msim_chain_n", "1"], "-msim_chain_n must be >= 2"),
+    (["-msim_springs", "structural,twist"], "-msim_springs: unknown family 'twist'"),
+    (["-msim_gravity", "0,1"], "-msim_gravity needs three"),
+    (["-msim_wind", "1,0,0"], "-msim_wind acts through air drag"),
+    (["-msim_drag", "-1"], "-msim_drag must be >= 0"),
+    (["-msim_partition", "random"], "-msim_partition random is not known"),
+    (["-msim_output_every", "0"], "-msim_output_every must be >= 1"),
+]
+
+
+def run(args, cwd, np=1):
+    # one rank runs as a singleton (what a user typing ./msim sees); two under mpirun -q, which
+    # keeps mpirun's own banner about the non-zero exit out of stderr
+    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + args
+    return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+
+
+def main():
+    passed = failed = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        for np in (1, 2):
+            for args, message in CASES:
+                out = os.path.join(tmp, f"series_{np}")
+                r = run(args + ["-msim_output", out, "-msim_steps", "5"] if "-msim_steps" not in args else args + ["-msim_output", out], tmp, np)
+                lines = [l for l in r.stderr.splitlines() if l.strip()]
+                problems = []
+                if r.returncode == 0:
+                    problems.append("exit code 0")
+                if len(lines) != 1 or not lines[0].startswith("msim: error: ") or message not in lines[0]:
+                    problems.append(f"stderr {lines!r} does not say '{message}' on one line")
+                if os.path.exists(out):
+                    problems.append("output directory was created")
+                if problems:
+                    failed += 1
+                    print(f"FAIL np={np} {' '.join(args)}: " + "; ".join(problems))
+                else:
+                    passed += 1
+        # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
+        out = os.path.join(tmp, "diverged")
+        r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)
+        frames = sorted(f for f in os.listdir(out) if f.startswith("frame_")) if os.path.isdir(out) else []
+        err = [l for l in r.stderr.splitlines() if l.startswith("msim: error:")]
+        ok = (r.returncode != 0 and len(err) == 1 and "diverged at step" in err[0] and "explicit_euler" in err[0] and "h = 0.002" in err[0]
+              and len(frames) >= 1 and os.path.exists(os.path.join(out, "last_finite.vtu")) and os.path.exists(os.path.join(out, "series.pvd"))
+              and not any(f.endswith(".tmp") for f in os.listdir(out)))
+        if ok:
+            passed += 1
+            print(f"divergence: '{err[0]}', {len(frames)} frames kept, last_finite.vtu written")
+        else:
+            failed += 1
+            print(f"FAIL divergence: rc {r.returncode}, stderr {r.stderr[-500:]!r}, frames {frames}")
+    print(f"{passed} passed, {failed} failed")
+    sys.exit(1 if failed else 0)
+
+
+if __name__ == "__main__":
+    main()
