@@ -33,7 +33,7 @@ struct _n_MSimIntegrator {
   PetscInt          nonlinear_its, linear_its;
   PetscReal         residual;
   PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
-  void             *convergence_monitor; /* MSimConvergenceMonitor, for implicit methods */
+  PetscBool         help_listing; /* a throwaway instance made only so -help lists its options */
 };
 
 PetscErrorCode MSimIntegratorRegister(const char name[], PetscErrorCode (*create)(MSimIntegrator));

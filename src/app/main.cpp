@@ -22,7 +22,10 @@ static PetscErrorCode MSimMain(void)
   PetscCall(MSimSceneDestroy(&scene));
   PetscCall(MSimIntegratorCreate(sys, &integ));
   PetscCall(MSimIntegratorSetFromOptions(integ));
-  PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_view", &view, NULL));
+  PetscOptionsBegin(PETSC_COMM_WORLD, NULL, "msim program", NULL);
+  PetscCall(PetscOptionsBool("-msim_view", "Print the integrator and its solvers (and PD factorization count) at the end", NULL, view, &view, NULL));
+  PetscCall(PetscOptionsBool("-msim_traceback", "Print PETSc's full error traceback instead of one line", NULL, PETSC_FALSE, NULL, NULL));
+  PetscOptionsEnd();
   PetscCall(VecDuplicate(sys->X0, &X));
   PetscCall(VecDuplicate(sys->V0, &V));
   PetscCall(VecCopy(sys->X0, X));

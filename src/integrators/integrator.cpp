@@ -80,6 +80,28 @@ PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ)
   PetscCheck(integ->steps > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_steps must be >= 1 (got %" PetscInt_FMT ")", integ->steps);
   PetscCall(MSimIntegratorSetType(integ, type));
   if (integ->ops.setfromoptions) PetscCall((*integ->ops.setfromoptions)(integ));
+  {
+    /* -help lists every integrator's options (the TS's and the SNES's included): set up a
+       throwaway integrator of each other type so their option blocks print */
+    PetscBool help;
+    PetscCall(PetscOptionsHasHelp(NULL, &help));
+    if (help && !integ->help_listing) {
+      const char **names;
+      int           n;
+      PetscCall(PetscFunctionListGet(MSimIntegratorList, &names, &n));
+      for (int k = 0; k < n && names[k]; k++) { /* the array ends with NULL, counted in n */
+        MSimIntegrator other = NULL;
+        if (!strcmp(names[k], type)) continue;
+        PetscCall(MSimIntegratorCreate(integ->sys, &other));
+        other->help_listing = PETSC_TRUE;
+        PetscCall(MSimIntegratorSetType(other, names[k]));
+        if (other->ops.setfromoptions) PetscCall((*other->ops.setfromoptions)(other));
+        PetscCall(MSimIntegratorSetUp(other));
+        PetscCall(MSimIntegratorDestroy(&other));
+      }
+      PetscCall(PetscFree(names));
+    }
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -136,6 +136,32 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
     for (PetscInt v : set_ids) sc->data.fixed[v] = 1;
   }
 
+  /* -help lists every scene's options, not only the chosen one's: run the other generators on a
+     scratch graph (they are cheap) so their option blocks print */
+  {
+    PetscBool help;
+    PetscCall(PetscOptionsHasHelp(NULL, &help));
+    if (help) {
+      const char **names;
+      int           n;
+      PetscCall(PetscFunctionListGet(MSimSceneList, &names, &n));
+      for (int k = 0; k < n && names[k]; k++) { /* the array ends with NULL, counted in n */
+        MSimSceneData      scratch;
+        MSimSceneGenerator g;
+        if (!strcmp(names[k], type)) continue;
+        PetscCall(PetscFunctionListFind(MSimSceneList, names[k], &g));
+        PetscCall((*g)(comm, &scratch));
+      }
+      PetscCall(PetscFree(names));
+      if (ifix < 2) {
+        PetscInt dummy[1], n = 1;
+        PetscOptionsBegin(comm, NULL, "msim fixed vertices", NULL);
+        PetscCall(PetscOptionsIntArray("-msim_fix_list", "Fixed vertex ids (with -msim_fix list)", NULL, dummy, &n, NULL));
+        PetscOptionsEnd();
+      }
+    }
+  }
+
   /* Masses lumped equally (fixed vertices included, so the total is the stated one). */
   sc->data.mass.assign(sc->data.nv, mass / sc->data.nv);
   {
