@@ -4,6 +4,10 @@
 #include <petscsnes.h>
 
 #define SNESPD "pd"
+#define PCMSIMLLT "msimllt"
+
+/* PC type msimllt (serial sparse Cholesky, all right-hand sides in one sweep of the factor). */
+PetscErrorCode PCCreate_MSimLLT(PC pc);
 
 /* Registers "pd" once. */
 PetscErrorCode MSimSolversRegisterAll(void);

@@ -20,5 +20,6 @@ PetscErrorCode MSimFinalize(void);
 PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, const char name[], const char help[], PetscReal v[3], PetscBool *set);
 #define MSimOptionsVec3(name, help, v, set) MSimOptionsVec3_Private(PetscOptionsObject, name, help, v, set)
 
-/* Numeric Cholesky and LU factorizations so far in this process (PETSc's log counters). */
+/* Preconditioner set-ups so far in this process (PETSc's log counter of PCSetUp, which logs only
+   when it does work): bracketing a factor PC's solves with it counts its factorizations. */
 PetscErrorCode MSimFactorizationCount(PetscInt *count);

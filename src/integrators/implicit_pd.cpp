@@ -68,14 +68,19 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
 
-  /* the factorization: preonly + Cholesky; CHOLMOD serially (fastest here, FACTS), MUMPS in parallel */
+  /* the factorization: preonly + Cholesky. Serially msim's own msimllt (one sweep of the factor
+     for x, y and z together); in parallel MUMPS. -pd_pc_type cholesky
+     -pd_pc_factor_mat_solver_type cholmod|petsc|mumps selects PETSc's. */
   PetscCall(KSPCreate(sys->comm, &imp->pdksp));
   PetscCall(KSPSetOptionsPrefix(imp->pdksp, "pd_"));
   PetscCall(KSPSetOperators(imp->pdksp, imp->A, imp->A));
   PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
   PetscCall(KSPGetPC(imp->pdksp, &pc));
-  PetscCall(PCSetType(pc, PCCHOLESKY));
-  PetscCall(PCFactorSetMatSolverType(pc, sys->size > 1 ? MATSOLVERMUMPS : MATSOLVERCHOLMOD));
+  if (sys->size == 1) PetscCall(PCSetType(pc, PCMSIMLLT));
+  else {
+    PetscCall(PCSetType(pc, PCCHOLESKY));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  }
   PetscCall(KSPSetFromOptions(imp->pdksp));
   {
     PetscInt before, after;

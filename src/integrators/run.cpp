@@ -101,10 +101,11 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
 
   for (PetscInt n = 1; n <= integ->steps; n++) {
     const PetscReal t0 = (n - 1) * integ->dt, t = n * integ->dt;
-    PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE;
+    PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
 
     PetscCall(MSimIntegratorStep(integ, t0, X, V));
-    if (integ->failed) bad = PETSC_TRUE; /* the implicit solver gave up on this step */
+    solver_failed = integ->failed; /* the implicit solver gave up on this step */
+    if (solver_failed) bad = PETSC_TRUE;
     if (check && !bad) {
       PetscCall(MSimSystemComputeEnergy(sys, t, X, V, &kin, &pot));
       bad = (PetscBool)(PetscIsInfOrNanReal(kin + pot) || PetscAbsReal(kin + pot - E0) > factor * scale);
@@ -122,7 +123,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(MSimOutputDestroy(&out));
       PetscCall(VecDestroy(&Xgood));
       PetscCall(VecDestroy(&Vgood));
-      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "diverged at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, n, (double)t, integ->type, (double)integ->dt, limit, last_good);
+      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? "the nonlinear solver failed" : "diverged", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
     }
     if (check) {
       last_good = n;

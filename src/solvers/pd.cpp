@@ -81,6 +81,7 @@ PetscErrorCode MSimSolversRegisterAll(void)
   if (MSimSolversRegistered) PetscFunctionReturn(PETSC_SUCCESS);
   MSimSolversRegistered = PETSC_TRUE;
   PetscCall(SNESRegister(SNESPD, SNESCreate_PD));
+  PetscCall(PCRegister(PCMSIMLLT, PCCreate_MSimLLT));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -65,7 +65,9 @@ PetscErrorCode MSimFactorizationCount(PetscInt *count)
 
   PetscFunctionBeginUser;
   *count = 0;
-  for (const char *name : {"MatCholFctrNum", "MatLUFactorNum"}) {
+  /* a factor PC (PETSc's Cholesky/LU or msimllt) factors exactly when it sets up: PCSetUp returns
+     before logging when the operator is unchanged */
+  for (const char *name : {"PCSetUp"}) {
     PetscCall(PetscLogEventGetId(name, &ev));
     PetscCall(PetscLogEventGetPerfInfo(0, ev, &info));
     *count += info.count;

@@ -1,0 +1,94 @@
+#!/usr/bin/env python3
+"""Explicit step cost per spring: cloth N = 64, 128, 256, 512 at 1 and 2 ranks, symplectic Euler.
+Reads PETSc's -log_view (MSimForce: the force evaluation; MSimStep: the whole step) and
+-memory_view (maximum resident memory). Writes runs/bench/explicit.csv and explicit.png.
+Bytes per spring counted: the spring record (i, j as int32, k and L as double: 24 B) plus the
+position read and force write of its vertices, amortized over the springs per vertex
+(2 x 24 B / (springs/vertex), about 8 B on a cloth): 32 B per spring per force evaluation."""
+import csv
+import os
+import re
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+MSIM = os.path.join(ROOT, "build", "msim")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+
+
+def springs(n):
+    return 2 * n * (n - 1) + 2 * (n - 1) ** 2 + 2 * n * (n - 2)
+
+
+def event(log, name):
+    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
+    return int(m.group(1)), float(m.group(2))
+
+
+def stream_bandwidth():
+    exe = os.path.join("/tmp", "msim_stream")
+    subprocess.run(["g++", "-O3", "-march=x86-64-v2", os.path.join(HERE, "stream.cpp"), "-o", exe], check=True)
+    return float(subprocess.run([exe], capture_output=True, text=True, check=True).stdout)
+
+
+def main():
+    ranks = [int(x) for x in (sys.argv[1].split(",") if len(sys.argv) > 1 else ["1", "2"])]
+    bw = stream_bandwidth()
+    print(f"triad bandwidth, one core: {bw:.2f} GB/s")
+    rows = []
+    for n in (64, 128, 256, 512):
+        ns = springs(n)
+        steps = max(20, int(3e8 / ns))
+        for np in ranks:
+            log = "/tmp/msim_bench_log.txt"
+            cmd = ["mpirun", "-n", str(np), MSIM, "-msim_cloth_n", str(n), "-msim_dt", "1e-5", "-msim_steps", str(steps),
+                   "-msim_spectrum_check", "0", "-msim_divergence_check_every", "1000000", "-log_view", f":{log}", "-memory_view"]
+            r = subprocess.run(cmd, capture_output=True, text=True, env=ENV, cwd=ROOT)
+            if r.returncode:
+                sys.exit(r.stderr)
+            text = open(log).read()
+            nf, tf = event(text, "MSimForce")
+            nstep, tstep = event(text, "MSimStep")
+            mem = re.search(r"Maximum \(over computational time\) process memory:\s+total\s+(\S+)\s+max\s+(\S+)", r.stdout)
+            rss_total, rss_max = float(mem.group(1)), float(mem.group(2))
+            ns_force = tf / nf / ns * 1e9 * np  # core-nanoseconds per spring
+            ns_step = tstep / nstep / ns * 1e9 * np
+            model = 32.0 / (bw * np) * np  # ns per spring at the triad bandwidth, per core
+            rows.append(dict(n=n, ranks=np, springs=ns, steps=steps, force_ns_per_spring=round(tf / nf / ns * 1e9, 3),
+                             step_ns_per_spring=round(tstep / nstep / ns * 1e9, 3), core_ns_per_spring_force=round(ns_force, 3),
+                             bytes_model_ns_per_spring=round(32.0 / bw, 3), ratio_to_traffic=round(ns_force / (32.0 / bw), 2),
+                             max_rss_mb_total=round(rss_total / 2**20, 1), max_rss_mb_per_rank=round(rss_max / 2**20, 1),
+                             bytes_per_spring_rss=round(rss_total / ns, 1)))
+            print(rows[-1])
+    with open(os.path.join(HERE, "explicit.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for np in ranks:
+        sel = [r for r in rows if r["ranks"] == np]
+        ax[0].plot([r["springs"] for r in sel], [r["force_ns_per_spring"] for r in sel], "o-", label=f"force, {np} rank(s)")
+        ax[0].plot([r["springs"] for r in sel], [r["step_ns_per_spring"] for r in sel], "s--", label=f"whole step, {np} rank(s)")
+        ax[1].plot([r["springs"] for r in sel], [r["max_rss_mb_total"] for r in sel], "o-", label=f"{np} rank(s), all ranks")
+    ax[0].axhline(32.0 / bw, color="k", lw=0.8, ls=":", label=f"32 B/spring at {bw:.1f} GB/s (1 core)")
+    ax[0].set_xscale("log")
+    ax[0].set_xlabel("springs")
+    ax[0].set_ylabel("wall ns per spring per step")
+    ax[0].set_title("Explicit step cost (symplectic Euler, cloth N x N)")
+    ax[0].legend(fontsize=8)
+    ax[1].set_xscale("log")
+    ax[1].set_yscale("log")
+    ax[1].set_xlabel("springs")
+    ax[1].set_ylabel("max resident memory (MB)")
+    ax[1].set_title("Memory")
+    ax[1].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "explicit.png"), dpi=110)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Implicit Euler on the benchmark cloth (101 x 101, 60,198 springs, 1 m, 1 kg, k = 1000 N/m, two
+corners fixed, gravity, h = 1/30 s): ms per step and max RSS at 1 and 2 ranks for each method, and
+the one-off PD factorization. Per-step time is PETSc's MSimStep event minus the one-off MSimPDSetUp
+(assembly + factorization of the PD matrix, done lazily in the first step). Writes implicit.csv.
+Usage: implicit.py [ranks, e.g. 1,2] [steps]"""
+import csv
+import os
+import re
+import subprocess
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+MSIM = os.path.join(ROOT, "build", "msim")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333"
+METHODS = [
+    ("PD, 10 iterations", "-snes_type pd -snes_max_it 10 -snes_pd_fixed"),
+    ("Anderson-PD, 10 iterations", "-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
+    ("L-BFGS (PD Hessian), 10 iterations", "-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
+    ("Baraff-Witkin (MUMPS Cholesky)", "-snes_type ksponly -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps"),
+    ("Newton to 1e-8, exact Hessian, MUMPS LDL^T", "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-8 -snes_max_it 100"),
+    ("Newton to 1e-8, PSD Hessian, CG + PD factor", "-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew -snes_rtol 1e-8 -snes_max_it 200"),
+]
+
+
+def event(log, name):
+    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
+    return (int(m.group(1)), float(m.group(2))) if m else (0, 0.0)
+
+
+def main():
+    ranks = [int(x) for x in (sys.argv[1].split(",") if len(sys.argv) > 1 else ["1", "2"])]
+    steps = int(sys.argv[2]) if len(sys.argv) > 2 else 30
+    rows = []
+    for name, opts in METHODS:
+        for np in ranks:
+            steps_here = steps if "Newton" not in name else (3 if "MUMPS" in name else 2)
+            log = "/tmp/msim_implicit_log.txt"
+            cmd = ["mpirun", "-n", str(np), MSIM] + SCENE.split() + opts.split() + ["-msim_steps", str(steps_here), "-msim_monitor_csv", "/tmp/msim_implicit_mon.csv", "-log_view", f":{log}", "-memory_view"]
+            r = subprocess.run(cmd, capture_output=True, text=True, env=ENV, cwd=ROOT)
+            if r.returncode:
+                print(name, np, "failed:", r.stderr.strip()[-300:])
+                continue
+            text = open(log).read()
+            nstep, tstep = event(text, "MSimStep")
+            _, tsetup = event(text, "MSimPDSetUp")
+            mem = re.search(r"Maximum \(over computational time\) process memory:\s+total\s+(\S+)\s+max\s+(\S+)", r.stdout)
+            with open("/tmp/msim_implicit_mon.csv") as f:
+                mon = list(csv.DictReader(f))[1:]
+            its = sum(int(m["nonlinear_its"]) for m in mon) / len(mon)
+            res = max(float(m["residual"]) for m in mon)
+            rows.append(dict(method=name, ranks=np, steps=nstep, ms_per_step=round((tstep - tsetup) / nstep * 1e3, 2),
+                             pd_factorization_ms=round(tsetup * 1e3, 1), mean_iterations=round(its, 1), max_final_residual=f"{res:.2e}",
+                             max_rss_mb_total=round(float(mem.group(1)) / 2**20, 1), max_rss_mb_per_rank=round(float(mem.group(2)) / 2**20, 1),
+                             options=opts))
+            print({k: v for k, v in rows[-1].items() if k != "options"}, flush=True)
+    with open(os.path.join(HERE, "implicit.csv"), "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
+
+
+if __name__ == "__main__":
+    main()
