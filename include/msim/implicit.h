@@ -33,7 +33,7 @@ PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi);
 PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
 /* PD pieces */
 PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp);
-PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs);
+PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *phi);
 PetscErrorCode MSimImplicitPDSolve(MSimImplicit imp, Vec rhs, Vec X);
 /* A kron I3 as a shell Mat whose only use is as a KSP operator for the PD-factor PC */
 PetscErrorCode MSimImplicitPDCreateShell(MSimImplicit imp, Mat *J);

@@ -18,7 +18,8 @@ PetscErrorCode MSimSolversRegisterAll(void);
 typedef struct {
   /* global step: solve A x = rhs for the constant PD matrix A */
   PetscErrorCode (*global_solve)(void *ctx, Vec rhs, Vec x);
-  /* local step and right-hand side: rhs = M y + h^2 sum_s k_s A_s^T d_s(x) + boundary terms */
-  PetscErrorCode (*rhs)(void *ctx, Vec x, Vec rhs);
+  /* local step and right-hand side: rhs = M y + h^2 sum_s k_s A_s^T d_s(x) + boundary terms;
+     when phi is not NULL also Phi(x), from the same pass over the springs */
+  PetscErrorCode (*rhs)(void *ctx, Vec x, Vec rhs, PetscReal *phi);
   void *ctx;
 } MSimPDProblem;

@@ -66,6 +66,8 @@ PetscErrorCode MSimSystemGatherVector(MSimSystem sys, Vec X, std::vector<PetscRe
 /* Matrix over free vertices, block size 3, AIJ (works with every factorization and PC), with the
    spring graph's nonzero pattern preallocated once. */
 PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A);
+/* Nonzero blocks per owned row of the free-vertex graph, diagonal included (preallocation). */
+PetscErrorCode MSimSystemGraphPreallocation(MSimSystem sys, std::vector<PetscInt> &dnz, std::vector<PetscInt> &onz);
 /* A = mass_coef M + diag_coef I + stiff_coef K(X) + damp_coef kd sum_s n_s n_s^T (spring axes at
    Xn at time tn, the start of the step; pass NULL to skip). psd: project each spring block to PSD. */
 PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, PetscReal tn, Vec Xn, PetscReal damp_coef, Mat A);

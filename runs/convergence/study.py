@@ -18,8 +18,9 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
 SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333 -msim_steps 1"
 LOOSE = "-snes_rtol 0 -snes_atol 0 -snes_stol 0"
 METHODS = [
-    ("PD", f"-snes_type pd -snes_pd_fixed -snes_max_it 3000"),
-    ("Anderson-PD (m=5)", f"-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed {LOOSE} -snes_max_it 400"),
+    ("PD", f"-snes_type pd -snes_pd_fixed -snes_max_it 20000"),
+    ("PD + safeguarded Anderson (m=5)", f"-snes_type pd -snes_pd_fixed -snes_pd_anderson 5 -snes_max_it 1500"),
+    ("PETSc Anderson-PD (m=5)", f"-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed {LOOSE} -snes_max_it 400"),
     ("NGMRES-PD", f"-snes_type ngmres -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed {LOOSE} -snes_max_it 400"),
     ("L-BFGS, PD initial Hessian (m=5)", f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it 400"),
     ("Newton, exact Hessian, MUMPS", "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-14 -snes_atol 1e-14 -snes_max_it 30"),

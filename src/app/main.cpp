@@ -24,7 +24,10 @@ static PetscErrorCode MSimMain(void)
   PetscCall(MSimIntegratorSetFromOptions(integ));
   PetscOptionsBegin(PETSC_COMM_WORLD, NULL, "msim program", NULL);
   PetscCall(PetscOptionsBool("-msim_view", "Print the integrator and its solvers (and PD factorization count) at the end", NULL, view, &view, NULL));
-  PetscCall(PetscOptionsBool("-msim_traceback", "Print PETSc's full error traceback instead of one line", NULL, PETSC_FALSE, NULL, NULL));
+  {
+    PetscBool traceback = PETSC_FALSE; /* read by MSimInitialize; listed here for -help */
+    PetscCall(PetscOptionsBool("-msim_traceback", "Print PETSc's full error traceback instead of one line", NULL, traceback, &traceback, NULL));
+  }
   PetscOptionsEnd();
   PetscCall(VecDuplicate(sys->X0, &X));
   PetscCall(VecDuplicate(sys->V0, &V));

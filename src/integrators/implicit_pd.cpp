@@ -16,37 +16,13 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   const PetscInt     nfl = sys->nown + sys->nghost;
   const PetscReal    h   = imp->h;
   const PetscScalar *m;
-  std::vector<PetscInt> dnz(sys->nown, 1), onz(sys->nown, 0);
-  Vec                cnt, gcnt;
-  PetscScalar       *c;
-  const PetscScalar *gc;
+  std::vector<PetscInt> dnz, onz;
   PC                 pc;
 
   PetscFunctionBeginUser;
   if (imp->A) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
-  /* preallocation of the scalar graph Laplacian: counts per local slot, ghosts summed to owners */
-  PetscCall(VecDuplicate(sys->floc, &cnt));
-  PetscCall(VecZeroEntries(cnt));
-  PetscCall(VecGetArray(cnt, &c));
-  for (const MSimSpring &s : sys->springs) {
-    if (s.i >= nfl || s.j >= nfl) continue;
-    const int off = (s.i < sys->nown && s.j < sys->nown) ? 0 : 1;
-    c[3 * s.i + off] += 1;
-    c[3 * s.j + off] += 1;
-  }
-  PetscCall(VecRestoreArray(cnt, &c));
-  PetscCall(VecDuplicate(sys->mass, &gcnt));
-  PetscCall(VecZeroEntries(gcnt));
-  PetscCall(MSimSystemLocalToGlobalAdd(sys, cnt, gcnt));
-  PetscCall(VecGetArrayRead(gcnt, &gc));
-  for (PetscInt i = 0; i < sys->nown; i++) {
-    dnz[i] = PetscMin(1 + (PetscInt)gc[3 * i], sys->nown);
-    onz[i] = PetscMin((PetscInt)gc[3 * i + 1], sys->nfree - sys->nown);
-  }
-  PetscCall(VecRestoreArrayRead(gcnt, &gc));
-  PetscCall(VecDestroy(&cnt));
-  PetscCall(VecDestroy(&gcnt));
+  PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
   PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
   PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
@@ -96,14 +72,16 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X. */
-PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs)
+/* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X; with phi,
+   also Phi(X) (the projections are optimal, so the PD energy equals Phi). */
+PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *phi)
 {
   MSimSystem         sys = imp->sys;
   const PetscInt     nfl = sys->nown + sys->nghost;
   const PetscReal    h = imp->h, hkd = h * sys->damping, hc = h * sys->drag;
   const PetscScalar *x, *xn = NULL, *y, *m, *xng;
   PetscScalar       *f, *r;
+  PetscReal          energy = 0;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, rhs, 0, 0));
@@ -119,9 +97,11 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs)
     const Vec3 xi = CMap3(x + 3 * s.i), xj = CMap3(x + 3 * s.j);
     const PetscReal w1 = h * h * s.k;
     Vec3 p = w1 * msim::SpringProjection(xi, xj, s.L);
+    if (phi) energy += h * h * msim::SpringEnergy(xi, xj, s.k, s.L);
     if (xn) {
       const Vec3 dn = CMap3(xn + 3 * s.i) - CMap3(xn + 3 * s.j), n = dn.normalized(), u = xi - xj - dn;
       p += hkd * (dn + u - n.dot(u) * n);
+      if (phi) energy += 0.5 * hkd * n.dot(u) * n.dot(u);
     }
     /* a fixed end moves its coupling term to the right-hand side */
     const PetscReal w = w1 + hkd;
@@ -140,6 +120,13 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs)
   PetscCall(VecGetArrayRead(imp->Xn, &xng));
   PetscCall(VecGetArrayRead(sys->mass, &m));
   for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] += m[i] * y[i] + hc * xng[i];
+  if (phi) {
+    const PetscScalar *xg;
+    PetscCall(VecGetArrayRead(X, &xg));
+    for (PetscInt i = 0; i < 3 * sys->nown; i++) energy += 0.5 * m[i] * (xg[i] - y[i]) * (xg[i] - y[i]) + 0.5 * hc * (xg[i] - xng[i]) * (xg[i] - xng[i]);
+    PetscCall(VecRestoreArrayRead(X, &xg));
+    PetscCall(MPIU_Allreduce(&energy, phi, 1, MPIU_REAL, MPIU_SUM, sys->comm));
+  }
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));

@@ -3,8 +3,12 @@
    local/global steps composed on the SNES's DM, so it also runs as the nonlinear preconditioner of
    anderson, ngmres or qn (which share the DM). PD is block coordinate descent on Phi: Phi never
    increases. Options: -snes_max_it (10 is Liu et al.'s setting), -snes_atol/-snes_rtol on |g|,
-   -snes_pd_fixed to run exactly max_it iterations without evaluating g. */
+   -snes_pd_fixed to run exactly max_it iterations without evaluating g, -snes_pd_anderson m for
+   Anderson acceleration with an energy safeguard (Peng et al. 2018): PETSc's own
+   -snes_type anderson -npc_snes_type pd composes too, but has no safeguard, so its Phi can rise. */
 #include <msim/solvers.h>
+#include "anderson.h"
+#include <msim/sys.h>
 
 PETSC_EXTERN PetscErrorCode SNESCreate_Shell(SNES); /* exported by PETSc, declared in no public header */
 
@@ -24,31 +28,56 @@ static PetscErrorCode SNESPDGetProblem(SNES snes, MSimPDProblem **pd)
 static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
 {
   MSimPDProblem      *pd;
-  Vec                 F, rhs;
-  PetscReal           atol, rtol, stol, fnorm = 0, fnorm0 = 0;
-  PetscInt            maxit, maxf, k;
-  PetscBool           fixed = PETSC_FALSE;
+  Vec                 F, rhs, G = NULL;
+  PetscReal           atol, rtol, stol, fnorm = 0, fnorm0 = 0, phi = 0, phi_new;
+  PetscInt            maxit, maxf, k, m = 0, fallbacks = 0;
+  PetscBool           fixed = PETSC_FALSE, accelerated;
   const char         *prefix;
   SNESConvergedReason reason = SNES_CONVERGED_ITERATING;
+  MSimAnderson        aa;
 
   PetscFunctionBeginUser;
   PetscCall(SNESPDGetProblem(snes, &pd));
   PetscCall(SNESGetOptionsPrefix(snes, &prefix));
   PetscCall(PetscOptionsGetBool(NULL, prefix, "-snes_pd_fixed", &fixed, NULL));
+  PetscCall(PetscOptionsGetInt(NULL, prefix, "-snes_pd_anderson", &m, NULL));
+  PetscCheck(m >= 0, PetscObjectComm((PetscObject)snes), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_anderson must be >= 0 (got %" PetscInt_FMT ")", m);
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
   PetscCall(SNESGetFunction(snes, &F, NULL, NULL));
   PetscCall(VecDuplicate(X, &rhs));
+  if (m > 0) {
+    PetscCall(VecDuplicate(X, &G));
+    PetscCall(MSimAndersonCreate(X, m, &aa));
+  }
   PetscCall(SNESSetIterationNumber(snes, 0));
   if (!fixed) {
     PetscCall(SNESComputeFunction(snes, X, F));
     PetscCall(VecNorm(F, NORM_2, &fnorm));
     fnorm0 = fnorm;
-    PetscCall(SNESMonitor(snes, 0, fnorm));
     if (fnorm <= atol) reason = SNES_CONVERGED_FNORM_ABS;
-  } else PetscCall(SNESMonitor(snes, 0, 0.0));
+  }
+  PetscCall(SNESMonitor(snes, 0, fnorm));
+  /* rhs always holds the local step at the current X (and phi its Phi, with Anderson) */
+  if (reason == SNES_CONVERGED_ITERATING) PetscCall((*pd->rhs)(pd->ctx, X, rhs, m > 0 ? &phi : NULL));
   for (k = 1; k <= maxit && reason == SNES_CONVERGED_ITERATING; k++) {
-    PetscCall((*pd->rhs)(pd->ctx, X, rhs));          /* local step */
-    PetscCall((*pd->global_solve)(pd->ctx, rhs, X)); /* global step */
+    if (!m) {
+      PetscCall((*pd->global_solve)(pd->ctx, rhs, X));
+      PetscCall((*pd->rhs)(pd->ctx, X, rhs, NULL));
+    } else {
+      /* Anderson on the PD map, with Peng et al.'s energy safeguard: keep the mixed iterate only
+         if it lowers Phi below the current iterate's; otherwise take the plain PD step (which never
+         raises Phi) and restart the history */
+      PetscCall((*pd->global_solve)(pd->ctx, rhs, G));
+      PetscCall(MSimAndersonMix(&aa, X, G, &accelerated));
+      PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi_new));
+      if (accelerated && !(phi_new < phi)) {
+        fallbacks++;
+        PetscCall(VecCopy(G, X));
+        PetscCall(MSimAndersonReset(&aa));
+        PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi_new));
+      }
+      phi = phi_new;
+    }
     PetscCall(SNESSetIterationNumber(snes, k));
     if (!fixed) {
       PetscCall(SNESComputeFunction(snes, X, F));
@@ -61,6 +90,11 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   }
   if (reason == SNES_CONVERGED_ITERATING) reason = fixed ? SNES_CONVERGED_ITS : SNES_DIVERGED_MAX_IT;
   PetscCall(SNESSetConvergedReason(snes, reason));
+  if (m > 0) {
+    PetscCall(PetscInfo(snes, "pd: Anderson(%" PetscInt_FMT ") fell back to the plain PD step %" PetscInt_FMT " times\n", m, fallbacks));
+    PetscCall(MSimAndersonDestroy(&aa));
+    PetscCall(VecDestroy(&G));
+  }
   PetscCall(VecDestroy(&rhs));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -6,17 +6,19 @@ using msim::Mat3;
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;
 
-PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
+/* Block nonzeros per owned row of the free-vertex graph (diagonal included): counted in the local
+   slots (diagonal part or off-process), the ghost rows' counts summed into their owners with the
+   reverse scatter. */
+PetscErrorCode MSimSystemGraphPreallocation(MSimSystem sys, std::vector<PetscInt> &dnz, std::vector<PetscInt> &onz)
 {
   Vec                nnz, gnnz;
   PetscScalar       *c;
   const PetscScalar *g;
   const PetscInt     nfree_local = sys->nown + sys->nghost;
-  std::vector<PetscInt> dnz(sys->nown), onz(sys->nown);
 
   PetscFunctionBeginUser;
-  /* count block nonzeros per row in the local slots (component 0: diagonal part, 1: off-process),
-     then add the ghost rows' counts into their owners with the reverse scatter */
+  dnz.resize(sys->nown);
+  onz.resize(sys->nown);
   PetscCall(VecDuplicate(sys->floc, &nnz));
   PetscCall(VecZeroEntries(nnz));
   PetscCall(VecGetArray(nnz, &c));
@@ -39,7 +41,15 @@ PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
   PetscCall(VecRestoreArrayRead(gnnz, &g));
   PetscCall(VecDestroy(&nnz));
   PetscCall(VecDestroy(&gnnz));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
+PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
+{
+  std::vector<PetscInt> dnz, onz;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz));
   PetscCall(MatCreate(sys->comm, A));
   PetscCall(MatSetSizes(*A, 3 * sys->nown, 3 * sys->nown, 3 * sys->nfree, 3 * sys->nfree));
   PetscCall(MatSetBlockSize(*A, 3));

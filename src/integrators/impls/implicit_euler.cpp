@@ -46,10 +46,10 @@ static PetscErrorCode FormJacobianConstant(SNES snes, Vec X, Mat J, Mat P, void 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode PDRHS(void *ctx, Vec X, Vec rhs)
+static PetscErrorCode PDRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitPDRHS((MSimImplicit)ctx, X, rhs));
+  PetscCall(MSimImplicitPDRHS((MSimImplicit)ctx, X, rhs, phi));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -77,7 +77,13 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
   PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable)", NULL, ie->imp->psd, &ie->imp->psd, NULL));
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
-  PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, PETSC_FALSE, NULL, NULL));
+  {
+    /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
+    PetscBool pd_fixed = PETSC_FALSE;
+    PetscInt  pd_anderson = 0;
+    PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, pd_fixed, &pd_fixed, NULL));
+    PetscCall(PetscOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, pd_anderson, &pd_anderson, NULL));
+  }
   PetscOptionsEnd();
   PetscCall(VecDuplicate(sys->X0, &ie->G));
   PetscCall(SNESCreate(integ->comm, &ie->snes));

@@ -1,0 +1,82 @@
+#include <msim/sys.h>
+#include "anderson.h"
+#include <Eigen/Dense>
+
+PetscErrorCode MSimAndersonCreate(Vec tmpl, PetscInt m, MSimAnderson *aa)
+{
+  PetscFunctionBeginUser;
+  aa->m = m;
+  aa->dF.assign(m, NULL);
+  aa->dG.assign(m, NULL);
+  for (PetscInt k = 0; k < m; k++) {
+    PetscCall(VecDuplicate(tmpl, &aa->dF[k]));
+    PetscCall(VecDuplicate(tmpl, &aa->dG[k]));
+  }
+  PetscCall(VecDuplicate(tmpl, &aa->f_prev));
+  PetscCall(VecDuplicate(tmpl, &aa->g_prev));
+  PetscCall(MSimAndersonReset(aa));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimAndersonDestroy(MSimAnderson *aa)
+{
+  PetscFunctionBeginUser;
+  for (Vec &v : aa->dF) PetscCall(VecDestroy(&v));
+  for (Vec &v : aa->dG) PetscCall(VecDestroy(&v));
+  PetscCall(VecDestroy(&aa->f_prev));
+  PetscCall(VecDestroy(&aa->g_prev));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimAndersonReset(MSimAnderson *aa)
+{
+  PetscFunctionBeginUser;
+  aa->count = aa->next = 0;
+  aa->have_prev        = PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accelerated)
+{
+  PetscFunctionBeginUser;
+  *accelerated = PETSC_FALSE;
+  /* x <- f = g - x (x is overwritten below anyway) */
+  PetscCall(VecAYPX(x, -1.0, g));
+  Vec f = x;
+  if (aa->m > 0 && aa->have_prev) {
+    PetscCall(VecWAXPY(aa->dF[aa->next], -1.0, aa->f_prev, f));
+    PetscCall(VecWAXPY(aa->dG[aa->next], -1.0, aa->g_prev, g));
+    aa->next  = (aa->next + 1) % aa->m;
+    aa->count = PetscMin(aa->count + 1, aa->m);
+  }
+  if (aa->m > 0) {
+    PetscCall(VecCopy(f, aa->f_prev));
+    PetscCall(VecCopy(g, aa->g_prev));
+    aa->have_prev = PETSC_TRUE;
+  }
+  if (aa->count == 0) {
+    PetscCall(VecCopy(g, x));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  /* normal equations of the small least-squares problem, regularized for near-dependence */
+  const PetscInt              n = aa->count;
+  std::vector<PetscScalar>    col(n);
+  Eigen::MatrixXd             G(n, n);
+  Eigen::VectorXd             b(n);
+  for (PetscInt i = 0; i < n; i++) {
+    PetscCall(VecMDot(aa->dF[i], n, aa->dF.data(), col.data()));
+    for (PetscInt j = 0; j < n; j++) G(i, j) = PetscRealPart(col[j]);
+  }
+  PetscCall(VecMDot(f, n, aa->dF.data(), col.data()));
+  for (PetscInt i = 0; i < n; i++) b(i) = PetscRealPart(col[i]);
+  G.diagonal().array() += 1e-12 * G.diagonal().maxCoeff() + 1e-300;
+  Eigen::VectorXd theta = G.ldlt().solve(b);
+  if (!theta.allFinite()) {
+    PetscCall(VecCopy(g, x));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(VecCopy(g, x));
+  for (PetscInt i = 0; i < n; i++) PetscCall(VecAXPY(x, -theta(i), aa->dG[i]));
+  *accelerated = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
