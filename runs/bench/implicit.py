@@ -2,7 +2,8 @@
 """Implicit Euler on the benchmark cloth (101 x 101, 60,198 springs, 1 m, 1 kg, k = 1000 N/m, two
 corners fixed, gravity, h = 1/30 s): ms per step and max RSS at 1 and 2 ranks for each method, and
 the one-off PD factorization. Per-step time is PETSc's MSimStep event minus the one-off MSimPDSetUp
-(assembly + factorization of the PD matrix, done lazily in the first step). Writes implicit.csv.
+(assembly + factorization of the PD matrix, done lazily in the first step), best of 3 runs (one
+for the slowest method). Writes implicit.csv.
 Usage: implicit.py [ranks, e.g. 1,2] [steps]"""
 import csv
 import os
@@ -40,13 +41,21 @@ def main():
             steps_here = steps if "Newton" not in name else (3 if "MUMPS" in name else 2)
             log = "/tmp/msim_implicit_log.txt"
             cmd = ["mpirun", "-n", str(np), MSIM] + SCENE.split() + opts.split() + ["-msim_steps", str(steps_here), "-msim_monitor_csv", "/tmp/msim_implicit_mon.csv", "-log_view", f":{log}", "-memory_view"]
-            r = subprocess.run(cmd, capture_output=True, text=True, env=ENV, cwd=ROOT)
+            best = None
+            for rep in range(1 if "CG" in name else 3):
+                r = subprocess.run(cmd, capture_output=True, text=True, env=ENV, cwd=ROOT)
+                if r.returncode:
+                    break
+                text = open(log).read()
+                nstep, tstep = event(text, "MSimStep")
+                _, tsetup = event(text, "MSimPDSetUp")
+                if best is None or tstep - tsetup < best[1] - best[2]:
+                    best = (nstep, tstep, tsetup, r.stdout)
             if r.returncode:
                 print(name, np, "failed:", r.stderr.strip()[-300:])
                 continue
-            text = open(log).read()
-            nstep, tstep = event(text, "MSimStep")
-            _, tsetup = event(text, "MSimPDSetUp")
+            nstep, tstep, tsetup, stdout = best
+            r.stdout = stdout
             mem = re.search(r"Maximum \(over computational time\) process memory:\s+total\s+(\S+)\s+max\s+(\S+)", r.stdout)
             with open("/tmp/msim_implicit_mon.csv") as f:
                 mon = list(csv.DictReader(f))[1:]

@@ -57,12 +57,12 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
     if (fnorm <= atol) reason = SNES_CONVERGED_FNORM_ABS;
   }
   PetscCall(SNESMonitor(snes, 0, fnorm));
-  /* rhs always holds the local step at the current X (and phi its Phi, with Anderson) */
-  if (reason == SNES_CONVERGED_ITERATING) PetscCall((*pd->rhs)(pd->ctx, X, rhs, m > 0 ? &phi : NULL));
+  /* with Anderson, rhs always holds the local step at the current X and phi its Phi */
+  if (m > 0 && reason == SNES_CONVERGED_ITERATING) PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi));
   for (k = 1; k <= maxit && reason == SNES_CONVERGED_ITERATING; k++) {
     if (!m) {
-      PetscCall((*pd->global_solve)(pd->ctx, rhs, X));
-      PetscCall((*pd->rhs)(pd->ctx, X, rhs, NULL));
+      PetscCall((*pd->rhs)(pd->ctx, X, rhs, NULL));      /* local step */
+      PetscCall((*pd->global_solve)(pd->ctx, rhs, X)); /* global step */
     } else {
       /* Anderson on the PD map, with Peng et al.'s energy safeguard: keep the mixed iterate only
          if it lowers Phi below the current iterate's; otherwise take the plain PD step (which never

@@ -5,6 +5,8 @@
 #include <msim/output.h>
 #include <slepceps.h>
 
+static PetscInt MSimSpectrumLastIterations = 0; /* restarts of the last solve, for the report */
+
 static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, PetscBool largest, PetscReal shift, std::vector<PetscReal> &lambda, std::vector<Vec> *modes)
 {
   Mat       K, M;
@@ -47,6 +49,7 @@ static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, Pet
   PetscCall(EPSSetFromOptions(eps));
   PetscCall(EPSSolve(eps));
   PetscCall(EPSGetConverged(eps, &nconv));
+  PetscCall(EPSGetIterationNumber(eps, &MSimSpectrumLastIterations));
   PetscCheck(nconv >= nev, sys->comm, PETSC_ERR_NOT_CONVERGED, "SLEPc converged %" PetscInt_FMT " of %" PetscInt_FMT " eigenvalues: raise -%seps_max_it or -%seps_ncv", nconv, nev, largest ? "" : "low_", largest ? "" : "low_");
   lambda.resize(nev);
   for (PetscInt k = 0; k < nev; k++) {
@@ -103,7 +106,7 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
   const PetscReal wmax = PetscSqrtReal(PetscMax(lambda[0], 0.0));
   PetscCall(VecMax(sys->mass, NULL, &mmax));
   PetscCall(PetscPrintf(sys->comm, "spectrum of (K, M) at the initial state, %" PetscInt_FMT " unknowns (SLEPc %s)\n", 3 * sys->nfree, "krylovschur"));
-  PetscCall(PetscPrintf(sys->comm, "  omega_max = %.12g rad/s\n", (double)wmax));
+  PetscCall(PetscPrintf(sys->comm, "  omega_max = %.12g rad/s (Krylov-Schur restarts: %" PetscInt_FMT ")\n", (double)wmax, MSimSpectrumLastIterations));
   for (PetscInt k = 0; k < nlargest; k++) PetscCall(PetscPrintf(sys->comm, "  lambda[%" PetscInt_FMT "] = %.15g\n", k, (double)lambda[k]));
   PetscCall(PetscPrintf(sys->comm, "  critical time step: symplectic_euler h < %.6g s, rk4 h <= %.6g s\n", (double)(2.0 / wmax), (double)(2.0 * PETSC_SQRT2 / wmax)));
   if (sys->drag > 0) PetscCall(PetscPrintf(sys->comm, "  explicit_euler: stable for h <= %.6g s (drag rate %g 1/s over omega_max^2)\n", (double)((sys->drag / mmax) / (wmax * wmax)), (double)(sys->drag / mmax)));
