@@ -4,7 +4,8 @@ corners fixed, gravity, h = 1/30 s): ms per step and max RSS at 1 and 2 ranks fo
 the one-off PD factorization. Per-step time is PETSc's MSimStep event minus the one-off MSimPDSetUp
 (assembly + factorization of the PD matrix, done lazily in the first step), best of 3 runs (one
 for the slowest method). Writes implicit.csv.
-Usage: implicit.py [ranks, e.g. 1,2] [steps]"""
+Usage: implicit.py [ranks, e.g. 1,2] [steps] [only methods containing this text: their rows
+replace those in an existing implicit.csv]"""
 import csv
 import os
 import re
@@ -22,8 +23,8 @@ METHODS = [
     ("PETSc Anderson-PD, 10 iterations", "-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
     ("L-BFGS (PD Hessian), 10 iterations", "-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
     ("Baraff-Witkin (MUMPS Cholesky)", "-snes_type ksponly -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps"),
-    ("Newton to 1e-8, exact Hessian, MUMPS LDL^T", "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-8 -snes_max_it 100"),
-    ("Newton to 1e-8, PSD Hessian, CG + PD factor", "-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew -snes_rtol 1e-8 -snes_max_it 200"),
+    ("Newton to 1e-8, exact Hessian, MUMPS LDL^T", "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 100"),
+    ("Newton to 1e-8, PSD Hessian, CG + PD factor", "-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 200"),
 ]
 
 
@@ -35,8 +36,11 @@ def event(log, name):
 def main():
     ranks = [int(x) for x in (sys.argv[1].split(",") if len(sys.argv) > 1 else ["1", "2"])]
     steps = int(sys.argv[2]) if len(sys.argv) > 2 else 30
+    only = sys.argv[3] if len(sys.argv) > 3 else None
     rows = []
     for name, opts in METHODS:
+        if only and only not in name:
+            continue
         for np in ranks:
             steps_here = steps if "Newton" not in name else (3 if "MUMPS" in name else 2)
             log = "/tmp/msim_implicit_log.txt"
@@ -66,7 +70,13 @@ def main():
                              max_rss_mb_total=round(float(mem.group(1)) / 2**20, 1), max_rss_mb_per_rank=round(float(mem.group(2)) / 2**20, 1),
                              options=opts))
             print({k: v for k, v in rows[-1].items() if k != "options"}, flush=True)
-    with open(os.path.join(HERE, "implicit.csv"), "w", newline="") as f:
+    path = os.path.join(HERE, "implicit.csv")
+    if only and os.path.exists(path):
+        with open(path) as f:
+            old = list(csv.DictReader(f))
+        new = {(r["method"], str(r["ranks"])): r for r in rows}
+        rows = [new.pop((r["method"], r["ranks"]), r) for r in old] + list(new.values())
+    with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
