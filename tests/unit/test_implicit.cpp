@@ -5,6 +5,8 @@
    - PD, plain and with safeguarded Anderson, never increases Phi, and factors its matrix once over
      50 steps;
    - the analytic Jacobian matches finite differences of g (with damping and drag);
+   - every linear solver offered (CG with jacobi, gamg, hypre, icc, the PD factor; Cholesky with
+     MUMPS, CHOLMOD, PETSc) gives Newton and Baraff-Witkin the same step;
    - implicit Euler stays bounded at h = 1/30 with k = 10^4 where both explicit Eulers diverge. */
 #include "harness.h"
 #include <cstdio>
@@ -249,9 +251,48 @@ static PetscErrorCode TestImplicitStable(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Every linear solver the options offer gives Newton and Baraff-Witkin the same step (serial-only
+   factorizations and ICC only at one rank). */
+static PetscErrorCode TestLinearSolvers(void)
+{
+  const char *lin[] = {"-ksp_type cg -pc_type jacobi", "-ksp_type cg -pc_type gamg", "-ksp_type cg -pc_type hypre", "-ksp_type cg -pc_type none -msim_pc_pd",
+                       "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps", "-ksp_type cg -pc_type icc",
+                       "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type cholmod", "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type petsc"};
+  const int   nparallel = 5;
+  PetscMPIInt size;
+  TestSim     ref;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
+  PetscCall(TestSimCreate(kScene, &ref));
+  for (const char *snes : {"-snes_type newtonls", "-snes_type ksponly"}) {
+    Vec       X0, X;
+    PetscReal n, d;
+    char      opts[1024];
+    PetscCall(VecDuplicate(ref.X, &X0));
+    PetscCall(VecDuplicate(ref.X, &X));
+    PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s %s", snes, lin[4]));
+    PetscCall(StepWith(opts, X0));
+    PetscCall(VecNorm(X0, NORM_2, &n));
+    for (int k = 0; k < (size > 1 ? nparallel : 8); k++) {
+      if (k == 4) continue;
+      PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s %s -ksp_rtol 1e-12", snes, lin[k]));
+      PetscCall(StepWith(opts, X));
+      PetscCall(VecAXPY(X, -1.0, X0));
+      PetscCall(VecNorm(X, NORM_2, &d));
+      CHECK(d <= 1e-8 * n, "%s with %s differs from MUMPS by %g relative", snes, lin[k], (double)(d / n));
+    }
+    PetscCall(VecDestroy(&X0));
+    PetscCall(VecDestroy(&X));
+  }
+  PetscCall(TestSimDestroy(&ref));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode TestImplicit(void)
 {
   PetscFunctionBeginUser;
+  PetscCall(TestLinearSolvers());
   PetscCall(TestJacobianFD());
   PetscCall(TestSolversAgree());
   PetscCall(TestBaraffWitkin());

@@ -110,6 +110,20 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, 10000));
   PetscCall(SNESSetFromOptions(ie->snes));
   if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ie->imp));
+  {
+    /* GAMG's default Chebyshev smoothing, with its estimated spectrum, made the preconditioner
+       indefinite for CG on these Jacobians (DIVERGED_INDEFINITE_PC on the 21 x 21 cloth);
+       symmetric SOR under Richardson keeps it SPD. A user's -mg_levels_* options win. */
+    PC        pc_now;
+    PetscBool gamg, set;
+    PetscCall(KSPGetPC(ksp, &pc_now));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pc_now, PCGAMG, &gamg));
+    PetscCall(PetscOptionsHasName(NULL, NULL, "-mg_levels_ksp_type", &set));
+    if (gamg && !set) {
+      PetscCall(PetscOptionsSetValue(NULL, "-mg_levels_ksp_type", "richardson"));
+      PetscCall(PetscOptionsSetValue(NULL, "-mg_levels_pc_type", "sor"));
+    }
+  }
 
   PetscCall(SNESGetType(ie->snes, &type));
   for (const char *t : {SNESPD, SNESANDERSON, SNESNGMRES, SNESNCG, SNESNRICHARDSON, SNESSHELL})
@@ -126,6 +140,14 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
   } else if (needs_jacobian) {
     PetscCall(MSimSystemCreateMatrix(sys, &ie->J));
+    {
+      /* rigid-body modes of the rest state: the near null space algebraic multigrid (GAMG, ML)
+         needs for a vector problem; other solvers ignore it */
+      MatNullSpace nsp;
+      PetscCall(MatNullSpaceCreateRigidBody(sys->X0, &nsp));
+      PetscCall(MatSetNearNullSpace(ie->J, nsp));
+      PetscCall(MatNullSpaceDestroy(&nsp));
+    }
     PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
     if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
   }
