@@ -32,6 +32,8 @@ struct _n_MSimIntegrator {
   /* what the last step reports to monitors */
   PetscInt          nonlinear_its, linear_its;
   PetscReal         residual;
+  PetscReal         phi;      /* implicit: Phi at the step's result, when want_phi (else 0) */
+  PetscBool         want_phi; /* set by the time loop when a monitor prints Phi */
   PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
   PetscBool         help_listing; /* a throwaway instance made only so -help lists its options */
 };

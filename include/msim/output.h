@@ -35,7 +35,8 @@ typedef struct {
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon);
 PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
-PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual);
+/* phi: the implicit step's incremental potential at its result (0 for explicit methods) */
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi);
 PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon);
 
 /* -msim_view_final VIEWER: positions of all vertices in input order. */

@@ -9,7 +9,7 @@
 /* Log events registered once by MSimInitialize(); -log_view reports them. */
 extern PetscClassId  MSIM_CLASSID;
 extern PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual,
-  MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup;
+  MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
 
 /* Registers log events, the integrator and scene types and msim's SNES type "pd".
    Installs an error handler that prints the first error message as one line on rank 0. */

@@ -122,6 +122,7 @@ PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec 
   PetscCall(PetscLogEventBegin(MSIM_Step, X, V, 0, 0));
   integ->nonlinear_its = integ->linear_its = 0;
   integ->residual                          = 0;
+  integ->phi                               = 0;
   integ->failed                            = PETSC_FALSE;
   PetscCall((*integ->ops.step)(integ, t, X, V));
   PetscCall(PetscLogEventEnd(MSIM_Step, X, V, 0, 0));

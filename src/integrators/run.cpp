@@ -78,6 +78,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimMonitorCreate(sys->comm, &mon));
   PetscCall(MSimOutputCreate(sys, &out));
   PetscCall(MSimMonitorWanted(&mon, &want_mon));
+  integ->want_phi = want_mon;
   PetscCall(MSimIntegratorSetUp(integ));
   PetscCall(MSimGuard(sys, integ, X, info));
   /* all input is valid from here on: create the output directory */
@@ -91,7 +92,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   E0    = kin + pot;
   gnorm = PetscSqrtReal(sys->gravity[0] * sys->gravity[0] + sys->gravity[1] * sys->gravity[1] + sys->gravity[2] * sys->gravity[2]);
   scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2] + sys->wind[0] * sys->wind[0] + sys->wind[1] * sys->wind[1] + sys->wind[2] * sys->wind[2]) + PETSC_SMALL;
-  if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0));
+  if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0));
   PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
   if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X));
   PetscCall(VecDuplicate(X, &Xgood));
@@ -130,7 +131,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(VecCopy(X, Xgood));
       PetscCall(VecCopy(V, Vgood));
     }
-    if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual));
+    if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi));
     PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
     if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X));
   }

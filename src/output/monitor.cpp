@@ -12,7 +12,7 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
   mon->csv_path[0] = 0;
   PetscOptionsBegin(comm, NULL, "msim monitors", NULL);
   PetscCall(PetscOptionsBool("-msim_monitor", "Print one line per step: energies, iterations, residual", NULL, mon->ascii, &mon->ascii, NULL));
-  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
+  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
   PetscOptionsEnd();
   PetscCall(PetscTime(&mon->wall0));
   (void)rank;
@@ -33,7 +33,7 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon)
     char tmp[PETSC_MAX_PATH_LEN + 8];
     PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
     mon->csv = fopen(tmp, "w");
-    if (mon->csv) fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,wall_s\n");
+    if (mon->csv) fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s\n");
     ok = mon->csv != NULL;
   }
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
@@ -48,15 +48,15 @@ PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual)
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi)
 {
   PetscLogDouble now;
 
   PetscFunctionBeginUser;
-  if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual));
+  if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e phi %.10e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi));
   if (mon->csv) {
     PetscCall(PetscTime(&now));
-    fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, now - mon->wall0);
+    fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, now - mon->wall0);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

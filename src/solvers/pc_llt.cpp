@@ -70,7 +70,9 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   S.setFromTriplets(t.begin(), t.end());
   delete ctx->llt;
   ctx->llt = new LLT();
+  PetscCall(PetscLogEventBegin(MSIM_LLTFactor, pc, 0, 0, 0)); /* -log_view: one per factorization */
   ctx->llt->compute(S);
+  PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
   PetscCheck(ctx->llt->info() == Eigen::Success, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite");
   const SpMat &L = ctx->llt->matrixL().nestedExpression();
   ctx->colptr    = L.outerIndexPtr();

@@ -7,7 +7,7 @@
 #include <cstdlib>
 
 PetscClassId  MSIM_CLASSID;
-PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup;
+PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
 
 /* Users get the first message of an error as one line ("msim: error: ..."), printed by rank 0 of
    the communicator the error was raised on; -msim_traceback restores PETSc's full trace. */
@@ -57,6 +57,7 @@ PetscErrorCode MSimInitialize(void)
   PetscCall(PetscLogEventRegister("MSimPDLocal", MSIM_CLASSID, &MSIM_PDLocal));
   PetscCall(PetscLogEventRegister("MSimPDGlobal", MSIM_CLASSID, &MSIM_PDGlobal));
   PetscCall(PetscLogEventRegister("MSimSpectrum", MSIM_CLASSID, &MSIM_Spectrum));
+  PetscCall(PetscLogEventRegister("MSimLLTFactor", MSIM_CLASSID, &MSIM_LLTFactor));
   PetscCall(MSimSceneRegisterAll());
   PetscCall(MSimIntegratorRegisterAll());
   PetscCall(MSimSolversRegisterAll());

@@ -178,6 +178,7 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
   if (!strcmp(type, SNESKSPONLY) || reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
+  if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
   if (reason == SNES_DIVERGED_MAX_IT) ie->unconverged++;
   else if (reason < 0) integ->failed = PETSC_TRUE;
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
