@@ -4,8 +4,6 @@
 
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
 {
-  PetscMPIInt rank;
-
   PetscFunctionBeginUser;
   mon->ascii       = PETSC_FALSE;
   mon->csv         = NULL;
@@ -15,7 +13,6 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
   PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
   PetscOptionsEnd();
   PetscCall(PetscTime(&mon->wall0));
-  (void)rank;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
