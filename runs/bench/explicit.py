@@ -54,7 +54,6 @@ def main():
             rss_total, rss_max = float(mem.group(1)), float(mem.group(2))
             ns_force = tf / nf / ns * 1e9 * np  # core-nanoseconds per spring
             ns_step = tstep / nstep / ns * 1e9 * np
-            model = 32.0 / (bw * np) * np  # ns per spring at the triad bandwidth, per core
             rows.append(dict(n=n, ranks=np, springs=ns, steps=steps, force_ns_per_spring=round(tf / nf / ns * 1e9, 3),
                              step_ns_per_spring=round(tstep / nstep / ns * 1e9, 3), core_ns_per_spring_force=round(ns_force, 3),
                              bytes_model_ns_per_spring=round(32.0 / bw, 3), ratio_to_traffic=round(ns_force / (32.0 / bw), 2),

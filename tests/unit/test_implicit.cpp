@@ -189,6 +189,18 @@ static PetscErrorCode TestJacobianFD(void)
   PetscCall(VecNorm(Gp, NORM_2, &err));
   NOTE("Jacobian vs finite differences of g: relative error %.2e\n", (double)(err / nrm));
   CHECK(err <= 1e-6 * nrm, "Jacobian off by %g relative", (double)(err / nrm));
+  /* the PD local step computes Phi in the same pass: it must equal the objective */
+  {
+    PetscReal phi_obj, phi_pd;
+    Vec       rhs;
+    PetscCall(VecDuplicate(s.X, &rhs));
+    imp->h = 0.02;
+    PetscCall(MSimImplicitObjective(imp, s.X, &phi_obj));
+    PetscCall(MSimImplicitPDRHS(imp, s.X, rhs, &phi_pd));
+    NOTE("Phi from the objective %.15e, from the PD local step %.15e\n", (double)phi_obj, (double)phi_pd);
+    CHECK(std::abs(phi_obj - phi_pd) <= 1e-12 * std::abs(phi_obj), "PD local step's Phi %g differs from the objective %g", (double)phi_pd, (double)phi_obj);
+    PetscCall(VecDestroy(&rhs));
+  }
   /* and g is the gradient of Phi: (Phi(x + e d) - Phi(x - e d)) / 2e = g . d */
   {
     PetscReal pp, pm, gd;
