@@ -19,6 +19,7 @@ struct _n_MSimImplicit {
   Mat        A;
   KSP        pdksp;
   Mat        B, Xd;           /* dense nown x 3: right-hand sides and solutions */
+  PetscBool  pd_direct;       /* preonly + msimllt: solve the interleaved Vec arrays directly */
   PetscInt   nfactor;         /* numeric factorizations done by the PD solves */
   Vec        rhs;
   MSimPDProblem pd;

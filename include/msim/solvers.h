@@ -6,8 +6,11 @@
 #define SNESPD "pd"
 #define PCMSIMLLT "msimllt"
 
-/* PC type msimllt (serial sparse Cholesky, all right-hand sides in one sweep of the factor). */
+/* PC type msimllt (serial sparse Cholesky, up to four right-hand sides in one sweep of the factor). */
 PetscErrorCode PCCreate_MSimLLT(PC pc);
+/* x = A^-1 b for nrhs <= 4 columns stored interleaved (row i's values together, as in a Vec of
+   block size nrhs), without copies; sets the PC up if needed. Errors unless pc is msimllt. */
+PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
 
 /* Registers "pd" once. */
 PetscErrorCode MSimSolversRegisterAll(void);

@@ -1,0 +1,37 @@
+/* Supernodal storage of a sparse Cholesky factor L (A = L L^T, lower) and its triangular solves,
+   carrying up to four right-hand sides in the lanes of one 4-wide vector. Columns with the same
+   structure below the diagonal form a supernode: a dense triangle plus a dense block below it, so
+   each row below is read and updated once per supernode instead of once per column, and the inner
+   loops are dense. On the 101 x 101 benchmark cloth's PD matrix (0.64 M factor entries) the three
+   columns x, y, z take about 0.45 ms against 1.35 ms for a column-by-column sweep (runs/bench). */
+#pragma once
+#include <cstdint>
+#include <vector>
+
+namespace msim {
+typedef double V4 __attribute__((vector_size(32)));
+
+class SupernodalFactor {
+public:
+  /* From a CSC lower factor whose columns list the diagonal first and their rows ascending. */
+  void Build(int n, const int *colptr, const int *row, const double *val);
+  /* z (n rows of 4 lanes, right-hand sides in the lanes) := A^-1 z, in the factor's ordering */
+  void Solve(V4 *z) const;
+  void Forward(V4 *z) const;  /* L y = b */
+  void Backward(V4 *z) const; /* L^T x = y */
+  int     Size() const { return n_; }
+  int     Supernodes() const { return (int)start_.size() - 1; }
+  int64_t Entries() const { return (int64_t)val_.size() + n_; }
+
+private:
+  int                  n_ = 0;
+  std::vector<int>     start_;   /* first column of each supernode; start_[nsn] = n */
+  std::vector<int>     rptr_;    /* rows below supernode s: rows_[rptr_[s] .. rptr_[s+1]) */
+  std::vector<int>     rows_;
+  std::vector<int64_t> vptr_;    /* values of supernode s start at val_[vptr_[s]] */
+  std::vector<double>  val_;     /* per supernode of width w with m rows below: the strict lower
+                                    triangle of its diagonal block row by row, then the m x w block
+                                    below it, row-major */
+  std::vector<double>  invdiag_; /* 1 / L_jj */
+};
+} // namespace msim
