@@ -6,10 +6,15 @@
 #include <msim/scene.h>
 #include <vector>
 
+/* Owned springs as arrays. Endpoints are local vertex slots: [0, nown) owned (also the rows of the
+   rank's block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices. The first ninner
+   springs have both ends owned: the hot loops (spring_sweep.h) read and write Vec arrays directly
+   for them; the other n - ninner touch a ghost or a fixed vertex. */
 typedef struct {
-  PetscInt  i, j; /* local vertex slots: [0, nown) owned, [nown, nown+nghost) ghosts, then fixed */
-  PetscReal k, L;
-} MSimSpring;
+  std::vector<PetscInt>  i, j;
+  std::vector<PetscReal> k, L;
+  PetscInt               n, ninner;
+} MSimSprings;
 
 typedef struct _n_MSimSystem *MSimSystem;
 struct _n_MSimSystem {
@@ -19,7 +24,7 @@ struct _n_MSimSystem {
   PetscInt    nfree, nown, rstart;  /* free vertices: global, owned, first owned (blocks) */
   PetscInt    nghost, nfix, nloc;   /* nloc = nown + nghost + nfix local slots */
   PetscInt    nspring_global;
-  std::vector<MSimSpring> springs;  /* owned springs */
+  MSimSprings springs;              /* owned springs */
   std::vector<PetscInt>   local_to_global; /* global block of each owned/ghost slot */
   std::vector<PetscReal>  b0;       /* 3 nfix fixed positions at t = 0 */
   PetscReal   fix_velocity[3];
@@ -28,6 +33,7 @@ struct _n_MSimSystem {
   Vec         mass;                 /* per dof (block size 3), global layout */
   Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
   VecScatter  g2l;                  /* global free -> owned+ghost slots */
+  VecScatter  ghosts;               /* global free -> ghost slots only */
   Vec         X0, V0;               /* initial state */
   /* rank 0 only: what output needs in input vertex order */
   std::vector<char>     fixed_flag; /* nv */
@@ -47,6 +53,12 @@ PetscErrorCode MSimSystemGlobalToLocal(MSimSystem sys, PetscReal t, Vec X, Vec x
 PetscErrorCode MSimSystemVelocityToLocal(MSimSystem sys, Vec V, Vec vloc);
 /* F += sum of local slot contributions (ghost parts go to their owners) */
 PetscErrorCode MSimSystemLocalToGlobalAdd(MSimSystem sys, Vec floc, Vec F);
+/* The hot loops' exchange: ghost positions of X into xloc's ghost slots (begin/end, so the owned
+   springs run in between) and b(t) into its fixed slots; the owned rows stay in X. Afterwards the
+   ghost slots of floc are added to their owners' rows of F. */
+PetscErrorCode MSimSystemGhostsBegin(MSimSystem sys, Vec X, Vec xloc);
+PetscErrorCode MSimSystemGhostsEnd(MSimSystem sys, PetscReal t, Vec X, Vec xloc);
+PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F);
 PetscErrorCode MSimSystemBoundary(MSimSystem sys, PetscReal t, PetscReal *b); /* fills 3 nfix */
 
 /* F = f_springs(x) + f_damping(x, v) + m g + drag (wind - v). V may be NULL when damping and drag
@@ -54,6 +66,10 @@ PetscErrorCode MSimSystemBoundary(MSimSystem sys, PetscReal t, PetscReal *b); /*
 PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F);
 /* Spring energy + gravity potential of the free vertices; kinetic energy of V (may be NULL). */
 PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V, PetscReal *kinetic, PetscReal *potential);
+/* F += the sweep of msim/spring_sweep.h over every owned spring (c = k (alpha + beta L/l) along
+   each spring), in place in F's array (F may be NULL); with energy, the spring energy summed over
+   ranks. The hot loop of the explicit force, the implicit residual and the energies. */
+PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal alpha, PetscReal beta, PetscReal *energy);
 /* Sum of spring energies only (for the incremental potential). */
 PetscErrorCode MSimSystemSpringEnergy(MSimSystem sys, PetscReal t, Vec X, PetscReal *E);
 

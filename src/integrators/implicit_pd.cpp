@@ -5,6 +5,7 @@
    x-step matrix A = M + h c I + sum_s (h^2 k_s + h kd) L_s is constant: factor once per h. */
 #include <msim/implicit.h>
 #include <msim/kernels.hpp>
+#include <msim/spring_sweep.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;
@@ -26,10 +27,11 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
   PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
-  for (const MSimSpring &s : sys->springs) {
-    const PetscReal w  = h * h * s.k + h * sys->damping;
-    const bool      fi = s.i < nfl, fj = s.j < nfl;
-    const PetscInt  gi = fi ? sys->local_to_global[s.i] : -1, gj = fj ? sys->local_to_global[s.j] : -1;
+  for (PetscInt s = 0; s < sys->springs.n; s++) {
+    const PetscInt  i = sys->springs.i[s], j = sys->springs.j[s];
+    const PetscReal w  = h * h * sys->springs.k[s] + h * sys->damping;
+    const bool      fi = i < nfl, fj = j < nfl;
+    const PetscInt  gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
     const PetscScalar wn = -w;
     if (fi) PetscCall(MatSetValue(imp->A, gi, gi, w, ADD_VALUES));
     if (fj) PetscCall(MatSetValue(imp->A, gj, gj, w, ADD_VALUES));
@@ -81,65 +83,93 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Springs through the local slots (xloc: ghost and fixed slots filled; the owned rows of x and rhs
+   are the Vec arrays xo and ro; ghost contributions go to floc): the PD projection, the damping
+   term with the spring axes of x_n (xn, all slots, or NULL), and the coupling to fixed ends. */
+static void PDSpringsSlots(MSimImplicit imp, PetscInt s0, PetscInt s1, const PetscScalar *xo, const PetscScalar *xl, const PetscScalar *xn, PetscScalar *ro, PetscScalar *fl, PetscReal *energy)
+{
+  MSimSystem         sys = imp->sys;
+  const MSimSprings &sp  = sys->springs;
+  const PetscInt     nfl = sys->nown + sys->nghost, nown = sys->nown;
+  const PetscReal    h = imp->h, hkd = h * sys->damping;
+  PetscReal          e = 0;
+
+  for (PetscInt s = s0; s < s1; s++) {
+    const PetscInt  i = sp.i[s], j = sp.j[s];
+    const Vec3      xi = CMap3((i < nown ? xo : xl) + 3 * i), xj = CMap3((j < nown ? xo : xl) + 3 * j);
+    const PetscReal w1 = h * h * sp.k[s];
+    Vec3            p  = w1 * msim::SpringProjection(xi, xj, sp.L[s]);
+    if (energy) e += h * h * msim::SpringEnergy(xi, xj, sp.k[s], sp.L[s]);
+    if (xn) {
+      const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized(), u = xi - xj - dn;
+      p += hkd * (dn + u - n.dot(u) * n);
+      if (energy) e += 0.5 * hkd * n.dot(u) * n.dot(u);
+    }
+    /* a fixed end moves its coupling term to the right-hand side */
+    const PetscReal w = w1 + (xn ? hkd : 0.0);
+    if (j >= nfl) p += w * xj;
+    if (i >= nfl) p -= w * xi;
+    Map3((i < nown ? ro : fl) + 3 * i) += p;
+    Map3((j < nown ? ro : fl) + 3 * j) -= p;
+  }
+  if (energy) *energy += e;
+}
+
 /* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X; with phi,
-   also Phi(X) (the projections are optimal, so the PD energy equals Phi). */
+   also Phi(X) (the projections are optimal, so the PD energy equals Phi). Without spring damping
+   the springs with both ends owned go through the vectorized sweep (c = h^2 k L/l along each
+   spring) straight into rhs's array while the ghost positions travel. */
 PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *phi)
 {
   MSimSystem         sys = imp->sys;
-  const PetscInt     nfl = sys->nown + sys->nghost;
-  const PetscReal    h = imp->h, hkd = h * sys->damping, hc = h * sys->drag;
-  const PetscScalar *x, *xn = NULL, *y, *m, *xng;
-  PetscScalar       *f, *r;
+  const MSimSprings &sp  = sys->springs;
+  const PetscReal    h = imp->h, hc = h * sys->drag;
+  const PetscBool    damped = (PetscBool)(sys->damping > 0);
+  const PetscScalar *x, *xl, *xn = NULL, *y, *m, *xng;
+  PetscScalar       *r, *fl;
   PetscReal          energy = 0;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, rhs, 0, 0));
-  PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
-  if (hkd > 0) {
+  if (damped) {
+    PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
     PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
-  }
-  PetscCall(VecZeroEntries(sys->floc));
-  PetscCall(VecGetArrayRead(sys->xloc, &x));
-  PetscCall(VecGetArray(sys->floc, &f));
-  for (const MSimSpring &s : sys->springs) {
-    const Vec3 xi = CMap3(x + 3 * s.i), xj = CMap3(x + 3 * s.j);
-    const PetscReal w1 = h * h * s.k;
-    Vec3 p = w1 * msim::SpringProjection(xi, xj, s.L);
-    if (phi) energy += h * h * msim::SpringEnergy(xi, xj, s.k, s.L);
-    if (xn) {
-      const Vec3 dn = CMap3(xn + 3 * s.i) - CMap3(xn + 3 * s.j), n = dn.normalized(), u = xi - xj - dn;
-      p += hkd * (dn + u - n.dot(u) * n);
-      if (phi) energy += 0.5 * hkd * n.dot(u) * n.dot(u);
-    }
-    /* a fixed end moves its coupling term to the right-hand side */
-    const PetscReal w = w1 + hkd;
-    if (s.j >= nfl) p += w * xj;
-    if (s.i >= nfl) p -= w * xi;
-    Map3(f + 3 * s.i) += p;
-    Map3(f + 3 * s.j) -= p;
-  }
-  PetscCall(VecRestoreArray(sys->floc, &f));
-  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
-  PetscCall(VecZeroEntries(rhs));
-  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, rhs));
-  PetscCall(VecGetArray(rhs, &r));
+  } else PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
+  /* the vertex terms */
+  PetscCall(VecGetArrayWrite(rhs, &r));
+  PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Y, &y));
   PetscCall(VecGetArrayRead(imp->Xn, &xng));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] += m[i] * y[i] + hc * xng[i];
-  if (phi) {
-    const PetscScalar *xg;
-    PetscCall(VecGetArrayRead(X, &xg));
-    for (PetscInt i = 0; i < 3 * sys->nown; i++) energy += 0.5 * m[i] * (xg[i] - y[i]) * (xg[i] - y[i]) + 0.5 * hc * (xg[i] - xng[i]) * (xg[i] - xng[i]);
-    PetscCall(VecRestoreArrayRead(X, &xg));
-    PetscCall(MPIU_Allreduce(&energy, phi, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  }
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] = m[i] * y[i] + hc * xng[i];
+  if (phi)
+    for (PetscInt i = 0; i < 3 * sys->nown; i++) energy += 0.5 * m[i] * (x[i] - y[i]) * (x[i] - y[i]) + 0.5 * hc * (x[i] - xng[i]) * (x[i] - xng[i]);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));
-  PetscCall(VecRestoreArray(rhs, &r));
+  /* the springs */
+  PetscInt s0 = 0;
+  if (!damped) {
+    PetscReal es = 0;
+    MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, 0.0, h * h, phi ? &es : NULL);
+    energy += h * h * es;
+    s0 = sp.ninner;
+    PetscCall(VecRestoreArrayRead(X, &x));
+    PetscCall(MSimSystemGhostsEnd(sys, imp->t + h, X, sys->xloc));
+    PetscCall(VecGetArrayRead(X, &x));
+  }
+  PetscCall(VecGetArray(sys->floc, &fl));
+  PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
+  PetscCall(VecGetArrayRead(sys->xloc, &xl));
+  PDSpringsSlots(imp, s0, sp.n, x, xl, xn, r, fl, phi ? &energy : NULL);
+  PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
+  PetscCall(VecRestoreArray(sys->floc, &fl));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(VecRestoreArrayWrite(rhs, &r));
+  if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
+  if (sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, rhs)); /* collective */
+  if (phi) PetscCall(MPIU_Allreduce(&energy, phi, 1, MPIU_REAL, MPIU_SUM, sys->comm));
   PetscCall(PetscLogEventEnd(MSIM_PDLocal, X, rhs, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

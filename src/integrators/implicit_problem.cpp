@@ -54,48 +54,63 @@ PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G)
+/* The vertex terms of g: M (x - y) + h c (x - x_n), owned rows */
+static PetscErrorCode MSimImplicitVertexResidual(MSimImplicit imp, Vec X, Vec G)
 {
   MSimSystem         sys = imp->sys;
-  const PetscReal    h = imp->h, h2 = h * h, hkd = h * sys->damping, hc = h * sys->drag;
-  const PetscScalar *x, *xn = NULL, *xg, *xng, *y, *m;
-  PetscScalar       *f, *g;
+  const PetscReal    hc  = imp->h * sys->drag;
+  const PetscScalar *xg, *xng, *y, *m;
+  PetscScalar       *g;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscLogEventBegin(MSIM_Residual, X, G, 0, 0));
-  PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
-  if (hkd > 0) {
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
-    PetscCall(VecGetArrayRead(sys->vloc, &xn));
-  }
-  PetscCall(VecZeroEntries(sys->floc));
-  PetscCall(VecGetArrayRead(sys->xloc, &x));
-  PetscCall(VecGetArray(sys->floc, &f));
-  for (const MSimSpring &s : sys->springs) {
-    Vec3 r = -h2 * msim::SpringForce(CMap3(x + 3 * s.i), CMap3(x + 3 * s.j), s.k, s.L);
-    if (xn) {
-      const Vec3 dn = CMap3(xn + 3 * s.i) - CMap3(xn + 3 * s.j), n = dn.normalized();
-      r += (hkd * n.dot(CMap3(x + 3 * s.i) - CMap3(x + 3 * s.j) - dn)) * n;
-    }
-    Map3(f + 3 * s.i) += r;
-    Map3(f + 3 * s.j) -= r;
-  }
-  PetscCall(VecRestoreArray(sys->floc, &f));
-  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
-  PetscCall(VecZeroEntries(G));
-  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, G));
-  PetscCall(VecGetArray(G, &g));
+  PetscCall(VecGetArrayWrite(G, &g));
   PetscCall(VecGetArrayRead(X, &xg));
   PetscCall(VecGetArrayRead(imp->Xn, &xng));
   PetscCall(VecGetArrayRead(imp->Y, &y));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) g[i] += m[i] * (xg[i] - y[i]) + hc * (xg[i] - xng[i]);
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) g[i] = m[i] * (xg[i] - y[i]) + hc * (xg[i] - xng[i]);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));
   PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
   PetscCall(VecRestoreArrayRead(X, &xg));
-  PetscCall(VecRestoreArray(G, &g));
+  PetscCall(VecRestoreArrayWrite(G, &g));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* g = vertex terms - h^2 f_spring(x) (+ the damping term). Without spring damping the springs go
+   through the system's in-place sweep: c = h^2 k (1 - L/l) along each spring. */
+PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G)
+{
+  MSimSystem         sys = imp->sys;
+  const MSimSprings &sp  = sys->springs;
+  const PetscReal    h = imp->h, h2 = h * h, hkd = h * sys->damping;
+  const PetscScalar *x, *xn;
+  PetscScalar       *f;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_Residual, X, G, 0, 0));
+  PetscCall(MSimImplicitVertexResidual(imp, X, G));
+  if (hkd == 0) PetscCall(MSimSystemSpringSweep(sys, imp->t + h, X, G, h2, -h2, NULL));
+  else {
+    PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
+    PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
+    PetscCall(VecZeroEntries(sys->floc));
+    PetscCall(VecGetArrayRead(sys->xloc, &x));
+    PetscCall(VecGetArrayRead(sys->vloc, &xn));
+    PetscCall(VecGetArray(sys->floc, &f));
+    for (PetscInt s = 0; s < sp.n; s++) {
+      const PetscInt i = sp.i[s], j = sp.j[s];
+      const Vec3     dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized();
+      Vec3           r  = -h2 * msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), sp.k[s], sp.L[s]);
+      r += (hkd * n.dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn)) * n;
+      Map3(f + 3 * i) += r;
+      Map3(f + 3 * j) -= r;
+    }
+    PetscCall(VecRestoreArray(sys->floc, &f));
+    PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
+    PetscCall(VecRestoreArrayRead(sys->xloc, &x));
+    PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, G));
+  }
   PetscCall(PetscLogEventEnd(MSIM_Residual, X, G, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -103,28 +118,28 @@ PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G)
 PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi)
 {
   MSimSystem         sys = imp->sys;
+  const MSimSprings &sp  = sys->springs;
   const PetscReal    h = imp->h, hkd = h * sys->damping, hc = h * sys->drag;
-  const PetscScalar *x, *xn = NULL, *xg, *xng, *y, *m;
-  PetscReal          local = 0;
+  const PetscScalar *x, *xn, *xg, *xng, *y, *m;
+  PetscReal          local = 0, springs = 0;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Energy, X, 0, 0, 0));
-  PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
-  if (hkd > 0) {
+  if (hkd == 0) PetscCall(MSimSystemSpringSweep(sys, imp->t + h, X, NULL, 0, 0, &springs));
+  else {
+    PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
     PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
+    PetscCall(VecGetArrayRead(sys->xloc, &x));
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
-  }
-  PetscCall(VecGetArrayRead(sys->xloc, &x));
-  for (const MSimSpring &s : sys->springs) {
-    local += h * h * msim::SpringEnergy(CMap3(x + 3 * s.i), CMap3(x + 3 * s.j), s.k, s.L);
-    if (xn) {
-      const Vec3   dn = CMap3(xn + 3 * s.i) - CMap3(xn + 3 * s.j);
-      const double a  = dn.normalized().dot(CMap3(x + 3 * s.i) - CMap3(x + 3 * s.j) - dn);
-      local += 0.5 * hkd * a * a;
+    for (PetscInt s = 0; s < sp.n; s++) {
+      const PetscInt i = sp.i[s], j = sp.j[s];
+      const Vec3     dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j);
+      const double   a  = dn.normalized().dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn);
+      local += h * h * msim::SpringEnergy(CMap3(x + 3 * i), CMap3(x + 3 * j), sp.k[s], sp.L[s]) + 0.5 * hkd * a * a;
     }
+    PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
+    PetscCall(VecRestoreArrayRead(sys->xloc, &x));
   }
-  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
   PetscCall(VecGetArrayRead(X, &xg));
   PetscCall(VecGetArrayRead(imp->Xn, &xng));
   PetscCall(VecGetArrayRead(imp->Y, &y));
@@ -135,7 +150,7 @@ PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi)
   PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
   PetscCall(VecRestoreArrayRead(X, &xg));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  *phi = local;
+  *phi = local + h * h * springs;
   PetscCall(PetscLogEventEnd(MSIM_Energy, X, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

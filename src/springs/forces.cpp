@@ -1,67 +1,123 @@
-/* Force and energy assembly over owned springs; the per-spring physics is in msim/kernels.hpp. */
+/* Force and energy assembly over owned springs; the per-spring physics is in msim/kernels.hpp and,
+   for the hot loops, msim/spring_sweep.h. Without spring damping the force is built in place in F:
+   F starts as the external force, the springs with both ends owned add into F's array while the
+   ghost positions travel, the others (ghost or fixed ends) follow, and ghost contributions go to
+   their owners. With damping every spring goes through the local slots. */
 #include <msim/system.h>
 #include <msim/kernels.hpp>
+#include <msim/spring_sweep.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;
 typedef Eigen::Map<Vec3>       Map3;
 
-PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F)
+/* F = m g + drag (wind - v) on owned rows */
+static PetscErrorCode MSimSystemExternalForce(MSimSystem sys, Vec V, Vec F)
 {
-  const PetscScalar *x, *v = NULL, *m, *vg = NULL;
-  PetscScalar       *f, *Fa;
-  const PetscBool    damp = (PetscBool)(sys->damping > 0), drag = (PetscBool)(sys->drag > 0);
+  const PetscScalar *m, *vg = NULL;
+  PetscScalar       *Fa;
+  const PetscBool    drag = (PetscBool)(sys->drag > 0);
 
   PetscFunctionBeginUser;
-  PetscCall(PetscLogEventBegin(MSIM_Force, X, F, 0, 0));
-  PetscCheck(V || (!damp && !drag), sys->comm, PETSC_ERR_ARG_NULL, "velocity needed for damping and drag");
-  PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
-  if (damp) PetscCall(MSimSystemVelocityToLocal(sys, V, sys->vloc));
-  PetscCall(VecZeroEntries(sys->floc));
-  PetscCall(VecGetArrayRead(sys->xloc, &x));
-  PetscCall(VecGetArray(sys->floc, &f));
-  if (damp) PetscCall(VecGetArrayRead(sys->vloc, &v));
-  for (const MSimSpring &s : sys->springs) {
-    Vec3 fi = msim::SpringForce(CMap3(x + 3 * s.i), CMap3(x + 3 * s.j), s.k, s.L);
-    if (damp) fi += msim::SpringDampingForce(CMap3(x + 3 * s.i), CMap3(x + 3 * s.j), CMap3(v + 3 * s.i), CMap3(v + 3 * s.j), sys->damping);
-    Map3(f + 3 * s.i) += fi;
-    Map3(f + 3 * s.j) -= fi;
-  }
-  if (damp) PetscCall(VecRestoreArrayRead(sys->vloc, &v));
-  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  PetscCall(VecRestoreArray(sys->floc, &f));
-  PetscCall(VecZeroEntries(F));
-  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, F));
-  /* external forces on owned vertices: gravity, drag towards the wind */
-  PetscCall(VecGetArray(F, &Fa));
+  PetscCall(VecGetArrayWrite(F, &Fa));
   PetscCall(VecGetArrayRead(sys->mass, &m));
   if (drag) PetscCall(VecGetArrayRead(V, &vg));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) {
-    const int c = i % 3;
-    Fa[i] += m[i] * sys->gravity[c];
-    if (drag) Fa[i] += sys->drag * (sys->wind[c] - vg[i]);
-  }
+  for (PetscInt v = 0; v < sys->nown; v++)
+    for (int c = 0; c < 3; c++) {
+      const PetscInt i = 3 * v + c;
+      Fa[i]            = m[i] * sys->gravity[c] + (drag ? sys->drag * (sys->wind[c] - vg[i]) : 0.0);
+    }
   if (drag) PetscCall(VecRestoreArrayRead(V, &vg));
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
-  PetscCall(VecRestoreArray(F, &Fa));
-  PetscCall(PetscLogFlops(30.0 * sys->springs.size()));
+  PetscCall(VecRestoreArrayWrite(F, &Fa));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* F += alpha/beta spring sweep (spring_sweep.h) over every owned spring, in place in F's array;
+   with energy, also the spring energy (summed over ranks). */
+PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal alpha, PetscReal beta, PetscReal *energy)
+{
+  const MSimSprings &sp = sys->springs;
+  const PetscScalar *x, *xl;
+  PetscScalar       *f = NULL, *fl = NULL;
+  PetscReal          e = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
+  PetscCall(VecGetArrayRead(X, &x));
+  if (F) PetscCall(VecGetArray(F, &f));
+  MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, f, alpha, beta, energy ? &e : NULL);
+  PetscCall(VecRestoreArrayRead(X, &x));
+  if (F) PetscCall(VecRestoreArray(F, &f));
+  PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));
+  /* springs with a ghost or fixed end; the ghost forces then go to their owners (collective: every
+     rank takes part, whether or not it has such springs) */
+  if (F) {
+    PetscCall(VecGetArray(sys->floc, &fl));
+    PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
+    PetscCall(VecGetArray(F, &f));
+  }
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArrayRead(sys->xloc, &xl));
+  MSimSpringSweepSlots(sp.ninner, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, xl, f, fl, alpha, beta, energy ? &e : NULL);
+  PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  if (F) {
+    PetscCall(VecRestoreArray(F, &f));
+    PetscCall(VecRestoreArray(sys->floc, &fl));
+    if (sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, F));
+  }
+  if (energy) PetscCall(MPIU_Allreduce(&e, energy, 1, MPIU_REAL, MPIU_SUM, sys->comm));
+  PetscCall(PetscLogFlops((F ? 30.0 : 12.0) * sp.n));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* With spring damping: every spring through the local slots (positions and velocities). */
+static PetscErrorCode MSimSystemDampedSpringForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F)
+{
+  const MSimSprings &sp = sys->springs;
+  const PetscScalar *x, *v;
+  PetscScalar       *f;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
+  PetscCall(MSimSystemVelocityToLocal(sys, V, sys->vloc));
+  PetscCall(VecZeroEntries(sys->floc));
+  PetscCall(VecGetArrayRead(sys->xloc, &x));
+  PetscCall(VecGetArrayRead(sys->vloc, &v));
+  PetscCall(VecGetArray(sys->floc, &f));
+  for (PetscInt s = 0; s < sp.n; s++) {
+    const PetscInt i = sp.i[s], j = sp.j[s];
+    Vec3           fi = msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), sp.k[s], sp.L[s]);
+    fi += msim::SpringDampingForce(CMap3(x + 3 * i), CMap3(x + 3 * j), CMap3(v + 3 * i), CMap3(v + 3 * j), sys->damping);
+    Map3(f + 3 * i) += fi;
+    Map3(f + 3 * j) -= fi;
+  }
+  PetscCall(VecRestoreArray(sys->floc, &f));
+  PetscCall(VecRestoreArrayRead(sys->vloc, &v));
+  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
+  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, F));
+  PetscCall(PetscLogFlops(60.0 * sp.n));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_Force, X, F, 0, 0));
+  PetscCheck(V || (sys->damping == 0 && sys->drag == 0), sys->comm, PETSC_ERR_ARG_NULL, "velocity needed for damping and drag");
+  PetscCall(MSimSystemExternalForce(sys, V, F));
+  if (sys->damping > 0) PetscCall(MSimSystemDampedSpringForce(sys, t, X, V, F));
+  else PetscCall(MSimSystemSpringSweep(sys, t, X, F, -1.0, 1.0, NULL));
   PetscCall(PetscLogEventEnd(MSIM_Force, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSystemSpringEnergy(MSimSystem sys, PetscReal t, Vec X, PetscReal *E)
 {
-  const PetscScalar *x;
-  PetscReal          e = 0;
-
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Energy, X, 0, 0, 0));
-  PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
-  PetscCall(VecGetArrayRead(sys->xloc, &x));
-  for (const MSimSpring &s : sys->springs) e += msim::SpringEnergy(CMap3(x + 3 * s.i), CMap3(x + 3 * s.j), s.k, s.L);
-  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &e, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  *E = e;
+  PetscCall(MSimSystemSpringSweep(sys, t, X, NULL, 0, 0, E));
   PetscCall(PetscLogEventEnd(MSIM_Energy, X, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -91,6 +147,7 @@ PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V
 
 PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
 {
+  const MSimSprings &sp = sys->springs;
   const PetscScalar *m;
   PetscScalar       *f;
   PetscReal          best = 0;
@@ -100,9 +157,9 @@ PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
   /* row sums of |K| at rest: each spring contributes k to both ends' diagonal and off-diagonal */
   PetscCall(VecZeroEntries(sys->floc));
   PetscCall(VecGetArray(sys->floc, &f));
-  for (const MSimSpring &s : sys->springs) {
-    f[3 * s.i] += s.k;
-    f[3 * s.j] += s.k;
+  for (PetscInt s = 0; s < sp.n; s++) {
+    f[3 * sp.i[s]] += sp.k[s];
+    f[3 * sp.j[s]] += sp.k[s];
   }
   PetscCall(VecRestoreArray(sys->floc, &f));
   PetscCall(VecDuplicate(sys->mass, &ksum));

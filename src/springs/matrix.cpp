@@ -23,11 +23,12 @@ PetscErrorCode MSimSystemGraphPreallocation(MSimSystem sys, std::vector<PetscInt
   PetscCall(VecZeroEntries(nnz));
   PetscCall(VecGetArray(nnz, &c));
   for (PetscInt i = 0; i < sys->nown; i++) c[3 * i] = 1; /* the diagonal block */
-  for (const MSimSpring &s : sys->springs) {
-    if (s.i >= nfree_local || s.j >= nfree_local) continue; /* a fixed end adds no off-diagonal block */
-    const bool local = s.i < sys->nown && s.j < sys->nown;
-    c[3 * s.i + (local ? 0 : 1)] += 1;
-    c[3 * s.j + (local ? 0 : 1)] += 1;
+  for (PetscInt s = 0; s < sys->springs.n; s++) {
+    const PetscInt i = sys->springs.i[s], j = sys->springs.j[s];
+    if (i >= nfree_local || j >= nfree_local) continue; /* a fixed end adds no off-diagonal block */
+    const bool local = i < sys->nown && j < sys->nown;
+    c[3 * i + (local ? 0 : 1)] += 1;
+    c[3 * j + (local ? 0 : 1)] += 1;
   }
   PetscCall(VecRestoreArray(nnz, &c));
   PetscCall(VecDuplicate(sys->mass, &gnnz));
@@ -82,14 +83,15 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
   }
   PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
   PetscCall(VecGetArrayRead(sys->xloc, &x));
-  for (const MSimSpring &s : sys->springs) {
-    Mat3 H = stiff_coef * msim::SpringHessian(CMap3(x + 3 * s.i), CMap3(x + 3 * s.j), s.k, s.L, (bool)psd);
+  for (PetscInt s = 0; s < sys->springs.n; s++) {
+    const PetscInt i = sys->springs.i[s], j = sys->springs.j[s];
+    Mat3           H = stiff_coef * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), sys->springs.k[s], sys->springs.L[s], (bool)psd);
     if (xn) {
-      const Vec3 n = (CMap3(xn + 3 * s.i) - CMap3(xn + 3 * s.j)).normalized();
+      const Vec3 n = (CMap3(xn + 3 * i) - CMap3(xn + 3 * j)).normalized();
       H += (damp_coef * sys->damping) * (n * n.transpose());
     }
-    const bool fi = s.i < nfree_local, fj = s.j < nfree_local;
-    const PetscInt gi = fi ? sys->local_to_global[s.i] : -1, gj = fj ? sys->local_to_global[s.j] : -1;
+    const bool     fi = i < nfree_local, fj = j < nfree_local;
+    const PetscInt gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
     if (fi) AddBlock(A, gi, gi, H, &ierr);
     if (fj) AddBlock(A, gj, gj, H, &ierr);
     if (fi && fj) {

@@ -123,9 +123,23 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     if (g >= sys->rstart && g < sys->rstart + sys->nown) return g - sys->rstart;
     return ghost.at(g);
   };
-  for (PetscInt s = 0; s < ns; s++) {
-    if (owner(s) != sys->rank) continue;
-    sys->springs.push_back({slot_of(S.si[s]), slot_of(S.sj[s]), S.sk[s], S.sL[s]});
+  {
+    /* springs with both ends owned first (the hot loops' fast part), then those touching ghost or
+       fixed vertices; input order within each group */
+    MSimSprings &sp = sys->springs;
+    for (int pass = 0; pass < 2; pass++) {
+      for (PetscInt s = 0; s < ns; s++) {
+        if (owner(s) != sys->rank) continue;
+        const PetscInt a = slot_of(S.si[s]), b = slot_of(S.sj[s]);
+        if ((a < sys->nown && b < sys->nown) != (pass == 0)) continue;
+        sp.i.push_back(a);
+        sp.j.push_back(b);
+        sp.k.push_back(S.sk[s]);
+        sp.L.push_back(S.sL[s]);
+      }
+      if (pass == 0) sp.ninner = (PetscInt)sp.i.size();
+    }
+    sp.n = (PetscInt)sp.i.size();
   }
 
   /* boundary: every rank keeps all fixed vertices (they are few: corners, an edge, a face) */
@@ -164,6 +178,11 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, sys->nown + sys->nghost, sys->local_to_global.data(), PETSC_COPY_VALUES, &from));
     PetscCall(ISCreateStride(PETSC_COMM_SELF, 3 * (sys->nown + sys->nghost), 0, 1, &to));
     PetscCall(VecScatterCreate(sys->X0, from, sys->xloc, to, &sys->g2l));
+    PetscCall(ISDestroy(&from));
+    PetscCall(ISDestroy(&to));
+    PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, sys->nghost, sys->local_to_global.data() + sys->nown, PETSC_COPY_VALUES, &from));
+    PetscCall(ISCreateStride(PETSC_COMM_SELF, 3 * sys->nghost, 3 * sys->nown, 1, &to));
+    PetscCall(VecScatterCreate(sys->X0, from, sys->xloc, to, &sys->ghosts));
     PetscCall(ISDestroy(&from));
     PetscCall(ISDestroy(&to));
   }
@@ -213,6 +232,7 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
   PetscCall(VecDestroy(&(*sys)->floc));
   PetscCall(VecDestroy(&(*sys)->gathered));
   PetscCall(VecScatterDestroy(&(*sys)->g2l));
+  PetscCall(VecScatterDestroy(&(*sys)->ghosts));
   PetscCall(VecScatterDestroy(&(*sys)->gather));
   delete *sys;
   *sys = NULL;

@@ -44,6 +44,33 @@ PetscErrorCode MSimSystemLocalToGlobalAdd(MSimSystem sys, Vec floc, Vec F)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimSystemGhostsBegin(MSimSystem sys, Vec X, Vec xloc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterBegin(sys->ghosts, X, xloc, INSERT_VALUES, SCATTER_FORWARD));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGhostsEnd(MSimSystem sys, PetscReal t, Vec X, Vec xloc)
+{
+  PetscScalar *x;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterEnd(sys->ghosts, X, xloc, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArray(xloc, &x));
+  PetscCall(MSimSystemBoundary(sys, t, x + 3 * (sys->nown + sys->nghost)));
+  PetscCall(VecRestoreArray(xloc, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterBegin(sys->ghosts, floc, F, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(sys->ghosts, floc, F, ADD_VALUES, SCATTER_REVERSE));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode MSimSystemGather(MSimSystem sys, PetscReal t, PetscBool positions, Vec X, std::vector<PetscReal> &all)
 {
   PetscFunctionBeginUser;
