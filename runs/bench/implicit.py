@@ -19,6 +19,7 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
 SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333"
 METHODS = [
     ("PD, 10 iterations", "-snes_type pd -snes_max_it 10 -snes_pd_fixed"),
+    ("PD, 10 iterations, MUMPS factor", "-snes_type pd -snes_max_it 10 -snes_pd_fixed -pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps"),
     ("PD + safeguarded Anderson (m=5), 10 iterations", "-snes_type pd -snes_max_it 10 -snes_pd_fixed -snes_pd_anderson 5"),
     ("PETSc Anderson-PD, 10 iterations", "-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
     ("L-BFGS (PD Hessian), 10 iterations", "-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),

@@ -46,19 +46,15 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
 
-  /* the factorization: preonly + Cholesky. Serially msim's own msimllt (one sweep of the factor
-     for x, y and z together); in parallel MUMPS. -pd_pc_type cholesky
-     -pd_pc_factor_mat_solver_type cholmod|petsc|mumps selects PETSc's. */
+  /* the factorization: preonly + msim's msimllt (one sweep of the factor for x, y and z
+     together; redundant on several ranks); -pd_pc_type cholesky -pd_pc_factor_mat_solver_type
+     mumps|cholmod|petsc selects PETSc's (MUMPS distributes the factor, for large meshes). */
   PetscCall(KSPCreate(sys->comm, &imp->pdksp));
   PetscCall(KSPSetOptionsPrefix(imp->pdksp, "pd_"));
   PetscCall(KSPSetOperators(imp->pdksp, imp->A, imp->A));
   PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
   PetscCall(KSPGetPC(imp->pdksp, &pc));
-  if (sys->size == 1) PetscCall(PCSetType(pc, PCMSIMLLT));
-  else {
-    PetscCall(PCSetType(pc, PCCHOLESKY));
-    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
-  }
+  PetscCall(PCSetType(pc, PCMSIMLLT));
   PetscCall(KSPSetFromOptions(imp->pdksp));
   {
     /* preonly with msimllt: the solve reads the rhs Vec's interleaved x, y, z directly */

@@ -1,9 +1,14 @@
-/* PC type "msimllt": msim's serial sparse Cholesky for the constant PD matrix. Eigen's
-   SimplicialLLT (AMD ordering) factors once in PCSetUp; the factor is then stored by supernodes
-   (supernodal.h) and applied to up to four right-hand sides in one pass, so PD's x, y and z
-   columns cost one sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a
-   block-size-3 Vec's array, without the dense-matrix copies of KSPMatSolve. Serial only: in
-   parallel use -pd_pc_type cholesky with MUMPS. */
+/* PC type "msimllt": msim's sparse Cholesky for the constant PD matrix. Eigen's SimplicialLLT
+   (AMD ordering) factors once in PCSetUp; the factor is then stored by supernodes (supernodal.h)
+   and applied to up to four right-hand sides in one pass, so PD's x, y and z columns cost one
+   sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a block-size-3 Vec's
+   array, without the dense-matrix copies of KSPMatSolve.
+   On several ranks the factor is redundant: every rank factors the whole matrix once, and each
+   solve gathers the right-hand sides (one MPI_Allgatherv), sweeps, and keeps its own rows. The
+   solve does not get faster with ranks, but at the sizes PD runs in real time it costs one serial
+   sweep plus a gather, where MUMPS's distributed triangular solves cost ten times more (the
+   benchmark cloth: 0.5 ms against 5 ms per solve). Its memory is the whole factor on every rank:
+   for large meshes choose MUMPS (-pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps). */
 #include <msim/solvers.h>
 #include "supernodal.h"
 #include <petscksp.h>
@@ -17,10 +22,15 @@ typedef Eigen::SparseMatrix<double, Eigen::ColMajor, int>                  SpMat
 typedef Eigen::SimplicialLLT<SpMat, Eigen::Lower, Eigen::AMDOrdering<int>> LLT;
 
 typedef struct {
-  msim::SupernodalFactor factor;
-  std::vector<int>       perm; /* row i of the matrix is row perm[i] of the factor */
-  std::vector<msim::V4>  z;    /* work: n rows of 4 lanes */
-  PetscInt               n;
+  msim::SupernodalFactor   factor;
+  std::vector<int>         perm;   /* row i of the matrix is row perm[i] of the factor */
+  std::vector<msim::V4>    z;      /* work: n rows of 4 lanes */
+  PetscInt                 n;      /* global size */
+  PetscInt                 nlocal; /* rows this rank owns, from rstart */
+  PetscInt                 rstart;
+  MPI_Comm                 comm;
+  std::vector<PetscMPIInt> counts, displs; /* rows per rank, for the gather of right-hand sides */
+  std::vector<PetscScalar> full;           /* gathered right-hand sides (several ranks) */
 } PC_LLT;
 
 /* PCShellGet/SetContext only act on a PC whose type name is "shell", so the data hangs on the PC
@@ -45,25 +55,37 @@ static PetscErrorCode PCLLTDestroyContext(void *p)
 static PetscErrorCode PCSetUp_LLT(PC pc)
 {
   PC_LLT            *ctx;
-  Mat                A;
+  Mat                A, Aseq = NULL;
   PetscInt           n, ncols;
   PetscMPIInt        size;
-  const PetscInt    *cols;
+  const PetscInt    *cols, *ranges;
   const PetscScalar *vals;
 
   PetscFunctionBeginUser;
   PetscCall(PCLLTGetContext(pc, &ctx));
-  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &size));
-  PetscCheck(size == 1, PetscObjectComm((PetscObject)pc), PETSC_ERR_SUP, "-pc_type msimllt is serial: in parallel use -pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps");
+  ctx->comm = PetscObjectComm((PetscObject)pc);
+  PetscCallMPI(MPI_Comm_size(ctx->comm, &size));
   PetscCall(PCGetOperators(pc, NULL, &A));
   PetscCall(MatGetSize(A, &n, NULL));
+  PetscCall(MatGetOwnershipRange(A, &ctx->rstart, NULL));
+  PetscCall(MatGetLocalSize(A, &ctx->nlocal, NULL));
+  PetscCall(MatGetOwnershipRanges(A, &ranges));
+  ctx->counts.resize(size);
+  ctx->displs.resize(size);
+  for (PetscMPIInt r = 0; r < size; r++) {
+    ctx->counts[r] = (PetscMPIInt)(ranges[r + 1] - ranges[r]);
+    ctx->displs[r] = (PetscMPIInt)ranges[r];
+  }
+  /* a whole copy of the matrix on every rank (the same matrix when serial) */
+  if (size > 1) PetscCall(MatCreateRedundantMatrix(A, size, MPI_COMM_NULL, MAT_INITIAL_MATRIX, &Aseq));
   std::vector<Eigen::Triplet<double, int>> t;
   for (PetscInt i = 0; i < n; i++) {
-    PetscCall(MatGetRow(A, i, &ncols, &cols, &vals));
+    PetscCall(MatGetRow(Aseq ? Aseq : A, i, &ncols, &cols, &vals));
     for (PetscInt k = 0; k < ncols; k++)
       if (cols[k] <= i) t.emplace_back((int)i, (int)cols[k], PetscRealPart(vals[k]));
-    PetscCall(MatRestoreRow(A, i, &ncols, &cols, &vals));
+    PetscCall(MatRestoreRow(Aseq ? Aseq : A, i, &ncols, &cols, &vals));
   }
+  PetscCall(MatDestroy(&Aseq));
   SpMat S((int)n, (int)n);
   S.setFromTriplets(t.begin(), t.end());
   t.clear();
@@ -79,11 +101,12 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
   ctx->n = n;
   ctx->z.resize(n);
-  PetscCall(PetscInfo(pc, "msimllt: n = %" PetscInt_FMT ", factor entries %" PetscInt64_FMT " in %d supernodes\n", n, (PetscInt64)ctx->factor.Entries(), ctx->factor.Supernodes()));
+  if (size > 1) ctx->full.resize(4 * n);
+  PetscCall(PetscInfo(pc, "msimllt: n = %" PetscInt_FMT ", factor entries %" PetscInt64_FMT " in %d supernodes%s\n", n, (PetscInt64)ctx->factor.Entries(), ctx->factor.Supernodes(), size > 1 ? ", on every rank" : ""));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* x = A^-1 b for nrhs <= 4 columns; column r of row i is at b[i * bs + r] (bs >= nrhs). */
+/* x = A^-1 b for nrhs <= 4 columns of the whole matrix; column r of row i is at b[i * bs + r * ld]. */
 static void LLTSolveStrided(PC_LLT *c, PetscInt nrhs, PetscInt bs, const PetscScalar *b, PetscInt ldb, PetscScalar *x, PetscInt ldx)
 {
   msim::V4 *z = c->z.data();
@@ -97,6 +120,29 @@ static void LLTSolveStrided(PC_LLT *c, PetscInt nrhs, PetscInt bs, const PetscSc
     for (PetscInt r = 0; r < nrhs; r++) x[i * bs + r * ldx] = z[c->perm[i]][r];
 }
 
+/* The owned rows of nrhs <= 4 interleaved columns: serially the whole thing; on several ranks
+   gather every rank's rows, solve the whole system, keep the own rows. */
+static PetscErrorCode LLTSolveLocal(PC_LLT *c, PetscInt nrhs, const PetscScalar *b, PetscScalar *x)
+{
+  PetscMPIInt size;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(c->comm, &size));
+  if (size == 1) {
+    LLTSolveStrided(c, nrhs, nrhs, b, 1, x, 1);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  std::vector<PetscMPIInt> counts(size), displs(size);
+  for (PetscMPIInt r = 0; r < size; r++) {
+    counts[r] = (PetscMPIInt)nrhs * c->counts[r];
+    displs[r] = (PetscMPIInt)nrhs * c->displs[r];
+  }
+  PetscCallMPI(MPI_Allgatherv(b, (PetscMPIInt)(nrhs * c->nlocal), MPIU_SCALAR, c->full.data(), counts.data(), displs.data(), MPIU_SCALAR, c->comm));
+  LLTSolveStrided(c, nrhs, nrhs, c->full.data(), 1, c->full.data(), 1);
+  PetscCall(PetscArraycpy(x, c->full.data() + nrhs * c->rstart, nrhs * c->nlocal));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar *b, PetscScalar *x)
 {
   PC_LLT *c;
@@ -105,17 +151,18 @@ PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar
   PetscCheck(nrhs >= 1 && nrhs <= 4, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "msimllt: 1 to 4 interleaved right-hand sides (got %" PetscInt_FMT ")", nrhs);
   PetscCall(PCSetUp(pc));
   PetscCall(PCLLTGetContext(pc, &c));
-  LLTSolveStrided(c, nrhs, nrhs, b, 1, x, 1);
+  PetscCall(LLTSolveLocal(c, nrhs, b, x));
   PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->factor.Entries()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 static PetscErrorCode PCMatApply_LLT(PC pc, Mat B, Mat X)
 {
-  PC_LLT            *c;
-  const PetscScalar *b;
-  PetscScalar       *x;
-  PetscInt           nrhs, ldb, ldx;
+  PC_LLT                  *c;
+  const PetscScalar       *b;
+  PetscScalar             *x;
+  PetscInt                 nrhs, ldb, ldx;
+  std::vector<PetscScalar> bi, xi;
 
   PetscFunctionBeginUser;
   PetscCall(PCLLTGetContext(pc, &c));
@@ -124,7 +171,16 @@ static PetscErrorCode PCMatApply_LLT(PC pc, Mat B, Mat X)
   PetscCall(MatDenseGetLDA(X, &ldx));
   PetscCall(MatDenseGetArrayRead(B, &b));
   PetscCall(MatDenseGetArrayWrite(X, &x));
-  for (PetscInt c0 = 0; c0 < nrhs; c0 += 4) LLTSolveStrided(c, PetscMin(4, nrhs - c0), 1, b + c0 * ldb, ldb, x + c0 * ldx, ldx);
+  for (PetscInt c0 = 0; c0 < nrhs; c0 += 4) { /* groups of up to four columns, interleaved */
+    const PetscInt k = PetscMin(4, nrhs - c0);
+    bi.resize(k * c->nlocal);
+    xi.resize(k * c->nlocal);
+    for (PetscInt i = 0; i < c->nlocal; i++)
+      for (PetscInt r = 0; r < k; r++) bi[k * i + r] = b[(c0 + r) * ldb + i];
+    PetscCall(LLTSolveLocal(c, k, bi.data(), xi.data()));
+    for (PetscInt i = 0; i < c->nlocal; i++)
+      for (PetscInt r = 0; r < k; r++) x[(c0 + r) * ldx + i] = xi[k * i + r];
+  }
   PetscCall(MatDenseRestoreArrayRead(B, &b));
   PetscCall(MatDenseRestoreArrayWrite(X, &x));
   PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->factor.Entries()));
@@ -141,7 +197,7 @@ static PetscErrorCode PCApply_LLT(PC pc, Vec b, Vec x)
   PetscCall(PCLLTGetContext(pc, &c));
   PetscCall(VecGetArrayRead(b, &ba));
   PetscCall(VecGetArrayWrite(x, &xa));
-  LLTSolveStrided(c, 1, 1, ba, 0, xa, 0);
+  PetscCall(LLTSolveLocal(c, 1, ba, xa));
   PetscCall(VecRestoreArrayWrite(x, &xa));
   PetscCall(VecRestoreArrayRead(b, &ba));
   PetscCall(PetscLogFlops(4.0 * (double)c->factor.Entries()));
@@ -162,6 +218,6 @@ PetscErrorCode PCCreate_MSimLLT(PC pc)
   PetscCall(PCShellSetSetUp(pc, PCSetUp_LLT));
   PetscCall(PCShellSetApply(pc, PCApply_LLT));
   PetscCall(PCShellSetMatApply(pc, PCMatApply_LLT));
-  PetscCall(PCShellSetName(pc, "msimllt: sparse Cholesky (Eigen, AMD), supernodal solves of up to 4 right-hand sides at once"));
+  PetscCall(PCShellSetName(pc, "msimllt: sparse Cholesky (Eigen, AMD), supernodal solves of up to 4 right-hand sides at once, redundant on several ranks"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
