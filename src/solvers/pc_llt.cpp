@@ -1,16 +1,15 @@
-/* PC type "msimllt": msim's sparse Cholesky for the constant PD matrix. Eigen's SimplicialLLT
-   (AMD ordering) factors once in PCSetUp; the factor is then stored by supernodes (supernodal.h)
-   and applied to up to four right-hand sides in one pass, so PD's x, y and z columns cost one
-   sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a block-size-3 Vec's
-   array, without the dense-matrix copies of KSPMatSolve.
-   On several ranks the factor is redundant: every rank factors the whole matrix once, and each
-   solve gathers the right-hand sides (one MPI_Allgatherv), sweeps, and keeps its own rows. The
-   solve does not get faster with ranks, but at the sizes PD runs in real time it costs one serial
-   sweep plus a gather, where MUMPS's distributed triangular solves cost ten times more (the
-   benchmark cloth: 0.5 ms against 5 ms per solve). Its memory is the whole factor on every rank:
-   for large meshes choose MUMPS (-pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps). */
+/* PC type "msimllt": msim's sparse Cholesky for the constant PD matrix, factored once in PCSetUp
+   and stored by supernodes (supernodal.h), so up to four right-hand sides (PD's x, y and z
+   columns) cost one sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a
+   block-size-3 Vec's array, without the dense-matrix copies of KSPMatSolve.
+   Serially: Eigen's SimplicialLLT with AMD ordering. On several ranks: one level of domain
+   decomposition (schur_cholesky.h), each rank factoring and sweeping its own rows, the interface
+   rows of all ranks solved as one small dense Schur complement. MUMPS stays one option away
+   (-pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps), for partitions whose interface is
+   too large for a dense Schur complement. */
 #include <msim/solvers.h>
 #include "supernodal.h"
+#include "schur_cholesky.h"
 #include <petscksp.h>
 #include <Eigen/SparseCore>
 #include <Eigen/SparseCholesky>
@@ -22,15 +21,11 @@ typedef Eigen::SparseMatrix<double, Eigen::ColMajor, int>                  SpMat
 typedef Eigen::SimplicialLLT<SpMat, Eigen::Lower, Eigen::AMDOrdering<int>> LLT;
 
 typedef struct {
-  msim::SupernodalFactor   factor;
-  std::vector<int>         perm;   /* row i of the matrix is row perm[i] of the factor */
-  std::vector<msim::V4>    z;      /* work: n rows of 4 lanes */
-  PetscInt                 n;      /* global size */
-  PetscInt                 nlocal; /* rows this rank owns, from rstart */
-  PetscInt                 rstart;
-  MPI_Comm                 comm;
-  std::vector<PetscMPIInt> counts, displs; /* rows per rank, for the gather of right-hand sides */
-  std::vector<PetscScalar> full;           /* gathered right-hand sides (several ranks) */
+  msim::SupernodalFactor factor; /* serial */
+  std::vector<int>       perm;   /* row i of the matrix is row perm[i] of the factor */
+  std::vector<msim::V4>  z;      /* work: n rows of 4 lanes */
+  PetscInt               n;      /* rows */
+  msim::SchurCholesky   *schur;  /* several ranks */
 } PC_LLT;
 
 /* PCShellGet/SetContext only act on a PC whose type name is "shell", so the data hangs on the PC
@@ -48,6 +43,7 @@ static PetscErrorCode PCLLTGetContext(PC pc, PC_LLT **ctx)
 static PetscErrorCode PCLLTDestroyContext(void *p)
 {
   PetscFunctionBeginUser;
+  delete ((PC_LLT *)p)->schur;
   delete (PC_LLT *)p;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -55,42 +51,38 @@ static PetscErrorCode PCLLTDestroyContext(void *p)
 static PetscErrorCode PCSetUp_LLT(PC pc)
 {
   PC_LLT            *ctx;
-  Mat                A, Aseq = NULL;
+  Mat                A;
   PetscInt           n, ncols;
   PetscMPIInt        size;
-  const PetscInt    *cols, *ranges;
+  const PetscInt    *cols;
   const PetscScalar *vals;
 
   PetscFunctionBeginUser;
   PetscCall(PCLLTGetContext(pc, &ctx));
-  ctx->comm = PetscObjectComm((PetscObject)pc);
-  PetscCallMPI(MPI_Comm_size(ctx->comm, &size));
+  PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &size));
   PetscCall(PCGetOperators(pc, NULL, &A));
-  PetscCall(MatGetSize(A, &n, NULL));
-  PetscCall(MatGetOwnershipRange(A, &ctx->rstart, NULL));
-  PetscCall(MatGetLocalSize(A, &ctx->nlocal, NULL));
-  PetscCall(MatGetOwnershipRanges(A, &ranges));
-  ctx->counts.resize(size);
-  ctx->displs.resize(size);
-  for (PetscMPIInt r = 0; r < size; r++) {
-    ctx->counts[r] = (PetscMPIInt)(ranges[r + 1] - ranges[r]);
-    ctx->displs[r] = (PetscMPIInt)ranges[r];
+  PetscCall(MatGetLocalSize(A, &n, NULL));
+  ctx->n = n;
+  PetscCall(PetscLogEventBegin(MSIM_LLTFactor, pc, 0, 0, 0)); /* -log_view: one per factorization */
+  if (size > 1) {
+    delete ctx->schur;
+    ctx->schur = new msim::SchurCholesky();
+    PetscCall(ctx->schur->SetUp(A));
+    PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
+    PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT ", %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->InterfaceSize()));
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
-  /* a whole copy of the matrix on every rank (the same matrix when serial) */
-  if (size > 1) PetscCall(MatCreateRedundantMatrix(A, size, MPI_COMM_NULL, MAT_INITIAL_MATRIX, &Aseq));
   std::vector<Eigen::Triplet<double, int>> t;
   for (PetscInt i = 0; i < n; i++) {
-    PetscCall(MatGetRow(Aseq ? Aseq : A, i, &ncols, &cols, &vals));
+    PetscCall(MatGetRow(A, i, &ncols, &cols, &vals));
     for (PetscInt k = 0; k < ncols; k++)
       if (cols[k] <= i) t.emplace_back((int)i, (int)cols[k], PetscRealPart(vals[k]));
-    PetscCall(MatRestoreRow(Aseq ? Aseq : A, i, &ncols, &cols, &vals));
+    PetscCall(MatRestoreRow(A, i, &ncols, &cols, &vals));
   }
-  PetscCall(MatDestroy(&Aseq));
   SpMat S((int)n, (int)n);
   S.setFromTriplets(t.begin(), t.end());
   t.clear();
   t.shrink_to_fit();
-  PetscCall(PetscLogEventBegin(MSIM_LLTFactor, pc, 0, 0, 0)); /* -log_view: one per factorization */
   {
     LLT llt(S);
     PetscCheck(llt.info() == Eigen::Success, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite");
@@ -99,10 +91,8 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     ctx->perm.assign(llt.permutationP().indices().data(), llt.permutationP().indices().data() + n);
   } /* Eigen's column storage goes: only the supernodal copy stays */
   PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
-  ctx->n = n;
   ctx->z.resize(n);
-  if (size > 1) ctx->full.resize(4 * n);
-  PetscCall(PetscInfo(pc, "msimllt: n = %" PetscInt_FMT ", factor entries %" PetscInt64_FMT " in %d supernodes%s\n", n, (PetscInt64)ctx->factor.Entries(), ctx->factor.Supernodes(), size > 1 ? ", on every rank" : ""));
+  PetscCall(PetscInfo(pc, "msimllt: n = %" PetscInt_FMT ", factor entries %" PetscInt64_FMT " in %d supernodes\n", n, (PetscInt64)ctx->factor.Entries(), ctx->factor.Supernodes()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -120,26 +110,12 @@ static void LLTSolveStrided(PC_LLT *c, PetscInt nrhs, PetscInt bs, const PetscSc
     for (PetscInt r = 0; r < nrhs; r++) x[i * bs + r * ldx] = z[c->perm[i]][r];
 }
 
-/* The owned rows of nrhs <= 4 interleaved columns: serially the whole thing; on several ranks
-   gather every rank's rows, solve the whole system, keep the own rows. */
+/* The owned rows of nrhs <= 4 interleaved columns. Collective on several ranks. */
 static PetscErrorCode LLTSolveLocal(PC_LLT *c, PetscInt nrhs, const PetscScalar *b, PetscScalar *x)
 {
-  PetscMPIInt size;
-
   PetscFunctionBeginUser;
-  PetscCallMPI(MPI_Comm_size(c->comm, &size));
-  if (size == 1) {
-    LLTSolveStrided(c, nrhs, nrhs, b, 1, x, 1);
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  std::vector<PetscMPIInt> counts(size), displs(size);
-  for (PetscMPIInt r = 0; r < size; r++) {
-    counts[r] = (PetscMPIInt)nrhs * c->counts[r];
-    displs[r] = (PetscMPIInt)nrhs * c->displs[r];
-  }
-  PetscCallMPI(MPI_Allgatherv(b, (PetscMPIInt)(nrhs * c->nlocal), MPIU_SCALAR, c->full.data(), counts.data(), displs.data(), MPIU_SCALAR, c->comm));
-  LLTSolveStrided(c, nrhs, nrhs, c->full.data(), 1, c->full.data(), 1);
-  PetscCall(PetscArraycpy(x, c->full.data() + nrhs * c->rstart, nrhs * c->nlocal));
+  if (c->schur) PetscCall(c->schur->Solve(nrhs, b, x));
+  else LLTSolveStrided(c, nrhs, nrhs, b, 1, x, 1);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -152,7 +128,7 @@ PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar
   PetscCall(PCSetUp(pc));
   PetscCall(PCLLTGetContext(pc, &c));
   PetscCall(LLTSolveLocal(c, nrhs, b, x));
-  PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->factor.Entries()));
+  PetscCall(PetscLogFlops(4.0 * nrhs * (double)(c->schur ? c->schur->LocalEntries() : c->factor.Entries())));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -173,17 +149,17 @@ static PetscErrorCode PCMatApply_LLT(PC pc, Mat B, Mat X)
   PetscCall(MatDenseGetArrayWrite(X, &x));
   for (PetscInt c0 = 0; c0 < nrhs; c0 += 4) { /* groups of up to four columns, interleaved */
     const PetscInt k = PetscMin(4, nrhs - c0);
-    bi.resize(k * c->nlocal);
-    xi.resize(k * c->nlocal);
-    for (PetscInt i = 0; i < c->nlocal; i++)
+    bi.resize(k * c->n);
+    xi.resize(k * c->n);
+    for (PetscInt i = 0; i < c->n; i++)
       for (PetscInt r = 0; r < k; r++) bi[k * i + r] = b[(c0 + r) * ldb + i];
     PetscCall(LLTSolveLocal(c, k, bi.data(), xi.data()));
-    for (PetscInt i = 0; i < c->nlocal; i++)
+    for (PetscInt i = 0; i < c->n; i++)
       for (PetscInt r = 0; r < k; r++) x[(c0 + r) * ldx + i] = xi[k * i + r];
   }
   PetscCall(MatDenseRestoreArrayRead(B, &b));
   PetscCall(MatDenseRestoreArrayWrite(X, &x));
-  PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->factor.Entries()));
+  PetscCall(PetscLogFlops(4.0 * nrhs * (double)(c->schur ? c->schur->LocalEntries() : c->factor.Entries())));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -200,7 +176,7 @@ static PetscErrorCode PCApply_LLT(PC pc, Vec b, Vec x)
   PetscCall(LLTSolveLocal(c, 1, ba, xa));
   PetscCall(VecRestoreArrayWrite(x, &xa));
   PetscCall(VecRestoreArrayRead(b, &ba));
-  PetscCall(PetscLogFlops(4.0 * (double)c->factor.Entries()));
+  PetscCall(PetscLogFlops(4.0 * (double)(c->schur ? c->schur->LocalEntries() : c->factor.Entries())));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -218,6 +194,6 @@ PetscErrorCode PCCreate_MSimLLT(PC pc)
   PetscCall(PCShellSetSetUp(pc, PCSetUp_LLT));
   PetscCall(PCShellSetApply(pc, PCApply_LLT));
   PetscCall(PCShellSetMatApply(pc, PCMatApply_LLT));
-  PetscCall(PCShellSetName(pc, "msimllt: sparse Cholesky (Eigen, AMD), supernodal solves of up to 4 right-hand sides at once, redundant on several ranks"));
+  PetscCall(PCShellSetName(pc, "msimllt: sparse Cholesky (Eigen, AMD), supernodal solves of up to 4 right-hand sides at once; on several ranks, local factors and a dense interface Schur complement"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

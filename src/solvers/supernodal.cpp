@@ -7,14 +7,14 @@
 
 namespace msim {
 
-void SupernodalFactor::Build(int n, const int *colptr, const int *row, const double *val)
+void SupernodalFactor::Build(int n, const int *colptr, const int *row, const double *val, int split)
 {
   n_ = n;
   start_.assign(1, 0);
   for (int j = 0; j + 1 < n; j++) {
     const int cj = colptr[j + 1] - colptr[j], cj1 = colptr[j + 2] - colptr[j + 1];
     /* column j+1 continues the supernode when its structure is column j's without row j */
-    if (!(cj >= 2 && row[colptr[j] + 1] == j + 1 && cj == cj1 + 1)) start_.push_back(j + 1);
+    if (!(cj >= 2 && row[colptr[j] + 1] == j + 1 && cj == cj1 + 1) || j + 1 == split) start_.push_back(j + 1);
   }
   start_.push_back(n);
   const int nsn = (int)start_.size() - 1;
@@ -91,10 +91,10 @@ static inline void BackwardColumns(const double *B, int w, int m, const int *R, 
   }
 }
 
-void SupernodalFactor::Forward(V4 *z) const
+void SupernodalFactor::Forward(V4 *z, int ncols) const
 {
   const int nsn = (int)start_.size() - 1;
-  for (int s = 0; s < nsn; s++) {
+  for (int s = 0; s < nsn && start_[s] < ncols; s++) {
     const int     c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
     const double *D = &val_[vptr_[s]], *B = D + (size_t)w * (w - 1) / 2;
     const int    *R = &rows_[rptr_[s]];
@@ -118,9 +118,11 @@ void SupernodalFactor::Forward(V4 *z) const
   }
 }
 
-void SupernodalFactor::Backward(V4 *z) const
+void SupernodalFactor::Backward(V4 *z, int ncols) const
 {
-  for (int s = (int)start_.size() - 2; s >= 0; s--) {
+  int last = (int)start_.size() - 2;
+  while (last >= 0 && start_[last] >= ncols) last--;
+  for (int s = last; s >= 0; s--) {
     const int     c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
     const double *D = &val_[vptr_[s]], *B = D + (size_t)w * (w - 1) / 2;
     const int    *R = &rows_[rptr_[s]];
@@ -143,7 +145,7 @@ void SupernodalFactor::Backward(V4 *z) const
 
 void SupernodalFactor::Solve(V4 *z) const
 {
-  Forward(z);
-  Backward(z);
+  Forward(z, n_);
+  Backward(z, n_);
 }
 } // namespace msim

@@ -13,12 +13,15 @@ typedef double V4 __attribute__((vector_size(32)));
 
 class SupernodalFactor {
 public:
-  /* From a CSC lower factor whose columns list the diagonal first and their rows ascending. */
-  void Build(int n, const int *colptr, const int *row, const double *val);
+  /* From a CSC lower factor whose columns list the diagonal first and their rows ascending; no
+     supernode straddles column split (the solves can stop there). */
+  void Build(int n, const int *colptr, const int *row, const double *val, int split = -1);
   /* z (n rows of 4 lanes, right-hand sides in the lanes) := A^-1 z, in the factor's ordering */
   void Solve(V4 *z) const;
-  void Forward(V4 *z) const;  /* L y = b */
-  void Backward(V4 *z) const; /* L^T x = y */
+  /* L y = b and L^T x = y over the first ncols columns only (ncols at a split, or n): Forward
+     also updates the rows below them, Backward reads them. */
+  void Forward(V4 *z, int ncols) const;
+  void Backward(V4 *z, int ncols) const;
   int     Size() const { return n_; }
   int     Supernodes() const { return (int)start_.size() - 1; }
   int64_t Entries() const { return (int64_t)val_.size() + n_; }

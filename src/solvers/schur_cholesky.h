@@ -1,0 +1,33 @@
+/* Sparse Cholesky of a distributed SPD matrix by one level of domain decomposition: each rank's
+   rows split into interior rows (coupled to its own rows only) and interface rows (coupled to
+   another rank's). The interior rows are eliminated rank by rank with a local sparse factor whose
+   interface rows come last; what is left is the Schur complement on the interface rows of all
+   ranks, small and dense, factored on every rank. A solve sweeps the local factor's interior
+   columns forward, gathers the interface right-hand sides (one MPI_Allgatherv), solves the dense
+   system, and sweeps back: each rank touches only its own part of the sparse factor. */
+#pragma once
+#include "supernodal.h"
+#include <msim/sys.h>
+#include <vector>
+
+namespace msim {
+class SchurCholesky {
+public:
+  /* Collective. A: MPIAIJ, symmetric positive definite. */
+  PetscErrorCode SetUp(Mat A);
+  /* x = A^-1 b for the owned rows of nrhs <= 4 columns stored interleaved. Collective. */
+  PetscErrorCode Solve(PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
+  int64_t        LocalEntries() const { return local_.Entries(); }
+  PetscInt       InterfaceSize() const { return ntotal_; }
+
+private:
+  MPI_Comm                 comm_ = MPI_COMM_NULL;
+  PetscInt                 nlocal_ = 0, ninterior_ = 0, ninterface_ = 0;
+  PetscInt                 ntotal_ = 0, offset_ = 0; /* interface rows of all ranks; this rank's first */
+  std::vector<int>         perm_;                    /* owned row i is row perm_[i] of the local factor */
+  SupernodalFactor         local_;                   /* interior columns first, interface last */
+  std::vector<PetscMPIInt> counts_, displs_;         /* interface rows per rank, in doubles (4 lanes) */
+  std::vector<double>      schur_;                   /* dense Cholesky factor of the Schur complement, row-major */
+  std::vector<V4>          z_, c_;
+};
+} // namespace msim

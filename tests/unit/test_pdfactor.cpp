@@ -1,0 +1,109 @@
+/* The PD factorization: msim's msimllt (serial supernodal Cholesky; on several ranks local factors
+   plus the dense interface Schur complement) solves (M + h^2 L) x = b for the x, y and z columns
+   as MUMPS's Cholesky does, to 1e-10 relative, through each of its entry points (the interleaved
+   fast path PD uses, PCApply on one column, PCMatApply on several), on cloths and a chain, at any
+   rank count (ctest runs it at 1, 2 and 3). */
+#include "harness.h"
+
+static PetscErrorCode CompareWithMUMPS(const char *scene)
+{
+  TestSim      s;
+  MSimImplicit imp;
+  KSP          ref;
+  PC           pc, llt;
+  Vec          b, x, xref, bs, xs;
+  Mat          B, X;
+  PetscReal    nrm, d;
+  PetscRandom  rnd;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate(scene, &s));
+  PetscCall(MSimImplicitCreate(s.sys, &imp));
+  imp->h = 1.0 / 30;
+  PetscCall(MSimImplicitPDSetUp(imp));
+  PetscCall(KSPGetPC(imp->pdksp, &llt));
+  PetscCall(KSPCreate(PETSC_COMM_WORLD, &ref));
+  PetscCall(KSPSetOperators(ref, imp->A, imp->A));
+  PetscCall(KSPSetType(ref, KSPPREONLY));
+  PetscCall(KSPGetPC(ref, &pc));
+  PetscCall(PCSetType(pc, PCCHOLESKY));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscCall(VecDuplicate(s.X, &b));
+  PetscCall(VecDuplicate(s.X, &x));
+  PetscCall(VecDuplicate(s.X, &xref));
+  PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &rnd));
+  PetscCall(VecSetRandom(b, rnd));
+  PetscCall(MatCreateVecs(imp->A, &xs, &bs));
+  for (PetscInt c = 0; c < 3; c++) { /* the reference, column by column */
+    PetscCall(VecStrideGather(b, c, bs, INSERT_VALUES));
+    PetscCall(KSPSolve(ref, bs, xs));
+    PetscCall(VecStrideScatter(xs, c, xref, INSERT_VALUES));
+  }
+  PetscCall(VecNorm(xref, NORM_2, &nrm));
+  /* the interleaved path of the PD global step */
+  PetscCall(MSimImplicitPDSolve(imp, b, x));
+  PetscCall(VecAXPY(x, -1.0, xref));
+  PetscCall(VecNorm(x, NORM_2, &d));
+  NOTE("%s: msimllt (x, y, z together) vs MUMPS: relative difference %.2e\n", scene, (double)(d / nrm));
+  CHECK(d <= 1e-10 * nrm, "%s: msimllt differs from MUMPS by %g relative", scene, (double)(d / nrm));
+  /* PCApply, one column */
+  PetscCall(VecStrideGather(b, 1, bs, INSERT_VALUES));
+  PetscCall(PCApply(llt, bs, xs));
+  PetscCall(VecStrideGather(xref, 1, bs, INSERT_VALUES));
+  PetscCall(VecAXPY(xs, -1.0, bs));
+  PetscCall(VecNorm(xs, NORM_2, &d));
+  PetscCall(VecNorm(bs, NORM_2, &nrm));
+  CHECK(d <= 1e-10 * nrm, "%s: msimllt PCApply differs from MUMPS by %g relative", scene, (double)(d / nrm));
+  /* PCMatApply, five columns (a group of four and one) */
+  {
+    PetscInt           nloc, N;
+    const PetscScalar *xr;
+    PetscScalar       *bb;
+    PetscCall(VecGetLocalSize(bs, &nloc));
+    PetscCall(VecGetSize(bs, &N));
+    PetscCall(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, N, 5, NULL, &B));
+    PetscCall(MatCreateDense(PETSC_COMM_WORLD, nloc, PETSC_DECIDE, N, 5, NULL, &X));
+    PetscCall(MatDenseGetArrayWrite(B, &bb));
+    for (PetscInt q = 0; q < 5; q++) {
+      PetscCall(VecStrideGather(b, q % 3, bs, INSERT_VALUES));
+      PetscCall(VecGetArrayRead(bs, &xr));
+      for (PetscInt i = 0; i < nloc; i++) bb[q * nloc + i] = xr[i];
+      PetscCall(VecRestoreArrayRead(bs, &xr));
+    }
+    PetscCall(MatDenseRestoreArrayWrite(B, &bb));
+    PetscCall(PCMatApply(llt, B, X));
+    for (PetscInt q = 0; q < 5; q++) {
+      Vec col;
+      PetscCall(MatDenseGetColumnVecRead(X, q, &col));
+      PetscCall(VecStrideGather(xref, q % 3, bs, INSERT_VALUES));
+      PetscCall(VecWAXPY(xs, -1.0, bs, col));
+      PetscCall(MatDenseRestoreColumnVecRead(X, q, &col));
+      PetscCall(VecNorm(xs, NORM_2, &d));
+      PetscCall(VecNorm(bs, NORM_2, &nrm));
+      CHECK(d <= 1e-10 * nrm, "%s: msimllt PCMatApply column %" PetscInt_FMT " differs from MUMPS by %g relative", scene, q, (double)(d / nrm));
+    }
+    PetscCall(MatDestroy(&B));
+    PetscCall(MatDestroy(&X));
+  }
+  PetscCall(PetscRandomDestroy(&rnd));
+  PetscCall(VecDestroy(&b));
+  PetscCall(VecDestroy(&x));
+  PetscCall(VecDestroy(&xref));
+  PetscCall(VecDestroy(&bs));
+  PetscCall(VecDestroy(&xs));
+  PetscCall(KSPDestroy(&ref));
+  PetscCall(MSimImplicitDestroy(&imp));
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestPDFactor(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(CompareWithMUMPS("-msim_cloth_n 31 -msim_integrator implicit_euler"));
+  PetscCall(CompareWithMUMPS("-msim_cloth_n 24 -msim_fix edge -msim_damping 0.5 -msim_drag 0.01 -msim_integrator implicit_euler"));
+  PetscCall(CompareWithMUMPS("-msim_scene chain -msim_chain_n 40 -msim_fix corners -msim_integrator implicit_euler"));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+MSIM_TEST_MAIN(TestPDFactor)
