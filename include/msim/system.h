@@ -6,15 +6,39 @@
 #include <msim/scene.h>
 #include <vector>
 
-/* Owned springs as arrays. Endpoints are local vertex slots: [0, nown) owned (also the rows of the
-   rank's block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices. The first ninner
-   springs have both ends owned: the hot loops (spring_sweep.h) read and write Vec arrays directly
-   for them; the other n - ninner touch a ghost or a fixed vertex. */
+/* Owned springs. Endpoints are local vertex slots: [0, nown) owned (also the rows of the rank's
+   block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices.
+   Springs with both ends owned are stored by slices for the hot loop (spring_sweep.h): slice c
+   holds the springs of the four owned vertices 4c .. 4c+3 towards lower-numbered vertices, slot
+   by slot (slots cptr[c] .. cptr[c+1]); slot q gives lane l the spring from vertex 4c + l to
+   sj[4q + l] (a lane with fewer springs is padded with sk = 0 and sj = the vertex itself). The
+   remaining springs are plain arrays: first the owned-owned ones of vertices past the last full
+   slice (ninner of them), then those with a ghost or fixed end. */
+/* One vertex's x, y, z and a pad, aligned for one 4-wide load and store */
+struct alignas(32) MSimRow4 {
+  PetscReal v[4];
+};
+
 typedef struct {
+  PetscInt               nslice;
+  std::vector<PetscInt>  cptr, sj;
+  std::vector<PetscReal> sk, sL;
   std::vector<PetscInt>  i, j;
   std::vector<PetscReal> k, L;
-  PetscInt               n, ninner;
+  PetscInt               n, ninner; /* entries of i, j, k, L; the owned-owned ones among them */
+  PetscInt               total;     /* owned springs in all */
 } MSimSprings;
+
+/* Calls f(i, j, k, L) for every owned spring (slots as above). */
+template <class F>
+static inline void MSimSpringsForEach(const MSimSprings &sp, F &&f)
+{
+  for (PetscInt c = 0; c < sp.nslice; c++)
+    for (PetscInt q = sp.cptr[c]; q < sp.cptr[c + 1]; q++)
+      for (PetscInt l = 0; l < 4; l++)
+        if (sp.sj[4 * q + l] != 4 * c + l) f(4 * c + l, sp.sj[4 * q + l], sp.sk[4 * q + l], sp.sL[4 * q + l]);
+  for (PetscInt s = 0; s < sp.n; s++) f(sp.i[s], sp.j[s], sp.k[s], sp.L[s]);
+}
 
 typedef struct _n_MSimSystem *MSimSystem;
 struct _n_MSimSystem {
@@ -32,6 +56,7 @@ struct _n_MSimSystem {
   PetscReal   total_mass, diameter;
   Vec         mass;                 /* per dof (block size 3), global layout */
   Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
+  std::vector<MSimRow4> f4;         /* nown rows, zero between uses: the sliced sweep's sums */
   VecScatter  g2l;                  /* global free -> owned+ghost slots */
   VecScatter  ghosts;               /* global free -> ghost slots only */
   Vec         X0, V0;               /* initial state */

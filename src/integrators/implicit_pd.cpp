@@ -27,19 +27,19 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
   PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
-  for (PetscInt s = 0; s < sys->springs.n; s++) {
-    const PetscInt  i = sys->springs.i[s], j = sys->springs.j[s];
-    const PetscReal w  = h * h * sys->springs.k[s] + h * sys->damping;
-    const bool      fi = i < nfl, fj = j < nfl;
-    const PetscInt  gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
+  PetscErrorCode ierr = 0;
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal) {
+    const PetscReal   w  = h * h * k + h * sys->damping;
+    const bool        fi = i < nfl, fj = j < nfl;
+    const PetscInt    gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
     const PetscScalar wn = -w;
-    if (fi) PetscCall(MatSetValue(imp->A, gi, gi, w, ADD_VALUES));
-    if (fj) PetscCall(MatSetValue(imp->A, gj, gj, w, ADD_VALUES));
-    if (fi && fj) {
-      PetscCall(MatSetValue(imp->A, gi, gj, wn, ADD_VALUES));
-      PetscCall(MatSetValue(imp->A, gj, gi, wn, ADD_VALUES));
-    }
-  }
+    if (ierr) return;
+    if (fi) ierr = MatSetValue(imp->A, gi, gi, w, ADD_VALUES);
+    if (fj && !ierr) ierr = MatSetValue(imp->A, gj, gj, w, ADD_VALUES);
+    if (fi && fj && !ierr) ierr = MatSetValue(imp->A, gi, gj, wn, ADD_VALUES);
+    if (fi && fj && !ierr) ierr = MatSetValue(imp->A, gj, gi, wn, ADD_VALUES);
+  });
+  PetscCall(ierr);
   PetscCall(VecGetArrayRead(sys->mass, &m));
   for (PetscInt i = 0; i < sys->nown; i++) PetscCall(MatSetValue(imp->A, sys->rstart + i, sys->rstart + i, m[3 * i] + h * sys->drag, ADD_VALUES));
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
@@ -79,36 +79,29 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Springs through the local slots (xloc: ghost and fixed slots filled; the owned rows of x and rhs
-   are the Vec arrays xo and ro; ghost contributions go to floc): the PD projection, the damping
+/* One spring through the local slots (xloc: ghost and fixed slots filled; the owned rows of x and
+   rhs are the Vec arrays xo and ro; ghost contributions go to floc): the PD projection, the damping
    term with the spring axes of x_n (xn, all slots, or NULL), and the coupling to fixed ends. */
-static void PDSpringsSlots(MSimImplicit imp, PetscInt s0, PetscInt s1, const PetscScalar *xo, const PetscScalar *xl, const PetscScalar *xn, PetscScalar *ro, PetscScalar *fl, PetscReal *energy)
+static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, PetscReal k, PetscReal L, const PetscScalar *xo, const PetscScalar *xl, const PetscScalar *xn, PetscScalar *ro, PetscScalar *fl, PetscReal *energy)
 {
-  MSimSystem         sys = imp->sys;
-  const MSimSprings &sp  = sys->springs;
-  const PetscInt     nfl = sys->nown + sys->nghost, nown = sys->nown;
-  const PetscReal    h = imp->h, hkd = h * sys->damping;
-  PetscReal          e = 0;
-
-  for (PetscInt s = s0; s < s1; s++) {
-    const PetscInt  i = sp.i[s], j = sp.j[s];
-    const Vec3      xi = CMap3((i < nown ? xo : xl) + 3 * i), xj = CMap3((j < nown ? xo : xl) + 3 * j);
-    const PetscReal w1 = h * h * sp.k[s];
-    Vec3            p  = w1 * msim::SpringProjection(xi, xj, sp.L[s]);
-    if (energy) e += h * h * msim::SpringEnergy(xi, xj, sp.k[s], sp.L[s]);
-    if (xn) {
-      const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized(), u = xi - xj - dn;
-      p += hkd * (dn + u - n.dot(u) * n);
-      if (energy) e += 0.5 * hkd * n.dot(u) * n.dot(u);
-    }
-    /* a fixed end moves its coupling term to the right-hand side */
-    const PetscReal w = w1 + (xn ? hkd : 0.0);
-    if (j >= nfl) p += w * xj;
-    if (i >= nfl) p -= w * xi;
-    Map3((i < nown ? ro : fl) + 3 * i) += p;
-    Map3((j < nown ? ro : fl) + 3 * j) -= p;
+  MSimSystem      sys = imp->sys;
+  const PetscInt  nfl = sys->nown + sys->nghost, nown = sys->nown;
+  const PetscReal h = imp->h, hkd = h * sys->damping;
+  const Vec3      xi = CMap3((i < nown ? xo : xl) + 3 * i), xj = CMap3((j < nown ? xo : xl) + 3 * j);
+  const PetscReal w1 = h * h * k;
+  Vec3            p  = w1 * msim::SpringProjection(xi, xj, L);
+  if (energy) *energy += h * h * msim::SpringEnergy(xi, xj, k, L);
+  if (xn) {
+    const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized(), u = xi - xj - dn;
+    p += hkd * (dn + u - n.dot(u) * n);
+    if (energy) *energy += 0.5 * hkd * n.dot(u) * n.dot(u);
   }
-  if (energy) *energy += e;
+  /* a fixed end moves its coupling term to the right-hand side */
+  const PetscReal w = w1 + (xn ? hkd : 0.0);
+  if (j >= nfl) p += w * xj;
+  if (i >= nfl) p -= w * xi;
+  Map3((i < nown ? ro : fl) + 3 * i) += p;
+  Map3((j < nown ? ro : fl) + 3 * j) -= p;
 }
 
 /* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X; with phi,
@@ -144,13 +137,14 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));
-  /* the springs */
-  PetscInt s0 = 0;
+  /* the springs: without damping, the owned ones through the vectorized sweeps while the ghost
+     positions travel, then those with a ghost or fixed end; with damping, all through the slots */
   if (!damped) {
     PetscReal es = 0;
+    MSimSpringSweepSlices(sp.nslice, sp.cptr.data(), sp.sj.data(), sp.sk.data(), sp.sL.data(), x, sys->f4[0].v, 0.0, h * h, phi ? &es : NULL);
     MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, 0.0, h * h, phi ? &es : NULL);
+    MSimSpringFold(4 * sp.nslice, sys->f4[0].v, r);
     energy += h * h * es;
-    s0 = sp.ninner;
     PetscCall(VecRestoreArrayRead(X, &x));
     PetscCall(MSimSystemGhostsEnd(sys, imp->t + h, X, sys->xloc));
     PetscCall(VecGetArrayRead(X, &x));
@@ -158,7 +152,12 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
   PetscCall(VecGetArray(sys->floc, &fl));
   PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
   PetscCall(VecGetArrayRead(sys->xloc, &xl));
-  PDSpringsSlots(imp, s0, sp.n, x, xl, xn, r, fl, phi ? &energy : NULL);
+  {
+    PetscReal *e = phi ? &energy : NULL;
+    if (damped) MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) { PDSpringSlots(imp, i, j, k, L, x, xl, xn, r, fl, e); });
+    else
+      for (PetscInt s = sp.ninner; s < sp.n; s++) PDSpringSlots(imp, sp.i[s], sp.j[s], sp.k[s], sp.L[s], x, xl, NULL, r, fl, e);
+  }
   PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
   PetscCall(VecRestoreArray(sys->floc, &fl));
   PetscCall(VecRestoreArrayRead(X, &x));

@@ -98,14 +98,13 @@ PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G)
     PetscCall(VecGetArrayRead(sys->xloc, &x));
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
     PetscCall(VecGetArray(sys->floc, &f));
-    for (PetscInt s = 0; s < sp.n; s++) {
-      const PetscInt i = sp.i[s], j = sp.j[s];
-      const Vec3     dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized();
-      Vec3           r  = -h2 * msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), sp.k[s], sp.L[s]);
+    MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
+      const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized();
+      Vec3       r  = -h2 * msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L);
       r += (hkd * n.dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn)) * n;
       Map3(f + 3 * i) += r;
       Map3(f + 3 * j) -= r;
-    }
+    });
     PetscCall(VecRestoreArray(sys->floc, &f));
     PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
     PetscCall(VecRestoreArrayRead(sys->xloc, &x));
@@ -131,12 +130,11 @@ PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi)
     PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
     PetscCall(VecGetArrayRead(sys->xloc, &x));
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
-    for (PetscInt s = 0; s < sp.n; s++) {
-      const PetscInt i = sp.i[s], j = sp.j[s];
-      const Vec3     dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j);
-      const double   a  = dn.normalized().dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn);
-      local += h * h * msim::SpringEnergy(CMap3(x + 3 * i), CMap3(x + 3 * j), sp.k[s], sp.L[s]) + 0.5 * hkd * a * a;
-    }
+    MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
+      const Vec3   dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j);
+      const double a  = dn.normalized().dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn);
+      local += h * h * msim::SpringEnergy(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L) + 0.5 * hkd * a * a;
+    });
     PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
     PetscCall(VecRestoreArrayRead(sys->xloc, &x));
   }

@@ -46,7 +46,9 @@ PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, 
   PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
   PetscCall(VecGetArrayRead(X, &x));
   if (F) PetscCall(VecGetArray(F, &f));
+  MSimSpringSweepSlices(sp.nslice, sp.cptr.data(), sp.sj.data(), sp.sk.data(), sp.sL.data(), x, F ? sys->f4[0].v : NULL, alpha, beta, energy ? &e : NULL);
   MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, f, alpha, beta, energy ? &e : NULL);
+  if (F) MSimSpringFold(4 * sp.nslice, sys->f4[0].v, f);
   PetscCall(VecRestoreArrayRead(X, &x));
   if (F) PetscCall(VecRestoreArray(F, &f));
   PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));
@@ -68,7 +70,7 @@ PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, 
     if (sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, F));
   }
   if (energy) PetscCall(MPIU_Allreduce(&e, energy, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  PetscCall(PetscLogFlops((F ? 30.0 : 12.0) * sp.n));
+  PetscCall(PetscLogFlops((F ? 30.0 : 12.0) * sp.total));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -86,18 +88,17 @@ static PetscErrorCode MSimSystemDampedSpringForce(MSimSystem sys, PetscReal t, V
   PetscCall(VecGetArrayRead(sys->xloc, &x));
   PetscCall(VecGetArrayRead(sys->vloc, &v));
   PetscCall(VecGetArray(sys->floc, &f));
-  for (PetscInt s = 0; s < sp.n; s++) {
-    const PetscInt i = sp.i[s], j = sp.j[s];
-    Vec3           fi = msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), sp.k[s], sp.L[s]);
+  MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
+    Vec3 fi = msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L);
     fi += msim::SpringDampingForce(CMap3(x + 3 * i), CMap3(x + 3 * j), CMap3(v + 3 * i), CMap3(v + 3 * j), sys->damping);
     Map3(f + 3 * i) += fi;
     Map3(f + 3 * j) -= fi;
-  }
+  });
   PetscCall(VecRestoreArray(sys->floc, &f));
   PetscCall(VecRestoreArrayRead(sys->vloc, &v));
   PetscCall(VecRestoreArrayRead(sys->xloc, &x));
   PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, F));
-  PetscCall(PetscLogFlops(60.0 * sp.n));
+  PetscCall(PetscLogFlops(60.0 * sp.total));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -157,10 +158,10 @@ PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
   /* row sums of |K| at rest: each spring contributes k to both ends' diagonal and off-diagonal */
   PetscCall(VecZeroEntries(sys->floc));
   PetscCall(VecGetArray(sys->floc, &f));
-  for (PetscInt s = 0; s < sp.n; s++) {
-    f[3 * sp.i[s]] += sp.k[s];
-    f[3 * sp.j[s]] += sp.k[s];
-  }
+  MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal) {
+    f[3 * i] += k;
+    f[3 * j] += k;
+  });
   PetscCall(VecRestoreArray(sys->floc, &f));
   PetscCall(VecDuplicate(sys->mass, &ksum));
   PetscCall(VecZeroEntries(ksum));

@@ -23,13 +23,12 @@ PetscErrorCode MSimSystemGraphPreallocation(MSimSystem sys, std::vector<PetscInt
   PetscCall(VecZeroEntries(nnz));
   PetscCall(VecGetArray(nnz, &c));
   for (PetscInt i = 0; i < sys->nown; i++) c[3 * i] = 1; /* the diagonal block */
-  for (PetscInt s = 0; s < sys->springs.n; s++) {
-    const PetscInt i = sys->springs.i[s], j = sys->springs.j[s];
-    if (i >= nfree_local || j >= nfree_local) continue; /* a fixed end adds no off-diagonal block */
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) {
+    if (i >= nfree_local || j >= nfree_local) return; /* a fixed end adds no off-diagonal block */
     const bool local = i < sys->nown && j < sys->nown;
     c[3 * i + (local ? 0 : 1)] += 1;
     c[3 * j + (local ? 0 : 1)] += 1;
-  }
+  });
   PetscCall(VecRestoreArray(nnz, &c));
   PetscCall(VecDuplicate(sys->mass, &gnnz));
   PetscCall(VecZeroEntries(gnnz));
@@ -83,9 +82,9 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
   }
   PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
   PetscCall(VecGetArrayRead(sys->xloc, &x));
-  for (PetscInt s = 0; s < sys->springs.n; s++) {
-    const PetscInt i = sys->springs.i[s], j = sys->springs.j[s];
-    Mat3           H = stiff_coef * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), sys->springs.k[s], sys->springs.L[s], (bool)psd);
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
+    if (ierr) return;
+    Mat3 H = stiff_coef * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L, (bool)psd);
     if (xn) {
       const Vec3 n = (CMap3(xn + 3 * i) - CMap3(xn + 3 * j)).normalized();
       H += (damp_coef * sys->damping) * (n * n.transpose());
@@ -93,14 +92,14 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
     const bool     fi = i < nfree_local, fj = j < nfree_local;
     const PetscInt gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
     if (fi) AddBlock(A, gi, gi, H, &ierr);
-    if (fj) AddBlock(A, gj, gj, H, &ierr);
-    if (fi && fj) {
+    if (fj && !ierr) AddBlock(A, gj, gj, H, &ierr);
+    if (fi && fj && !ierr) {
       const Mat3 Hn = -H;
       AddBlock(A, gi, gj, Hn, &ierr);
-      AddBlock(A, gj, gi, Hn, &ierr);
+      if (!ierr) AddBlock(A, gj, gi, Hn, &ierr);
     }
-    PetscCall(ierr);
-  }
+  });
+  PetscCall(ierr);
   PetscCall(VecRestoreArrayRead(sys->xloc, &x));
   if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
   /* diagonal: mass and drag */

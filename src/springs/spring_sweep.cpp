@@ -98,6 +98,103 @@ static void Sweep(PetscInt n, const PetscInt *i, const PetscInt *j, const PetscR
 }
 #endif
 
+#if defined(__AVX2__) && defined(__FMA__)
+template <bool F, bool E>
+static void SweepSlices(PetscInt nslice, const PetscInt *cptr, const PetscInt *sj, const PetscReal *sk, const PetscReal *sL, const PetscReal *x, PetscReal *f4, PetscReal alpha, PetscReal beta, PetscReal *e2)
+{
+  const __m256d va = _mm256_set1_pd(alpha), vb = _mm256_set1_pd(beta), zero = _mm256_setzero_pd();
+  __m256d       ve = zero;
+  for (PetscInt c = 0; c < nslice; c++) {
+    const double *xv = x + 12 * c;
+    const __m256d x0 = Load3(xv), x1 = Load3(xv + 3), x2 = Load3(xv + 6), x3 = Load3(xv + 9);
+    __m256d       a0 = zero, a1 = zero, a2 = zero, a3 = zero;
+    for (PetscInt q = cptr[c]; q < cptr[c + 1]; q++) {
+      const PetscInt *J  = sj + 4 * q;
+      const __m256d   d0 = _mm256_sub_pd(x0, Load3(x + 3 * J[0]));
+      const __m256d   d1 = _mm256_sub_pd(x1, Load3(x + 3 * J[1]));
+      const __m256d   d2 = _mm256_sub_pd(x2, Load3(x + 3 * J[2]));
+      const __m256d   d3 = _mm256_sub_pd(x3, Load3(x + 3 * J[3]));
+      const __m256d   t01 = _mm256_hadd_pd(_mm256_mul_pd(d0, d0), _mm256_mul_pd(d1, d1));
+      const __m256d   t23 = _mm256_hadd_pd(_mm256_mul_pd(d2, d2), _mm256_mul_pd(d3, d3));
+      const __m256d   l   = _mm256_sqrt_pd(_mm256_add_pd(_mm256_permute2f128_pd(t01, t23, 0x20), _mm256_permute2f128_pd(t01, t23, 0x31)));
+      const __m256d   vk = _mm256_loadu_pd(sk + 4 * q), vL = _mm256_loadu_pd(sL + 4 * q);
+      if (E) {
+        const __m256d e = _mm256_sub_pd(l, vL); /* 0 in padded lanes: l = L = 0 */
+        ve              = _mm256_fmadd_pd(_mm256_mul_pd(vk, e), e, ve);
+      }
+      if (F) {
+        /* padded lanes (k = 0, l = 0) give 0/0: masked to zero */
+        const __m256d c4 = _mm256_and_pd(_mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va)), _mm256_cmp_pd(vk, zero, _CMP_NEQ_OQ));
+        const __m256d f0 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0x00), d0);
+        const __m256d f1 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0x55), d1);
+        const __m256d f2 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0xAA), d2);
+        const __m256d f3 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0xFF), d3);
+        a0 = _mm256_add_pd(a0, f0);
+        a1 = _mm256_add_pd(a1, f1);
+        a2 = _mm256_add_pd(a2, f2);
+        a3 = _mm256_add_pd(a3, f3);
+        double *p;
+        p = f4 + 4 * J[0], _mm256_store_pd(p, _mm256_sub_pd(_mm256_load_pd(p), f0));
+        p = f4 + 4 * J[1], _mm256_store_pd(p, _mm256_sub_pd(_mm256_load_pd(p), f1));
+        p = f4 + 4 * J[2], _mm256_store_pd(p, _mm256_sub_pd(_mm256_load_pd(p), f2));
+        p = f4 + 4 * J[3], _mm256_store_pd(p, _mm256_sub_pd(_mm256_load_pd(p), f3));
+      }
+    }
+    if (F) {
+      double *p = f4 + 16 * c;
+      _mm256_store_pd(p, _mm256_add_pd(_mm256_load_pd(p), a0));
+      _mm256_store_pd(p + 4, _mm256_add_pd(_mm256_load_pd(p + 4), a1));
+      _mm256_store_pd(p + 8, _mm256_add_pd(_mm256_load_pd(p + 8), a2));
+      _mm256_store_pd(p + 12, _mm256_add_pd(_mm256_load_pd(p + 12), a3));
+    }
+  }
+  if (E) {
+    double lanes[4];
+    _mm256_storeu_pd(lanes, ve);
+    *e2 += (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]);
+  }
+}
+#else
+template <bool F, bool E>
+static void SweepSlices(PetscInt nslice, const PetscInt *cptr, const PetscInt *sj, const PetscReal *sk, const PetscReal *sL, const PetscReal *x, PetscReal *f4, PetscReal alpha, PetscReal beta, PetscReal *e2)
+{
+  for (PetscInt c = 0; c < nslice; c++)
+    for (PetscInt q = cptr[c]; q < cptr[c + 1]; q++)
+      for (PetscInt lane = 0; lane < 4; lane++) {
+        const PetscInt   v = 4 * c + lane, j = sj[4 * q + lane];
+        const PetscReal  k = sk[4 * q + lane], L = sL[4 * q + lane];
+        const PetscReal *xi = x + 3 * v, *xj = x + 3 * j;
+        const PetscReal  d0 = xi[0] - xj[0], d1 = xi[1] - xj[1], d2 = xi[2] - xj[2];
+        const PetscReal  l  = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
+        if (k == 0) continue;
+        if (E) *e2 += k * (l - L) * (l - L);
+        if (F) {
+          const PetscReal cc = k * (alpha + beta * L / l);
+          f4[4 * v] += cc * d0, f4[4 * v + 1] += cc * d1, f4[4 * v + 2] += cc * d2;
+          f4[4 * j] -= cc * d0, f4[4 * j + 1] -= cc * d1, f4[4 * j + 2] -= cc * d2;
+        }
+      }
+}
+#endif
+
+void MSimSpringSweepSlices(PetscInt nslice, const PetscInt *cptr, const PetscInt *sj, const PetscReal *sk, const PetscReal *sL, const PetscReal *x, PetscReal *f4, PetscReal alpha, PetscReal beta, PetscReal *energy)
+{
+  PetscReal e2 = 0;
+  if (f4 && energy) SweepSlices<true, true>(nslice, cptr, sj, sk, sL, x, f4, alpha, beta, &e2);
+  else if (f4) SweepSlices<true, false>(nslice, cptr, sj, sk, sL, x, f4, alpha, beta, &e2);
+  else if (energy) SweepSlices<false, true>(nslice, cptr, sj, sk, sL, x, f4, alpha, beta, &e2);
+  if (energy) *energy += 0.5 * e2;
+}
+
+void MSimSpringFold(PetscInt n, PetscReal *f4, PetscReal *f)
+{
+  for (PetscInt v = 0; v < n; v++)
+    for (int c = 0; c < 3; c++) {
+      f[3 * v + c] += f4[4 * v + c];
+      f4[4 * v + c] = 0;
+    }
+}
+
 void MSimSpringSweep(PetscInt n, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *energy)
 {
   PetscReal e2 = 0;

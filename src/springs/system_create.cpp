@@ -124,12 +124,42 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     return ghost.at(g);
   };
   {
-    /* springs with both ends owned first (the hot loops' fast part), then those touching ghost or
-       fixed vertices; input order within each group */
-    MSimSprings &sp = sys->springs;
+    /* owned-owned springs of the first 4 floor(nown / 4) vertices into slices (each spring with
+       the higher-numbered end as its vertex), the rest into the arrays; input order otherwise */
+    MSimSprings                        &sp = sys->springs;
+    std::vector<std::vector<PetscInt>>  lower(sys->nown);
+    std::vector<PetscInt>               other;
+    sp.nslice = sys->nown / 4;
+    sp.total  = 0;
+    for (PetscInt s = 0; s < ns; s++) {
+      if (owner(s) != sys->rank) continue;
+      const PetscInt a = slot_of(S.si[s]), b = slot_of(S.sj[s]), hi = PetscMax(a, b);
+      sp.total++;
+      if (a < sys->nown && b < sys->nown && hi < 4 * sp.nslice) lower[hi].push_back(s);
+      else other.push_back(s);
+    }
+    sp.cptr.assign(1, 0);
+    for (PetscInt c = 0; c < sp.nslice; c++) {
+      size_t slots = 0;
+      for (PetscInt l = 0; l < 4; l++) slots = PetscMax(slots, lower[4 * c + l].size());
+      for (size_t q = 0; q < slots; q++)
+        for (PetscInt l = 0; l < 4; l++) {
+          const PetscInt v = 4 * c + l;
+          if (q < lower[v].size()) {
+            const PetscInt s = lower[v][q], a = slot_of(S.si[s]), b = slot_of(S.sj[s]);
+            sp.sj.push_back(a == v ? b : a);
+            sp.sk.push_back(S.sk[s]);
+            sp.sL.push_back(S.sL[s]);
+          } else {
+            sp.sj.push_back(v);
+            sp.sk.push_back(0.0);
+            sp.sL.push_back(0.0);
+          }
+        }
+      sp.cptr.push_back(sp.cptr.back() + (PetscInt)slots);
+    }
     for (int pass = 0; pass < 2; pass++) {
-      for (PetscInt s = 0; s < ns; s++) {
-        if (owner(s) != sys->rank) continue;
+      for (PetscInt s : other) {
         const PetscInt a = slot_of(S.si[s]), b = slot_of(S.sj[s]);
         if ((a < sys->nown && b < sys->nown) != (pass == 0)) continue;
         sp.i.push_back(a);
@@ -140,6 +170,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
       if (pass == 0) sp.ninner = (PetscInt)sp.i.size();
     }
     sp.n = (PetscInt)sp.i.size();
+    sys->f4.assign(sys->nown, MSimRow4{{0, 0, 0, 0}});
   }
 
   /* boundary: every rank keeps all fixed vertices (they are few: corners, an edge, a face) */
