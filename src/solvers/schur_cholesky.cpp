@@ -116,10 +116,13 @@ PetscErrorCode SchurCholesky::SetUp(Mat A)
   }
   Eigen::LLT<Eigen::MatrixXd> dense(full);
   PetscCheck(dense.info() == Eigen::Success, comm_, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the interface Schur complement is not positive definite");
+  /* L row by row for the forward solve, L^T row by row (L column by column) for the backward one:
+     both then run as dot products over contiguous rows */
   schur_.assign((size_t)ntotal_ * ntotal_, 0.0);
+  schurT_.assign((size_t)ntotal_ * ntotal_, 0.0);
   const Eigen::MatrixXd L = dense.matrixL();
   for (PetscInt r = 0; r < ntotal_; r++)
-    for (PetscInt c = 0; c <= r; c++) schur_[(size_t)r * ntotal_ + c] = L(r, c);
+    for (PetscInt c = 0; c <= r; c++) schur_[(size_t)r * ntotal_ + c] = schurT_[(size_t)c * ntotal_ + r] = L(r, c);
 
   counts_.resize(size);
   displs_.resize(size);
@@ -162,9 +165,17 @@ PetscErrorCode SchurCholesky::Solve(PetscInt nrhs, const PetscScalar *b, PetscSc
     c[r] = ((a0 + a1) + (a2 + a3)) / Splat(l[r]);
   }
   for (PetscInt r = N - 1; r >= 0; r--) {
-    const double *l = &schur_[(size_t)r * N];
-    c[r]            = c[r] / Splat(l[r]);
-    for (PetscInt k = 0; k < r; k++) c[k] -= Splat(l[k]) * c[r];
+    const double *u  = &schurT_[(size_t)r * N];
+    V4            a0 = c[r], a1 = {0, 0, 0, 0}, a2 = a1, a3 = a1;
+    PetscInt      k  = r + 1;
+    for (; k + 4 <= N; k += 4) {
+      a0 -= Splat(u[k]) * c[k];
+      a1 -= Splat(u[k + 1]) * c[k + 1];
+      a2 -= Splat(u[k + 2]) * c[k + 2];
+      a3 -= Splat(u[k + 3]) * c[k + 3];
+    }
+    for (; k < N; k++) a0 -= Splat(u[k]) * c[k];
+    c[r] = ((a0 + a1) + (a2 + a3)) / Splat(u[r]);
   }
   for (PetscInt k = 0; k < ninterface_; k++) z[ninterior_ + k] = c[offset_ + k];
   local_.Backward(z, (int)ninterior_);

@@ -27,7 +27,8 @@ private:
   std::vector<int>         perm_;                    /* owned row i is row perm_[i] of the local factor */
   SupernodalFactor         local_;                   /* interior columns first, interface last */
   std::vector<PetscMPIInt> counts_, displs_;         /* interface rows per rank, in doubles (4 lanes) */
-  std::vector<double>      schur_;                   /* dense Cholesky factor of the Schur complement, row-major */
+  std::vector<double>      schur_, schurT_;          /* dense Cholesky factor L of the Schur complement and
+                                                        L^T, row-major */
   std::vector<V4>          z_, c_;
 };
 } // namespace msim
