@@ -1,10 +1,13 @@
 #!/usr/bin/env python3
 """Explicit step cost per spring: cloth N = 64, 128, 256, 512 at 1 and 2 ranks, symplectic Euler.
 Reads PETSc's -log_view (MSimForce: the force evaluation; MSimStep: the whole step) and
--memory_view (maximum resident memory). Writes runs/bench/explicit.csv and explicit.png.
-Bytes per spring counted: the spring record (i, j as int32, k and L as double: 24 B) plus the
-position read and force write of its vertices, amortized over the springs per vertex
-(2 x 24 B / (springs/vertex), about 8 B on a cloth): 32 B per spring per force evaluation."""
+-memory_view (maximum resident memory), best of 3 runs. Writes runs/bench/explicit.csv and
+explicit.png.
+Bytes per spring a force evaluation must move, as msim stores springs: the spring record (the
+other end as int32, k and L as double: 20 B; the vertex is implied by its slice of four) plus the
+position read and force write of the vertices (2 x 24 B per vertex), shared among the springs
+per vertex (about 6 on a cloth): 28 B per spring. The slices' padding (under 1.5 % here) and the
+scratch rows the sums pass through (in cache) are not counted: they are the loop's overhead."""
 import csv
 import os
 import re
@@ -44,19 +47,25 @@ def main():
             log = "/tmp/msim_bench_log.txt"
             cmd = ["mpirun", "-n", str(np), MSIM, "-msim_cloth_n", str(n), "-msim_dt", "1e-5", "-msim_steps", str(steps),
                    "-msim_spectrum_check", "0", "-msim_divergence_check_every", "1000000", "-log_view", f":{log}", "-memory_view"]
-            r = subprocess.run(cmd, capture_output=True, text=True, env=ENV, cwd=ROOT)
-            if r.returncode:
-                sys.exit(r.stderr)
-            text = open(log).read()
+            best = None
+            for rep in range(3):
+                r = subprocess.run(cmd, capture_output=True, text=True, env=ENV, cwd=ROOT)
+                if r.returncode:
+                    sys.exit(r.stderr)
+                text = open(log).read()
+                if best is None or event(text, "MSimForce")[1] < event(best[0], "MSimForce")[1]:
+                    best = (text, r.stdout)
+            text, r.stdout = best
             nf, tf = event(text, "MSimForce")
             nstep, tstep = event(text, "MSimStep")
             mem = re.search(r"Maximum \(over computational time\) process memory:\s+total\s+(\S+)\s+max\s+(\S+)", r.stdout)
             rss_total, rss_max = float(mem.group(1)), float(mem.group(2))
+            bps = 20.0 + 48.0 * n * n / ns  # bytes per spring (docstring)
             ns_force = tf / nf / ns * 1e9 * np  # core-nanoseconds per spring
             ns_step = tstep / nstep / ns * 1e9 * np
             rows.append(dict(n=n, ranks=np, springs=ns, steps=steps, force_ns_per_spring=round(tf / nf / ns * 1e9, 3),
                              step_ns_per_spring=round(tstep / nstep / ns * 1e9, 3), core_ns_per_spring_force=round(ns_force, 3),
-                             bytes_model_ns_per_spring=round(32.0 / bw, 3), ratio_to_traffic=round(ns_force / (32.0 / bw), 2),
+                             bytes_per_spring=round(bps, 1), traffic_ns_per_spring=round(bps / bw, 3), ratio_to_traffic=round(ns_force / (bps / bw), 2),
                              max_rss_mb_total=round(rss_total / 2**20, 1), max_rss_mb_per_rank=round(rss_max / 2**20, 1),
                              bytes_per_spring_rss=round(rss_total / ns, 1)))
             print(rows[-1])
@@ -73,10 +82,11 @@ def main():
         ax[0].plot([r["springs"] for r in sel], [r["force_ns_per_spring"] for r in sel], "o-", label=f"force, {np} rank(s)")
         ax[0].plot([r["springs"] for r in sel], [r["step_ns_per_spring"] for r in sel], "s--", label=f"whole step, {np} rank(s)")
         ax[1].plot([r["springs"] for r in sel], [r["max_rss_mb_total"] for r in sel], "o-", label=f"{np} rank(s), all ranks")
-    ax[0].axhline(32.0 / bw, color="k", lw=0.8, ls=":", label=f"32 B/spring at {bw:.1f} GB/s (1 core)")
+    ax[0].plot([r["springs"] for r in rows if r["ranks"] == ranks[0]], [r["traffic_ns_per_spring"] for r in rows if r["ranks"] == ranks[0]], "k:", lw=0.8, label=f"its bytes at {bw:.1f} GB/s (1 core)")
+    ax[0].plot([r["springs"] for r in rows if r["ranks"] == ranks[0]], [2 * r["traffic_ns_per_spring"] for r in rows if r["ranks"] == ranks[0]], "k--", lw=0.8, label="2x that (the target)")
     ax[0].set_xscale("log")
     ax[0].set_xlabel("springs")
-    ax[0].set_ylabel("wall ns per spring per step")
+    ax[0].set_ylabel("wall ns per spring")
     ax[0].set_title("Explicit step cost (symplectic Euler, cloth N x N)")
     ax[0].legend(fontsize=8)
     ax[1].set_xscale("log")
