@@ -71,6 +71,9 @@ struct _n_MSimSystem {
 /* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition). */
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *sys);
 PetscErrorCode MSimSystemDestroy(MSimSystem *sys);
+/* Fills sp's slices with the springs (a[s], b[s], k[s], L[s]) between vertices [0, nvert) (the
+   layout above); the indices of the springs of vertices past the last full slice go to rest. */
+PetscErrorCode MSimSpringsSlice(PetscInt nvert, const std::vector<PetscInt> &a, const std::vector<PetscInt> &b, const std::vector<PetscReal> &k, const std::vector<PetscReal> &L, MSimSprings *sp, std::vector<PetscInt> &rest);
 PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v);
 
 /* Local slots from global X at time t (fixed slots from b(t)); the returned array is sys->xloc's. */

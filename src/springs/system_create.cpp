@@ -24,6 +24,45 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimSpringsSlice(PetscInt nvert, const std::vector<PetscInt> &a, const std::vector<PetscInt> &b, const std::vector<PetscReal> &k, const std::vector<PetscReal> &L, MSimSprings *sp, std::vector<PetscInt> &rest)
+{
+  std::vector<std::vector<PetscInt>> lower(nvert);
+
+  PetscFunctionBeginUser;
+  sp->nslice = nvert / 4;
+  sp->cptr.assign(1, 0);
+  sp->sj.clear();
+  sp->sk.clear();
+  sp->sL.clear();
+  rest.clear();
+  for (PetscInt s = 0; s < (PetscInt)a.size(); s++) {
+    const PetscInt hi = PetscMax(a[s], b[s]);
+    PetscCheck(a[s] != b[s] && a[s] >= 0 && b[s] >= 0 && hi < nvert, PETSC_COMM_SELF, PETSC_ERR_PLIB, "spring %" PetscInt_FMT " joins %" PetscInt_FMT " and %" PetscInt_FMT " of %" PetscInt_FMT " vertices", s, a[s], b[s], nvert);
+    if (hi < 4 * sp->nslice) lower[hi].push_back(s);
+    else rest.push_back(s);
+  }
+  for (PetscInt c = 0; c < sp->nslice; c++) {
+    size_t slots = 0;
+    for (PetscInt l = 0; l < 4; l++) slots = PetscMax(slots, lower[4 * c + l].size());
+    for (size_t q = 0; q < slots; q++)
+      for (PetscInt l = 0; l < 4; l++) {
+        const PetscInt v = 4 * c + l;
+        if (q < lower[v].size()) {
+          const PetscInt s = lower[v][q];
+          sp->sj.push_back(a[s] == v ? b[s] : a[s]);
+          sp->sk.push_back(k[s]);
+          sp->sL.push_back(L[s]);
+        } else { /* padding: the vertex itself, k = 0 */
+          sp->sj.push_back(v);
+          sp->sk.push_back(0.0);
+          sp->sL.push_back(0.0);
+        }
+      }
+    sp->cptr.push_back(sp->cptr.back() + (PetscInt)slots);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
 {
   MSimSystem           sys = new _n_MSimSystem();
@@ -124,52 +163,37 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     return ghost.at(g);
   };
   {
-    /* owned-owned springs of the first 4 floor(nown / 4) vertices into slices (each spring with
-       the higher-numbered end as its vertex), the rest into the arrays; input order otherwise */
-    MSimSprings                        &sp = sys->springs;
-    std::vector<std::vector<PetscInt>>  lower(sys->nown);
-    std::vector<PetscInt>               other;
-    sp.nslice = sys->nown / 4;
-    sp.total  = 0;
+    /* owned-owned springs into slices (those of vertices past the last full slice into the
+       arrays), then the springs with a ghost or fixed end; input order otherwise */
+    MSimSprings          &sp = sys->springs;
+    std::vector<PetscInt> ia, ja, rest, other;
+    std::vector<PetscReal> ka, La;
     for (PetscInt s = 0; s < ns; s++) {
       if (owner(s) != sys->rank) continue;
-      const PetscInt a = slot_of(S.si[s]), b = slot_of(S.sj[s]), hi = PetscMax(a, b);
-      sp.total++;
-      if (a < sys->nown && b < sys->nown && hi < 4 * sp.nslice) lower[hi].push_back(s);
-      else other.push_back(s);
+      const PetscInt a = slot_of(S.si[s]), b = slot_of(S.sj[s]);
+      if (a < sys->nown && b < sys->nown) {
+        ia.push_back(a);
+        ja.push_back(b);
+        ka.push_back(S.sk[s]);
+        La.push_back(S.sL[s]);
+      } else other.push_back(s);
     }
-    sp.cptr.assign(1, 0);
-    for (PetscInt c = 0; c < sp.nslice; c++) {
-      size_t slots = 0;
-      for (PetscInt l = 0; l < 4; l++) slots = PetscMax(slots, lower[4 * c + l].size());
-      for (size_t q = 0; q < slots; q++)
-        for (PetscInt l = 0; l < 4; l++) {
-          const PetscInt v = 4 * c + l;
-          if (q < lower[v].size()) {
-            const PetscInt s = lower[v][q], a = slot_of(S.si[s]), b = slot_of(S.sj[s]);
-            sp.sj.push_back(a == v ? b : a);
-            sp.sk.push_back(S.sk[s]);
-            sp.sL.push_back(S.sL[s]);
-          } else {
-            sp.sj.push_back(v);
-            sp.sk.push_back(0.0);
-            sp.sL.push_back(0.0);
-          }
-        }
-      sp.cptr.push_back(sp.cptr.back() + (PetscInt)slots);
+    PetscCall(MSimSpringsSlice(sys->nown, ia, ja, ka, La, &sp, rest));
+    for (PetscInt q : rest) {
+      sp.i.push_back(ia[q]);
+      sp.j.push_back(ja[q]);
+      sp.k.push_back(ka[q]);
+      sp.L.push_back(La[q]);
     }
-    for (int pass = 0; pass < 2; pass++) {
-      for (PetscInt s : other) {
-        const PetscInt a = slot_of(S.si[s]), b = slot_of(S.sj[s]);
-        if ((a < sys->nown && b < sys->nown) != (pass == 0)) continue;
-        sp.i.push_back(a);
-        sp.j.push_back(b);
-        sp.k.push_back(S.sk[s]);
-        sp.L.push_back(S.sL[s]);
-      }
-      if (pass == 0) sp.ninner = (PetscInt)sp.i.size();
+    sp.ninner = (PetscInt)sp.i.size();
+    for (PetscInt s : other) {
+      sp.i.push_back(slot_of(S.si[s]));
+      sp.j.push_back(slot_of(S.sj[s]));
+      sp.k.push_back(S.sk[s]);
+      sp.L.push_back(S.sL[s]);
     }
-    sp.n = (PetscInt)sp.i.size();
+    sp.n     = (PetscInt)sp.i.size();
+    sp.total = (PetscInt)(ia.size() + other.size());
     sys->f4.assign(sys->nown, MSimRow4{{0, 0, 0, 0}});
   }
 
