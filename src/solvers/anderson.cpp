@@ -14,6 +14,7 @@ PetscErrorCode MSimAndersonCreate(Vec tmpl, PetscInt m, MSimAnderson *aa)
   }
   PetscCall(VecDuplicate(tmpl, &aa->f_prev));
   PetscCall(VecDuplicate(tmpl, &aa->g_prev));
+  aa->gram.assign(m * m, 0.0);
   PetscCall(MSimAndersonReset(aa));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -44,10 +45,15 @@ PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accele
   PetscCall(VecAYPX(x, -1.0, g));
   Vec f = x;
   if (aa->m > 0 && aa->have_prev) {
-    PetscCall(VecWAXPY(aa->dF[aa->next], -1.0, aa->f_prev, f));
-    PetscCall(VecWAXPY(aa->dG[aa->next], -1.0, aa->g_prev, g));
+    const PetscInt p = aa->next;
+    PetscCall(VecWAXPY(aa->dF[p], -1.0, aa->f_prev, f));
+    PetscCall(VecWAXPY(aa->dG[p], -1.0, aa->g_prev, g));
     aa->next  = (aa->next + 1) % aa->m;
     aa->count = PetscMin(aa->count + 1, aa->m);
+    /* the Gram matrix keeps its other entries: only the new difference's row and column change */
+    std::vector<PetscScalar> col(aa->count);
+    PetscCall(VecMDot(aa->dF[p], aa->count, aa->dF.data(), col.data()));
+    for (PetscInt q = 0; q < aa->count; q++) aa->gram[p * aa->m + q] = aa->gram[q * aa->m + p] = col[q];
   }
   if (aa->m > 0) {
     PetscCall(VecCopy(f, aa->f_prev));
@@ -59,14 +65,12 @@ PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accele
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   /* normal equations of the small least-squares problem, regularized for near-dependence */
-  const PetscInt              n = aa->count;
-  std::vector<PetscScalar>    col(n);
-  Eigen::MatrixXd             G(n, n);
-  Eigen::VectorXd             b(n);
-  for (PetscInt i = 0; i < n; i++) {
-    PetscCall(VecMDot(aa->dF[i], n, aa->dF.data(), col.data()));
-    for (PetscInt j = 0; j < n; j++) G(i, j) = PetscRealPart(col[j]);
-  }
+  const PetscInt           n = aa->count;
+  std::vector<PetscScalar> col(n);
+  Eigen::MatrixXd          G(n, n);
+  Eigen::VectorXd          b(n);
+  for (PetscInt i = 0; i < n; i++)
+    for (PetscInt j = 0; j < n; j++) G(i, j) = PetscRealPart(aa->gram[i * aa->m + j]);
   PetscCall(VecMDot(f, n, aa->dF.data(), col.data()));
   for (PetscInt i = 0; i < n; i++) b(i) = PetscRealPart(col[i]);
   G.diagonal().array() += 1e-12 * G.diagonal().maxCoeff() + 1e-300;
@@ -75,8 +79,9 @@ PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accele
     PetscCall(VecCopy(g, x));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  for (PetscInt i = 0; i < n; i++) col[i] = -theta(i);
   PetscCall(VecCopy(g, x));
-  for (PetscInt i = 0; i < n; i++) PetscCall(VecAXPY(x, -theta(i), aa->dG[i]));
+  PetscCall(VecMAXPY(x, n, col.data(), aa->dG.data()));
   *accelerated = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -10,6 +10,7 @@ typedef struct {
   std::vector<Vec> dF, dG;         /* ring buffers of differences */
   Vec              f_prev, g_prev;
   PetscBool        have_prev;
+  std::vector<PetscScalar> gram;   /* m x m: dF_i . dF_j, one new row and column per iteration */
 } MSimAnderson;
 
 PetscErrorCode MSimAndersonCreate(Vec tmpl, PetscInt m, MSimAnderson *aa);
