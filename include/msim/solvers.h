@@ -12,6 +12,10 @@ PetscErrorCode PCCreate_MSimLLT(PC pc);
    block size nrhs), without copies; sets the PC up if needed. Errors unless pc is msimllt. */
 PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
 
+/* Line search for Newton on the implicit step (a SNESLineSearch shell function): backtracking on
+   Phi, and near convergence, where Phi stops resolving progress, on |g|. */
+PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx);
+
 /* Registers "pd" once. */
 PetscErrorCode MSimSolversRegisterAll(void);
 

@@ -108,6 +108,18 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   /* |g| has units of mass x length: below 1e-10 of total mass x scene size the step is converged
      to roundoff, and line searches on Phi can only fail there */
   PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, 10000));
+  {
+    /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence,
+       unless the user chose one (-snes_linesearch_type) */
+    SNESLineSearch ls;
+    PetscBool      set;
+    PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
+    if (!set) {
+      PetscCall(SNESGetLineSearch(ie->snes, &ls));
+      PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
+      PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, NULL));
+    }
+  }
   PetscCall(SNESSetFromOptions(ie->snes));
   if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ie->imp));
   {
