@@ -60,3 +60,6 @@ PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator);
 
 /* Numeric factorizations of the PD matrix so far (0 when PD was never used). */
 PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt *n);
+/* Newton on the exact Hessian (-msim_psd 0): directions replaced so far by the PSD-projected
+   Hessian's because they did not lower Phi (-msim_psd_fallback). */
+PetscErrorCode MSimImplicitEulerGetProjectedFallbacks(MSimIntegrator integ, PetscInt *n);

@@ -13,7 +13,15 @@ PetscErrorCode PCCreate_MSimLLT(PC pc);
 PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
 
 /* Line search for Newton on the implicit step (a SNESLineSearch shell function): backtracking on
-   Phi, and near convergence, where Phi stops resolving progress, on |g|. */
+   Phi, and near convergence, where Phi stops resolving progress, on |g|. ctx is NULL or an
+   MSimLineSearchCtx whose descent callback replaces a Newton direction that does not lower Phi
+   (an indefinite Hessian's) by a direction that does (the PSD-projected Hessian's). */
+typedef struct {
+  /* Y := a descent direction of Phi at X (the step is X - lambda Y); F = g(X) */
+  PetscErrorCode (*descent)(SNES snes, Vec X, Vec F, Vec Y, void *ctx);
+  void    *ctx;
+  PetscInt nfallback; /* directions replaced, over the life of the SNES */
+} MSimLineSearchCtx;
 PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx);
 
 /* Registers "pd" once. */

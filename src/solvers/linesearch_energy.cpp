@@ -4,16 +4,52 @@
    (l - L) far above the decrease of the last Newton steps, so once Phi no longer changes beyond
    1e-12 of itself a step is accepted when it reduces |g|. PETSc's bt failed there
    (DIVERGED_LINE_SEARCH with |g| at 1e-7 of its start on the benchmark cloth), and at such a step
-   the Newton direction is a descent direction of |g|^2 for the exact Jacobian. */
+   the Newton direction is a descent direction of |g|^2 for the exact Jacobian.
+   On the exact (indefinite) Hessian a Newton direction may raise Phi, or lower it so little that
+   only a tiny step passes Armijo. Such a direction is never taken (an ascent direction used to
+   pass the test with a positive slope, and Newton stalled): the caller's descent callback, where
+   given, supplies the PSD-projected Hessian's direction instead; otherwise the search fails. */
 #include <msim/solvers.h>
 
-PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx)
+/* Backtracks from lambda = 1 along Y over at most maxhalvings halvings; W holds the accepted point. */
+static PetscErrorCode Backtrack(SNES snes, Vec X, Vec F, Vec Y, Vec W, Vec G, PetscReal phi0, PetscReal slope, PetscReal fnorm, PetscInt maxhalvings, PetscReal *lambda, PetscBool *accepted, PetscBool *have_g, PetscReal *gnorm)
 {
-  SNES      snes;
-  Vec       X, F, Y, W, G;
-  PetscReal xnorm, fnorm, ynorm, gnorm = 0, phi0, phi, slope, lambda = 1, steptol, maxstep, rtol, atol, ltol;
-  PetscInt  maxit, it;
-  PetscBool accepted = PETSC_FALSE, have_g = PETSC_FALSE, domain;
+  PetscReal phi;
+
+  PetscFunctionBeginUser;
+  *accepted = PETSC_FALSE;
+  *have_g   = PETSC_FALSE;
+  *lambda   = 1;
+  for (PetscInt it = 0; it < maxhalvings; it++, *lambda *= 0.5) {
+    PetscCall(VecWAXPY(W, -*lambda, Y, X));
+    PetscCall(SNESComputeObjective(snes, W, &phi));
+    if (PetscIsInfOrNanReal(phi)) continue;
+    if (phi <= phi0 + 1e-4 * *lambda * slope) *accepted = PETSC_TRUE;
+    else if (PetscAbsReal(phi - phi0) <= 1e-12 * PetscAbsReal(phi0)) {
+      PetscCall(SNESComputeFunction(snes, W, G));
+      PetscCall(VecNorm(G, NORM_2, gnorm));
+      *have_g   = PETSC_TRUE;
+      *accepted = (PetscBool)(*gnorm < fnorm);
+    }
+    if (*accepted) break;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* An exact Newton direction gets this many halvings (lambda >= 1/1024) before it counts as a
+   poor direction of an indefinite Hessian and, where a descent callback is given, is replaced;
+   accepting the tiny steps it would take stalled Newton on the benchmark cloth (|g| flat at 1e-5
+   of its start for 100 iterations). */
+#define MSIM_LS_EXACT_HALVINGS 10
+
+PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
+{
+  MSimLineSearchCtx *ctx = (MSimLineSearchCtx *)vctx;
+  SNES               snes;
+  Vec                X, F, Y, W, G;
+  PetscReal          xnorm, fnorm, ynorm, gnorm = 0, phi0, slope, lambda = 1, steptol, maxstep, rtol, atol, ltol;
+  PetscInt           maxit;
+  PetscBool          accepted = PETSC_FALSE, have_g = PETSC_FALSE, domain, can_replace;
 
   PetscFunctionBeginUser;
   PetscCall(SNESLineSearchGetSNES(ls, &snes));
@@ -22,22 +58,20 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx)
   PetscCall(SNESLineSearchGetTolerances(ls, &steptol, &maxstep, &rtol, &atol, &ltol, &maxit));
   PetscCall(SNESComputeObjective(snes, X, &phi0));
   PetscCall(VecDot(F, Y, &slope)); /* the step is X - lambda Y: dPhi/dlambda = -g . Y */
-  slope = -slope;
-  for (it = 0; it < PetscMax(maxit, 40) && !accepted; it++, lambda *= 0.5) {
-    PetscCall(VecWAXPY(W, -lambda, Y, X));
-    PetscCall(SNESComputeObjective(snes, W, &phi));
-    if (PetscIsInfOrNanReal(phi)) continue;
-    if (phi <= phi0 + 1e-4 * lambda * slope) accepted = PETSC_TRUE;
-    else if (PetscAbsReal(phi - phi0) <= 1e-12 * PetscAbsReal(phi0)) {
-      PetscCall(SNESComputeFunction(snes, W, G));
-      PetscCall(VecNorm(G, NORM_2, &gnorm));
-      have_g   = PETSC_TRUE;
-      accepted = (PetscBool)(gnorm < fnorm);
-    }
-    if (accepted) break;
+  slope       = -slope;
+  can_replace = (PetscBool)(ctx && ctx->descent);
+  if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, can_replace ? MSIM_LS_EXACT_HALVINGS : PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
+  if (!accepted && can_replace) {
+    PetscCall(PetscInfo(snes, "energy line search: %s direction replaced by the descent callback's\n", slope < 0 ? "poor" : "ascent"));
+    PetscCall(ctx->descent(snes, X, F, Y, ctx->ctx));
+    ctx->nfallback++;
+    PetscCall(VecDot(F, Y, &slope));
+    slope = -slope;
+    PetscCall(VecNorm(Y, NORM_2, &ynorm));
+    if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
   }
   if (!accepted) {
-    PetscCall(PetscInfo(snes, "energy line search: no decrease of Phi or |g| after %" PetscInt_FMT " halvings\n", it));
+    PetscCall(PetscInfo(snes, "energy line search: no decrease of Phi or |g| (slope %g)\n", (double)slope));
     PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_FAILED_REDUCT));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -54,6 +88,7 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx)
   PetscCall(VecCopy(G, F));
   PetscCall(VecNorm(X, NORM_2, &xnorm));
   PetscCall(SNESLineSearchSetLambda(ls, lambda));
+  PetscCall(PetscInfo(snes, "energy line search: lambda %g\n", (double)lambda));
   PetscCall(SNESLineSearchSetNorms(ls, xnorm, gnorm, ynorm));
   PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_SUCCEEDED));
   PetscFunctionReturn(PETSC_SUCCESS);

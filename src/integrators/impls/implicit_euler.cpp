@@ -16,6 +16,8 @@ typedef struct {
   PetscBool              pc_pd;
   PetscInt               unconverged;
   MSimConvergenceMonitor conv;
+  PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
+  MSimLineSearchCtx      ls;
 } ImplicitEuler;
 
 static PetscErrorCode FormFunction(SNES snes, Vec X, Vec G, void *ctx)
@@ -36,6 +38,30 @@ static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
 {
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitJacobian((MSimImplicit)ctx, X, P));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Newton on the exact Hessian, where its direction does not lower Phi (compressed springs make
+   the Hessian indefinite): the direction of the PSD-projected Hessian at the same x, which the
+   Armijo search always accepts. The next iteration assembles the exact Hessian again, so Newton
+   keeps its quadratic convergence where the Hessian turns definite near the solution. */
+static PetscErrorCode DescentProjected(SNES snes, Vec X, Vec F, Vec Y, void *ctx)
+{
+  MSimImplicit       imp = (MSimImplicit)ctx;
+  Mat                J, P;
+  KSP                ksp;
+  KSPConvergedReason reason;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetJacobian(snes, &J, &P, NULL, NULL));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  imp->psd = PETSC_TRUE;
+  PetscCall(MSimImplicitJacobian(imp, X, P));
+  imp->psd = PETSC_FALSE;
+  PetscCall(KSPSetOperators(ksp, J, P));
+  PetscCall(KSPSolve(ksp, F, Y));
+  PetscCall(KSPGetConvergedReason(ksp, &reason));
+  PetscCheck(reason >= 0, PetscObjectComm((PetscObject)snes), PETSC_ERR_NOT_CONVERGED, "implicit Euler: the linear solve for the PSD-projected Newton direction failed (%s)", KSPConvergedReasons[reason]);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -76,6 +102,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   ie->imp->h = integ->dt;
   PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
   PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable)", NULL, ie->imp->psd, &ie->imp->psd, NULL));
+  PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction does not lower Phi, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   {
     /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
@@ -117,7 +144,9 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     if (!set) {
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
       PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
-      PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, NULL));
+      ie->ls.descent = ie->imp->psd || !ie->psd_fallback ? NULL : DescentProjected;
+      ie->ls.ctx     = ie->imp;
+      PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
     }
   }
   PetscCall(SNESSetFromOptions(ie->snes));
@@ -203,6 +232,7 @@ static PetscErrorCode View_ImplicitEuler(MSimIntegrator integ, PetscViewer viewe
   ImplicitEuler *ie = (ImplicitEuler *)integ->data;
   PetscFunctionBeginUser;
   PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", ie->unconverged));
+  if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
   if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
   if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -234,12 +264,21 @@ PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator integ)
   ImplicitEuler *ie;
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&ie));
+  ie->psd_fallback          = PETSC_TRUE;
   integ->data               = ie;
   integ->ops.setfromoptions = SetFromOptions_ImplicitEuler;
   integ->ops.setup          = Setup_ImplicitEuler;
   integ->ops.step           = Step_ImplicitEuler;
   integ->ops.view           = View_ImplicitEuler;
   integ->ops.destroy        = Destroy_ImplicitEuler;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitEulerGetProjectedFallbacks(MSimIntegrator integ, PetscInt *n)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  PetscFunctionBeginUser;
+  *n = ie->ls.nfallback;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
