@@ -135,8 +135,6 @@ PetscErrorCode SchurCholesky::SetUp(Mat A)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static inline V4 Splat(double a) { return V4{a, a, a, a}; }
-
 PetscErrorCode SchurCholesky::Solve(PetscInt nrhs, const PetscScalar *b, PetscScalar *x)
 {
   const PetscInt N = ntotal_;
@@ -151,31 +149,10 @@ PetscErrorCode SchurCholesky::Solve(PetscInt nrhs, const PetscScalar *b, PetscSc
   local_.Forward(z, (int)ninterior_);
   PetscCallMPI(MPI_Allgatherv(z + ninterior_, 4 * (PetscMPIInt)ninterface_, MPI_DOUBLE, c, counts_.data(), displs_.data(), MPI_DOUBLE, comm_));
   /* the dense Schur system, every rank the whole of it: L y = c, then L^T x = y */
-  for (PetscInt r = 0; r < N; r++) {
-    const double *l  = &schur_[(size_t)r * N];
-    V4            a0 = c[r], a1 = {0, 0, 0, 0}, a2 = a1, a3 = a1;
-    PetscInt      k  = 0;
-    for (; k + 4 <= r; k += 4) {
-      a0 -= Splat(l[k]) * c[k];
-      a1 -= Splat(l[k + 1]) * c[k + 1];
-      a2 -= Splat(l[k + 2]) * c[k + 2];
-      a3 -= Splat(l[k + 3]) * c[k + 3];
-    }
-    for (; k < r; k++) a0 -= Splat(l[k]) * c[k];
-    c[r] = ((a0 + a1) + (a2 + a3)) / Splat(l[r]);
-  }
+  for (PetscInt r = 0; r < N; r++) c[r] = RowSubtract(c[r], &schur_[(size_t)r * N], c, r) / Splat(schur_[(size_t)r * N + r]);
   for (PetscInt r = N - 1; r >= 0; r--) {
-    const double *u  = &schurT_[(size_t)r * N];
-    V4            a0 = c[r], a1 = {0, 0, 0, 0}, a2 = a1, a3 = a1;
-    PetscInt      k  = r + 1;
-    for (; k + 4 <= N; k += 4) {
-      a0 -= Splat(u[k]) * c[k];
-      a1 -= Splat(u[k + 1]) * c[k + 1];
-      a2 -= Splat(u[k + 2]) * c[k + 2];
-      a3 -= Splat(u[k + 3]) * c[k + 3];
-    }
-    for (; k < N; k++) a0 -= Splat(u[k]) * c[k];
-    c[r] = ((a0 + a1) + (a2 + a3)) / Splat(u[r]);
+    const double *u = &schurT_[(size_t)r * N];
+    c[r]            = RowSubtract(c[r], u + r + 1, c + r + 1, N - r - 1) / Splat(u[r]);
   }
   for (PetscInt k = 0; k < ninterface_; k++) z[ninterior_ + k] = c[offset_ + k];
   local_.Backward(z, (int)ninterior_);

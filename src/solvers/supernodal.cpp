@@ -41,7 +41,6 @@ void SupernodalFactor::Build(int n, const int *colptr, const int *row, const dou
   }
 }
 
-static inline V4 Splat(double a) { return V4{a, a, a, a}; }
 
 /* z(R[p .. p+U)) -= B[p .. p+U, :] y: U rows of the block below a supernode together, so each y[c]
    is loaded once for all of them; two sums per row */
@@ -99,19 +98,8 @@ void SupernodalFactor::Forward(V4 *z, int ncols) const
     const double *D = &val_[vptr_[s]], *B = D + (size_t)w * (w - 1) / 2;
     const int    *R = &rows_[rptr_[s]];
     V4           *y = z + c0;
-    for (int c = 0; c < w; c++) { /* the dense triangle, four sums per row */
-      const double *d  = D + (size_t)c * (c - 1) / 2;
-      V4            a0 = y[c], a1 = {0, 0, 0, 0}, a2 = a1, a3 = a1;
-      int           k  = 0;
-      for (; k + 4 <= c; k += 4) {
-        a0 -= Splat(d[k]) * y[k];
-        a1 -= Splat(d[k + 1]) * y[k + 1];
-        a2 -= Splat(d[k + 2]) * y[k + 2];
-        a3 -= Splat(d[k + 3]) * y[k + 3];
-      }
-      for (; k < c; k++) a0 -= Splat(d[k]) * y[k];
-      y[c] = ((a0 + a1) + (a2 + a3)) * Splat(invdiag_[c0 + c]);
-    }
+    for (int c = 0; c < w; c++) /* the dense triangle */
+      y[c] = RowSubtract(y[c], D + (size_t)c * (c - 1) / 2, y, c) * Splat(invdiag_[c0 + c]);
     int p = 0;
     for (; p + 4 <= m; p += 4) ForwardRows<4>(B, w, R, z, y, p);
     for (; p < m; p++) ForwardRows<1>(B, w, R, z, y, p);

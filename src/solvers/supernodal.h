@@ -11,6 +11,24 @@
 namespace msim {
 typedef double V4 __attribute__((vector_size(32)));
 
+inline V4 Splat(double a) { return V4{a, a, a, a}; }
+
+/* b - sum_k l[k] y[k] over k < n: the row update of a dense triangular solve, in four independent
+   sums so the FMA latency does not serialize them */
+inline V4 RowSubtract(V4 b, const double *l, const V4 *y, long n)
+{
+  V4   a0 = b, a1 = {0, 0, 0, 0}, a2 = a1, a3 = a1;
+  long k  = 0;
+  for (; k + 4 <= n; k += 4) {
+    a0 -= Splat(l[k]) * y[k];
+    a1 -= Splat(l[k + 1]) * y[k + 1];
+    a2 -= Splat(l[k + 2]) * y[k + 2];
+    a3 -= Splat(l[k + 3]) * y[k + 3];
+  }
+  for (; k < n; k++) a0 -= Splat(l[k]) * y[k];
+  return (a0 + a1) + (a2 + a3);
+}
+
 class SupernodalFactor {
 public:
   /* From a CSC lower factor whose columns list the diagonal first and their rows ascending; no
