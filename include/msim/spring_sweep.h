@@ -6,7 +6,8 @@
    through the square root and the division together. */
 
 #pragma once
-#include <petscsys.h>
+#include <msim/sys.h>
+#include <vector>
 
 /* f may be NULL (energy only); energy may be NULL (no energy). */
 void MSimSpringSweep(PetscInt n, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *energy);
@@ -15,9 +16,44 @@ void MSimSpringSweep(PetscInt n, const PetscInt *i, const PetscInt *j, const Pet
    row slot of xown / fown (the Vec arrays), any other is row slot of xloc / floc. */
 void MSimSpringSweepSlots(PetscInt s0, PetscInt s1, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, PetscInt nown, const PetscReal *xown, const PetscReal *xloc, PetscReal *fown, PetscReal *floc, PetscReal alpha, PetscReal beta, PetscReal *energy);
 
-/* The sliced springs (msim/system.h, MSimSprings): slice c's four vertices keep their sums in
-   registers and add them once; each spring's other end adds into f4, rows of 4 (x, y, z, pad),
-   one aligned 4-wide update instead of a 2-wide and a scalar one. Fold f4 into f afterwards. */
-void MSimSpringSweepSlices(PetscInt nslice, const PetscInt *cptr, const PetscInt *sj, const PetscReal *sk, const PetscReal *sL, const PetscReal *x, PetscReal *f4, PetscReal alpha, PetscReal beta, PetscReal *energy);
-/* f[3v + c] += f4[4v + c] for v < n, c < 3, and f4 back to zero */
-void MSimSpringFold(PetscInt n, PetscReal *f4, PetscReal *f);
+/* One vertex's x, y, z and a pad, aligned for one 4-wide load and store */
+struct alignas(32) MSimRow4 {
+  PetscReal v[4];
+};
+
+/* Springs between vertices [0, nvert), stored by slices: slice c holds the springs of the four
+   vertices 4c .. 4c+3 towards lower-numbered vertices, slot by slot; slot q gives lane l the
+   spring from vertex 4c + l to sj[4q + l] with sk, sL. Slots cptr[c] .. cmid[c] are shifted:
+   the four other ends are consecutive, sj[4q + l] = sj[4q] + l (a grid's springs of one family),
+   so the sweep reads and updates them as one 4-wide run. Slots cmid[c] .. cptr[c+1] are
+   gathered: any other ends, a lane with fewer springs padded with sk = 0 and sj = the vertex. */
+typedef struct {
+  PetscInt               nslice;
+  std::vector<PetscInt>  cptr, cmid, sj;
+  std::vector<PetscReal> sk, sL;
+} MSimSlices;
+
+/* Builds sl from the springs (a[s], b[s], k[s], L[s]) between vertices [0, nvert); rest gets the
+   springs of vertices past the last full slice. Springs whose other ends lie more than
+   MSIM_SHIFT_SPAN_MAX below go to gathered slots, which bounds the sweep's ring (below). */
+#define MSIM_SHIFT_SPAN_MAX 16384
+PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, const std::vector<PetscInt> &b, const std::vector<PetscReal> &k, const std::vector<PetscReal> &L, MSimSlices *sl, std::vector<PetscInt> &rest);
+
+/* The sweep's scratch. Shifted slots work in x, y, z rows (four vertices per 4-wide value): a
+   ring of W entries holds the positions of the vertices still to be read and the sums still to
+   be added, each group of four converted from the rows of 3 just ahead of its slice and added
+   into f as soon as no later slice reaches it (lag groups behind), so it stays in cache. Gathered
+   slots sum into rows of 4 (one aligned 4-wide update each), added into f at the end for the
+   slices they touch. */
+typedef struct {
+  PetscInt              W, lag;
+  std::vector<MSimRow4> ring;    /* x, y, z; other ends' sums; own sums: W + 4 values each (4 mirror the start) and padding */
+  std::vector<MSimRow4> f4;      /* rows of 4, zero between sweeps */
+  std::vector<PetscInt> touched; /* slices whose rows of 4 the gathered slots reach */
+} MSimSweepScratch;
+
+PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w);
+
+/* f += the sliced springs' sums (f may be NULL: energy only); energy += their energy (may be
+   NULL). */
+void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *energy);

@@ -4,25 +4,16 @@
    first free endpoint it owns, and gathers the ghost positions it needs with one VecScatter. */
 #pragma once
 #include <msim/scene.h>
+#include <msim/spring_sweep.h>
 #include <vector>
 
 /* Owned springs. Endpoints are local vertex slots: [0, nown) owned (also the rows of the rank's
-   block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices.
-   Springs with both ends owned are stored by slices for the hot loop (spring_sweep.h): slice c
-   holds the springs of the four owned vertices 4c .. 4c+3 towards lower-numbered vertices, slot
-   by slot (slots cptr[c] .. cptr[c+1]); slot q gives lane l the spring from vertex 4c + l to
-   sj[4q + l] (a lane with fewer springs is padded with sk = 0 and sj = the vertex itself). The
-   remaining springs are plain arrays: first the owned-owned ones of vertices past the last full
-   slice (ninner of them), then those with a ghost or fixed end. */
-/* One vertex's x, y, z and a pad, aligned for one 4-wide load and store */
-struct alignas(32) MSimRow4 {
-  PetscReal v[4];
-};
-
+   block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices. Springs with both ends
+   owned are stored by slices for the hot loop (msim/spring_sweep.h); the remaining ones are plain
+   arrays: first the owned-owned ones of vertices past the last full slice (ninner of them), then
+   those with a ghost or fixed end. */
 typedef struct {
-  PetscInt               nslice;
-  std::vector<PetscInt>  cptr, sj;
-  std::vector<PetscReal> sk, sL;
+  MSimSlices             slices;
   std::vector<PetscInt>  i, j;
   std::vector<PetscReal> k, L;
   PetscInt               n, ninner; /* entries of i, j, k, L; the owned-owned ones among them */
@@ -33,10 +24,11 @@ typedef struct {
 template <class F>
 static inline void MSimSpringsForEach(const MSimSprings &sp, F &&f)
 {
-  for (PetscInt c = 0; c < sp.nslice; c++)
-    for (PetscInt q = sp.cptr[c]; q < sp.cptr[c + 1]; q++)
+  const MSimSlices &sl = sp.slices;
+  for (PetscInt c = 0; c < sl.nslice; c++)
+    for (PetscInt q = sl.cptr[c]; q < sl.cptr[c + 1]; q++)
       for (PetscInt l = 0; l < 4; l++)
-        if (sp.sj[4 * q + l] != 4 * c + l) f(4 * c + l, sp.sj[4 * q + l], sp.sk[4 * q + l], sp.sL[4 * q + l]);
+        if (sl.sj[4 * q + l] != 4 * c + l) f(4 * c + l, sl.sj[4 * q + l], sl.sk[4 * q + l], sl.sL[4 * q + l]);
   for (PetscInt s = 0; s < sp.n; s++) f(sp.i[s], sp.j[s], sp.k[s], sp.L[s]);
 }
 
@@ -56,7 +48,7 @@ struct _n_MSimSystem {
   PetscReal   total_mass, diameter;
   Vec         mass;                 /* per dof (block size 3), global layout */
   Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
-  std::vector<MSimRow4> f4;         /* nown rows, zero between uses: the sliced sweep's sums */
+  MSimSweepScratch      sweep;      /* the sliced sweep's scratch */
   VecScatter  g2l;                  /* global free -> owned+ghost slots */
   VecScatter  ghosts;               /* global free -> ghost slots only */
   Vec         X0, V0;               /* initial state */
@@ -71,9 +63,6 @@ struct _n_MSimSystem {
 /* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition). */
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *sys);
 PetscErrorCode MSimSystemDestroy(MSimSystem *sys);
-/* Fills sp's slices with the springs (a[s], b[s], k[s], L[s]) between vertices [0, nvert) (the
-   layout above); the indices of the springs of vertices past the last full slice go to rest. */
-PetscErrorCode MSimSpringsSlice(PetscInt nvert, const std::vector<PetscInt> &a, const std::vector<PetscInt> &b, const std::vector<PetscReal> &k, const std::vector<PetscReal> &L, MSimSprings *sp, std::vector<PetscInt> &rest);
 PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v);
 
 /* Local slots from global X at time t (fixed slots from b(t)); the returned array is sys->xloc's. */

@@ -141,9 +141,8 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
      positions travel, then those with a ghost or fixed end; with damping, all through the slots */
   if (!damped) {
     PetscReal es = 0;
-    MSimSpringSweepSlices(sp.nslice, sp.cptr.data(), sp.sj.data(), sp.sk.data(), sp.sL.data(), x, sys->f4[0].v, 0.0, h * h, phi ? &es : NULL);
+    MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, r, 0.0, h * h, phi ? &es : NULL);
     MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, 0.0, h * h, phi ? &es : NULL);
-    MSimSpringFold(4 * sp.nslice, sys->f4[0].v, r);
     energy += h * h * es;
     PetscCall(VecRestoreArrayRead(X, &x));
     PetscCall(MSimSystemGhostsEnd(sys, imp->t + h, X, sys->xloc));

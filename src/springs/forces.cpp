@@ -46,9 +46,8 @@ PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, 
   PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
   PetscCall(VecGetArrayRead(X, &x));
   if (F) PetscCall(VecGetArray(F, &f));
-  MSimSpringSweepSlices(sp.nslice, sp.cptr.data(), sp.sj.data(), sp.sk.data(), sp.sL.data(), x, F ? sys->f4[0].v : NULL, alpha, beta, energy ? &e : NULL);
+  MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, f, alpha, beta, energy ? &e : NULL);
   MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, f, alpha, beta, energy ? &e : NULL);
-  if (F) MSimSpringFold(4 * sp.nslice, sys->f4[0].v, f);
   PetscCall(VecRestoreArrayRead(X, &x));
   if (F) PetscCall(VecRestoreArray(F, &f));
   PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));

@@ -24,45 +24,6 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSpringsSlice(PetscInt nvert, const std::vector<PetscInt> &a, const std::vector<PetscInt> &b, const std::vector<PetscReal> &k, const std::vector<PetscReal> &L, MSimSprings *sp, std::vector<PetscInt> &rest)
-{
-  std::vector<std::vector<PetscInt>> lower(nvert);
-
-  PetscFunctionBeginUser;
-  sp->nslice = nvert / 4;
-  sp->cptr.assign(1, 0);
-  sp->sj.clear();
-  sp->sk.clear();
-  sp->sL.clear();
-  rest.clear();
-  for (PetscInt s = 0; s < (PetscInt)a.size(); s++) {
-    const PetscInt hi = PetscMax(a[s], b[s]);
-    PetscCheck(a[s] != b[s] && a[s] >= 0 && b[s] >= 0 && hi < nvert, PETSC_COMM_SELF, PETSC_ERR_PLIB, "spring %" PetscInt_FMT " joins %" PetscInt_FMT " and %" PetscInt_FMT " of %" PetscInt_FMT " vertices", s, a[s], b[s], nvert);
-    if (hi < 4 * sp->nslice) lower[hi].push_back(s);
-    else rest.push_back(s);
-  }
-  for (PetscInt c = 0; c < sp->nslice; c++) {
-    size_t slots = 0;
-    for (PetscInt l = 0; l < 4; l++) slots = PetscMax(slots, lower[4 * c + l].size());
-    for (size_t q = 0; q < slots; q++)
-      for (PetscInt l = 0; l < 4; l++) {
-        const PetscInt v = 4 * c + l;
-        if (q < lower[v].size()) {
-          const PetscInt s = lower[v][q];
-          sp->sj.push_back(a[s] == v ? b[s] : a[s]);
-          sp->sk.push_back(k[s]);
-          sp->sL.push_back(L[s]);
-        } else { /* padding: the vertex itself, k = 0 */
-          sp->sj.push_back(v);
-          sp->sk.push_back(0.0);
-          sp->sL.push_back(0.0);
-        }
-      }
-    sp->cptr.push_back(sp->cptr.back() + (PetscInt)slots);
-  }
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
 {
   MSimSystem           sys = new _n_MSimSystem();
@@ -178,7 +139,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
         La.push_back(S.sL[s]);
       } else other.push_back(s);
     }
-    PetscCall(MSimSpringsSlice(sys->nown, ia, ja, ka, La, &sp, rest));
+    PetscCall(MSimSlicesCreate(sys->nown, ia, ja, ka, La, &sp.slices, rest));
     for (PetscInt q : rest) {
       sp.i.push_back(ia[q]);
       sp.j.push_back(ja[q]);
@@ -194,7 +155,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     }
     sp.n     = (PetscInt)sp.i.size();
     sp.total = (PetscInt)(ia.size() + other.size());
-    sys->f4.assign(sys->nown, MSimRow4{{0, 0, 0, 0}});
+    PetscCall(MSimSweepScratchSetUp(&sp.slices, &sys->sweep));
   }
 
   /* boundary: every rank keeps all fixed vertices (they are few: corners, an edge, a face) */

@@ -1,10 +1,11 @@
 /* Per-spring kernels against central finite differences: force = -dE/dx, Hessian = -dF/dx, the
    damping force's direction and sign, the PD projection's length; random configurations in
    stretch and compression. The vectorized sweeps (the slices with their padding, the arrays, the
-   fold) against the per-spring kernels on a random graph. */
+   ring and the rows of 4) against the per-spring kernels on a grid-like strip with random extra
+   springs, shifted and gathered slots alike. */
 #include "harness.h"
 #include <msim/kernels.hpp>
-#include <msim/spring_sweep.h>
+#include <msim/system.h>
 #include <random>
 #include <Eigen/Eigenvalues>
 
@@ -69,60 +70,75 @@ static PetscErrorCode TestSweeps(void)
 {
   std::mt19937                           rng(777);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
-  const PetscInt                         nv = 4 * 25 + 3;
+  const PetscInt                         nv = 4 * 40 + 3, width = 7;
   std::vector<PetscInt>                  a, b, rest;
   std::vector<PetscReal>                 k, L, x(3 * nv);
-  MSimSprings                            sp;
+  MSimSlices                             sl;
+  MSimSweepScratch                       w;
 
   PetscFunctionBeginUser;
   for (auto &c : x) c = u(rng);
+  auto add = [&](PetscInt v, PetscInt q) {
+    const Vec3 d = Vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]) - Vec3(x[3 * q], x[3 * q + 1], x[3 * q + 2]);
+    a.push_back(a.size() % 2 ? v : q); /* either end first */
+    b.push_back(a.size() % 2 ? v : q);
+    if (a.back() == b.back()) b.back() = (b.back() == v ? q : v);
+    k.push_back(10 + 1000 * std::abs(u(rng)));
+    L.push_back(d.norm() * (1 + 0.5 * u(rng)));
+  };
+  /* grid-like springs (a strip of the given width: left, up, both diagonals, two up), some left
+     out so that not every lane has every offset, and random ones to any lower vertex */
   for (PetscInt v = 1; v < nv; v++) {
-    const int deg = 1 + (int)(rng() % 7);
-    for (int q = 0; q < deg; q++) {
-      const PetscInt w = (PetscInt)(rng() % v); /* a lower vertex */
-      const Vec3     d = Vec3(x[3 * v], x[3 * v + 1], x[3 * v + 2]) - Vec3(x[3 * w], x[3 * w + 1], x[3 * w + 2]);
-      a.push_back(q % 2 ? v : w); /* either end first */
-      b.push_back(q % 2 ? w : v);
-      k.push_back(10 + 1000 * std::abs(u(rng)));
-      L.push_back(d.norm() * (1 + 0.5 * u(rng)));
-    }
+    for (PetscInt off : {1, width, width - 1, width + 1, 2 * width})
+      if (v >= off && rng() % 10) add(v, v - off);
+    const int deg = (int)(rng() % 4);
+    for (int q = 0; q < deg; q++) add(v, (PetscInt)(rng() % v));
   }
-  PetscCall(MSimSpringsSlice(nv, a, b, k, L, &sp, rest));
-  std::vector<PetscInt>  ti, tj;
-  std::vector<PetscReal> tk, tL;
-  for (PetscInt s : rest) ti.push_back(a[s]), tj.push_back(b[s]), tk.push_back(k[s]), tL.push_back(L[s]);
-  sp.n = sp.ninner = (PetscInt)ti.size();
-  sp.i = ti, sp.j = tj, sp.k = tk, sp.L = tL;
+  PetscCall(MSimSlicesCreate(nv, a, b, k, L, &sl, rest));
+  PetscCall(MSimSweepScratchSetUp(&sl, &w));
+  MSimSprings sp;
+  sp.slices = sl;
+  for (PetscInt s : rest) sp.i.push_back(a[s]), sp.j.push_back(b[s]), sp.k.push_back(k[s]), sp.L.push_back(L[s]);
+  sp.n = sp.ninner = (PetscInt)sp.i.size();
   {
-    PetscInt  count = 0;
+    PetscInt  count = 0, shifted = 0;
     PetscReal ksum = 0, kref = 0;
     MSimSpringsForEach(sp, [&](PetscInt, PetscInt, PetscReal kk, PetscReal) { count++, ksum += kk; });
     for (PetscReal kk : k) kref += kk;
-    NOTE("sweep test: %zu springs, %" PetscInt_FMT " in %" PetscInt_FMT " slices of %" PetscInt_FMT " slots, %zu after them\n", a.size(), (PetscInt)a.size() - (PetscInt)rest.size(), sp.nslice, sp.cptr.back(), rest.size());
+    for (PetscInt c = 0; c < sl.nslice; c++) shifted += sl.cmid[c] - sl.cptr[c];
+    NOTE("sweep test: %zu springs, %" PetscInt_FMT " in %" PetscInt_FMT " slices of %" PetscInt_FMT " slots (%" PetscInt_FMT " shifted), %zu after them; ring of %" PetscInt_FMT ", lag %" PetscInt_FMT "\n", a.size(), (PetscInt)a.size() - (PetscInt)rest.size(), sl.nslice, sl.cptr.back(), shifted, rest.size(), w.W, w.lag);
     CHECK(count == (PetscInt)a.size() && std::abs(ksum - kref) <= 1e-12 * kref, "MSimSpringsForEach visits %" PetscInt_FMT " springs of %zu", count, a.size());
+    CHECK(shifted > 0 && shifted < sl.cptr.back(), "the test needs shifted and gathered slots (%" PetscInt_FMT " of %" PetscInt_FMT " shifted)", shifted, sl.cptr.back());
+    CHECK(4 * w.W < 3 * nv, "the test needs a ring that wraps (%" PetscInt_FMT " entries, %" PetscInt_FMT " vertices)", w.W, nv);
+    for (PetscInt c = 0; c < sl.nslice; c++)
+      for (PetscInt q = sl.cptr[c]; q < sl.cmid[c]; q++)
+        for (PetscInt l = 0; l < 4; l++) CHECK(sl.sj[4 * q + l] == sl.sj[4 * q] + l && sl.sj[4 * q] < 4 * c, "slot %" PetscInt_FMT " is not a run of lower vertices", q);
   }
   const double h2 = 1.0 / 900;
   for (int mode = 0; mode < 2; mode++) {
     const PetscReal        alpha = mode ? 0.0 : -1.0, beta = mode ? h2 : 1.0;
-    std::vector<PetscReal> f(3 * nv, 0.0), fref(3 * nv, 0.0);
-    std::vector<MSimRow4>  f4(nv, MSimRow4{{0, 0, 0, 0}});
-    PetscReal              e = 0, eref = 0, fmax = 0, diff = 0;
+    std::vector<PetscReal> fref(3 * nv, 0.0);
+    PetscReal              eref = 0, fmax = 0;
     for (size_t s = 0; s < a.size(); s++) {
       const Vec3 xi(&x[3 * a[s]]), xj(&x[3 * b[s]]);
       const Vec3 fi = mode ? Vec3(h2 * k[s] * msim::SpringProjection(xi, xj, L[s])) : msim::SpringForce(xi, xj, k[s], L[s]);
       for (int c = 0; c < 3; c++) fref[3 * a[s] + c] += fi[c], fref[3 * b[s] + c] -= fi[c];
       eref += msim::SpringEnergy(xi, xj, k[s], L[s]);
     }
-    MSimSpringSweepSlices(sp.nslice, sp.cptr.data(), sp.sj.data(), sp.sk.data(), sp.sL.data(), x.data(), f4[0].v, alpha, beta, &e);
-    MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), f.data(), alpha, beta, &e);
-    MSimSpringFold(4 * sp.nslice, f4[0].v, f.data());
-    for (PetscInt i = 0; i < 3 * nv; i++) fmax = std::max(fmax, std::abs(fref[i])), diff = std::max(diff, std::abs(f[i] - fref[i]));
-    bool zeroed = true;
-    for (const auto &r : f4) zeroed = zeroed && r.v[0] == 0 && r.v[1] == 0 && r.v[2] == 0;
-    NOTE("sweep test (%s): max force difference %.2e of %.2e, energy %.15e vs %.15e\n", mode ? "PD projection" : "force", diff, fmax, e, eref);
-    CHECK(diff <= 1e-12 * fmax, "sweep (%s): force differs by %g of %g", mode ? "PD projection" : "force", diff, fmax);
-    CHECK(std::abs(e - eref) <= 1e-12 * eref, "sweep: energy %g vs %g", e, eref);
-    CHECK(zeroed, "the fold left the scratch rows non-zero");
+    for (PetscReal v : fref) fmax = std::max(fmax, std::abs(v));
+    /* twice: the scratch must be back to zero after a sweep */
+    for (int pass = 0; pass < 2; pass++) {
+      std::vector<PetscReal> f(3 * nv, 0.0);
+      PetscReal              e = 0, eonly = 0, diff = 0;
+      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), alpha, beta, &e);
+      MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), f.data(), alpha, beta, &e);
+      MSimSpringSweepSlices(&sl, &w, x.data(), NULL, alpha, beta, &eonly);
+      MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), NULL, alpha, beta, &eonly);
+      for (PetscInt i = 0; i < 3 * nv; i++) diff = std::max(diff, std::abs(f[i] - fref[i]));
+      NOTE("sweep test (%s, pass %d): max force difference %.2e of %.2e, energy %.15e vs %.15e\n", mode ? "PD projection" : "force", pass, diff, fmax, e, eref);
+      CHECK(diff <= 1e-12 * fmax, "sweep (%s): force differs by %g of %g", mode ? "PD projection" : "force", diff, fmax);
+      CHECK(std::abs(e - eref) <= 1e-12 * eref && std::abs(eonly - eref) <= 1e-12 * eref, "sweep: energy %g (energy only %g) vs %g", e, eonly, eref);
+    }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
