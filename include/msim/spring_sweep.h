@@ -54,6 +54,13 @@ typedef struct {
 
 PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w);
 
-/* f += the sliced springs' sums (f may be NULL: energy only); energy += their energy (may be
-   NULL). */
-void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *energy);
+/* A row value the sweep starts from instead of f's: m_v .* a (m rows of 3, a per component; the
+   weight m g), so that no earlier pass has to write f only for the sweep to read it back. */
+typedef struct {
+  const PetscReal *m;
+  PetscReal        a[3];
+} MSimSweepBase;
+
+/* f += the sliced springs' sums (f may be NULL: energy only); with base, f = base + the sums on
+   the sliced vertices' rows [0, 4 nslice) instead. energy += their energy (may be NULL). */
+void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *energy);

@@ -35,13 +35,20 @@ static inline void MSimRowsToXYZ(const double *p, __m256d *X, __m256d *Y, __m256
   *Z                 = _mm256_blend_pd(zx13, yz13, 0xA);
 }
 
+/* X, Y, Z as four rows: the values of p[0..12) in r[0..3) */
+static inline void MSimXYZToRows(__m256d X, __m256d Y, __m256d Z, __m256d r[3])
+{
+  const __m256d xy02 = _mm256_unpacklo_pd(X, Y), yz13 = _mm256_unpackhi_pd(Y, Z), zx13 = _mm256_shuffle_pd(Z, X, 0xA);
+  r[0]               = _mm256_permute2f128_pd(xy02, zx13, 0x20);
+  r[1]               = _mm256_blend_pd(yz13, xy02, 0xC);
+  r[2]               = _mm256_permute2f128_pd(zx13, yz13, 0x31);
+}
+
 /* p[0..12) += X, Y, Z as four rows */
 static inline void MSimAddXYZToRows(double *p, __m256d X, __m256d Y, __m256d Z)
 {
-  const __m256d xy02 = _mm256_unpacklo_pd(X, Y), yz13 = _mm256_unpackhi_pd(Y, Z), zx13 = _mm256_shuffle_pd(Z, X, 0xA);
-  const __m256d a = _mm256_permute2f128_pd(xy02, zx13, 0x20), b = _mm256_blend_pd(yz13, xy02, 0xC), c = _mm256_permute2f128_pd(zx13, yz13, 0x31);
-  _mm256_storeu_pd(p, _mm256_add_pd(_mm256_loadu_pd(p), a));
-  _mm256_storeu_pd(p + 4, _mm256_add_pd(_mm256_loadu_pd(p + 4), b));
-  _mm256_storeu_pd(p + 8, _mm256_add_pd(_mm256_loadu_pd(p + 8), c));
+  __m256d r[3];
+  MSimXYZToRows(X, Y, Z, r);
+  for (int k = 0; k < 3; k++) _mm256_storeu_pd(p + 4 * k, _mm256_add_pd(_mm256_loadu_pd(p + 4 * k), r[k]));
 }
 #endif

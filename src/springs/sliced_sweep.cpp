@@ -110,7 +110,7 @@ PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w)
 
 #if MSIM_SIMD_ROWS
 template <bool F, bool E>
-static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *e2)
+static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *e2)
 {
   const PetscInt  nslice = sl->nslice, W = w->W, mask = W - 1, m = MSimRingStride(W);
   const PetscInt *cptr = sl->cptr.data(), *cmid = sl->cmid.data(), *sj = sl->sj.data();
@@ -120,6 +120,9 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
   double *const   f4   = w->f4[0].v;
   const __m256d   va   = _mm256_set1_pd(alpha), vb = _mm256_set1_pd(beta), zero = _mm256_setzero_pd();
   __m256d         ve   = zero;
+  /* the base's a repeated along four rows of 3: (a0 a1 a2 a0 | a1 a2 a0 a1 | a2 a0 a1 a2) */
+  __m256d a3[3] = {zero, zero, zero};
+  if (base) a3[0] = _mm256_setr_pd(base->a[0], base->a[1], base->a[2], base->a[0]), a3[1] = _mm256_setr_pd(base->a[1], base->a[2], base->a[0], base->a[1]), a3[2] = _mm256_setr_pd(base->a[2], base->a[0], base->a[1], base->a[2]);
 
   /* group g's rows of 3 into the ring; position 0 also into the mirror past the end, so a run of
      four that starts in the last three entries reads on into it */
@@ -141,7 +144,11 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
       gx = _mm256_add_pd(gx, _mm256_load_pd(FX + W)), gy = _mm256_add_pd(gy, _mm256_load_pd(FY + W)), gz = _mm256_add_pd(gz, _mm256_load_pd(FZ + W));
       _mm256_store_pd(FX + W, zero), _mm256_store_pd(FY + W, zero), _mm256_store_pd(FZ + W, zero);
     }
-    MSimAddXYZToRows(f + 12 * g, gx, gy, gz);
+    if (base) {
+      __m256d rows[3];
+      MSimXYZToRows(gx, gy, gz, rows);
+      for (int k = 0; k < 3; k++) _mm256_storeu_pd(f + 12 * g + 4 * k, _mm256_fmadd_pd(_mm256_loadu_pd(base->m + 12 * g + 4 * k), a3[k], rows[k]));
+    } else MSimAddXYZToRows(f + 12 * g, gx, gy, gz);
     _mm256_store_pd(FX + r, zero), _mm256_store_pd(FY + r, zero), _mm256_store_pd(FZ + r, zero);
   };
 
@@ -235,8 +242,10 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
 #else
 /* without AVX2: lane by lane, straight into f (the scratch is unused) */
 template <bool F, bool E>
-static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *e2)
+static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *e2)
 {
+  if (F && base)
+    for (PetscInt i = 0; i < 12 * sl->nslice; i++) f[i] = base->m[i] * base->a[i % 3];
   for (PetscInt c = 0; c < sl->nslice; c++)
     for (PetscInt q = sl->cptr[c]; q < sl->cptr[c + 1]; q++)
       for (PetscInt lane = 0; lane < 4; lane++) {
@@ -256,11 +265,11 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscRea
 }
 #endif
 
-void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *energy)
+void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *energy)
 {
   PetscReal e2 = 0;
-  if (f && energy) SweepSlices<true, true>(sl, w, x, f, alpha, beta, &e2);
-  else if (f) SweepSlices<true, false>(sl, w, x, f, alpha, beta, &e2);
-  else if (energy) SweepSlices<false, true>(sl, w, x, f, alpha, beta, &e2);
+  if (f && energy) SweepSlices<true, true>(sl, w, x, f, base, alpha, beta, &e2);
+  else if (f) SweepSlices<true, false>(sl, w, x, f, base, alpha, beta, &e2);
+  else if (energy) SweepSlices<false, true>(sl, w, x, f, base, alpha, beta, &e2);
   if (energy) *energy += 0.5 * e2;
 }

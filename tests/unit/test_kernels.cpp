@@ -130,14 +130,29 @@ static PetscErrorCode TestSweeps(void)
     for (int pass = 0; pass < 2; pass++) {
       std::vector<PetscReal> f(3 * nv, 0.0);
       PetscReal              e = 0, eonly = 0, diff = 0;
-      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), alpha, beta, &e);
+      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), NULL, alpha, beta, &e);
       MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), f.data(), alpha, beta, &e);
-      MSimSpringSweepSlices(&sl, &w, x.data(), NULL, alpha, beta, &eonly);
+      MSimSpringSweepSlices(&sl, &w, x.data(), NULL, NULL, alpha, beta, &eonly);
       MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), NULL, alpha, beta, &eonly);
       for (PetscInt i = 0; i < 3 * nv; i++) diff = std::max(diff, std::abs(f[i] - fref[i]));
       NOTE("sweep test (%s, pass %d): max force difference %.2e of %.2e, energy %.15e vs %.15e\n", mode ? "PD projection" : "force", pass, diff, fmax, e, eref);
       CHECK(diff <= 1e-12 * fmax, "sweep (%s): force differs by %g of %g", mode ? "PD projection" : "force", diff, fmax);
       CHECK(std::abs(e - eref) <= 1e-12 * eref && std::abs(eonly - eref) <= 1e-12 * eref, "sweep: energy %g (energy only %g) vs %g", e, eonly, eref);
+    }
+    {
+      /* with a base (the weight m g): the sliced rows are written whole, whatever they held */
+      std::vector<PetscReal> f(3 * nv, 0.0), m(3 * nv);
+      MSimSweepBase          base = {m.data(), {0.5, -2.0, -9.81}};
+      PetscReal              diff = 0, wmax = 0;
+      for (PetscInt i = 0; i < 3 * nv; i++) m[i] = 1 + std::abs(u(rng)), f[i] = i < 12 * sl.nslice ? 1e30 : 0.0;
+      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), &base, alpha, beta, NULL);
+      MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), f.data(), alpha, beta, NULL);
+      for (PetscInt i = 0; i < 3 * nv; i++) {
+        const PetscReal wi = i < 12 * sl.nslice ? m[i] * base.a[i % 3] : 0.0;
+        diff = std::max(diff, std::abs(f[i] - fref[i] - wi)), wmax = std::max(wmax, std::abs(wi));
+      }
+      NOTE("sweep test (%s, with the weight as base): max difference %.2e\n", mode ? "PD projection" : "force", diff);
+      CHECK(diff <= 1e-12 * (fmax + wmax), "sweep with a base (%s): rows differ by %g", mode ? "PD projection" : "force", diff);
     }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
