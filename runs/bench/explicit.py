@@ -7,7 +7,9 @@ Bytes per spring a force evaluation must move, as msim stores springs: the sprin
 other end as int32, k and L as double: 20 B; the vertex is implied by its slice of four) plus the
 position read and force write of the vertices (2 x 24 B per vertex), shared among the springs
 per vertex (about 6 on a cloth): 28 B per spring. The slices' padding (under 1.5 % here) and the
-scratch rows the sums pass through (in cache) are not counted: they are the loop's overhead."""
+ring and scratch rows the sums pass through (in cache) are not counted: they are the loop's
+overhead; nor are the masses read for the weight m g (24 B per vertex), which would lower the
+ratio."""
 import csv
 import os
 import re
