@@ -121,18 +121,12 @@ PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V,
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Force, X, F, 0, 0));
   PetscCheck(V || (sys->damping == 0 && sys->drag == 0), sys->comm, PETSC_ERR_ARG_NULL, "velocity needed for damping and drag");
-  if (sys->damping > 0) {
-    PetscCall(MSimSystemExternalForce(sys, V, F, 0));
-    PetscCall(MSimSystemDampedSpringForce(sys, t, X, V, F));
-  } else if (sys->drag > 0) {
-    PetscCall(MSimSystemExternalForce(sys, V, F, 0));
-    PetscCall(SpringSweep(sys, t, X, F, PETSC_FALSE, -1.0, 1.0, NULL));
-  } else {
-    /* the weight of the sliced vertices comes with the sweep, which writes their rows whole:
-       one pass over F instead of two */
-    PetscCall(MSimSystemExternalForce(sys, V, F, 4 * sys->springs.slices.nslice));
-    PetscCall(SpringSweep(sys, t, X, F, PETSC_TRUE, -1.0, 1.0, NULL));
-  }
+  /* without damping and drag the weight of the sliced vertices comes with the sweep, which writes
+     their rows whole: one pass over F instead of two */
+  const PetscBool weight = (PetscBool)(sys->damping == 0 && sys->drag == 0);
+  PetscCall(MSimSystemExternalForce(sys, V, F, weight ? 4 * sys->springs.slices.nslice : 0));
+  if (sys->damping > 0) PetscCall(MSimSystemDampedSpringForce(sys, t, X, V, F));
+  else PetscCall(SpringSweep(sys, t, X, F, weight, -1.0, 1.0, NULL));
   PetscCall(PetscLogEventEnd(MSIM_Force, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -100,11 +100,16 @@ PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w)
   w->lag = (span + 3) / 4;
   w->W   = 4;
   while (w->W <= 4 * (w->lag + MSIM_RING_LEAD + 1)) w->W *= 2;
-  w->ring.assign(9 * MSimRingStride(w->W) / 4, MSimRow4{{0, 0, 0, 0}});
-  w->f4.assign(4 * sl->nslice, MSimRow4{{0, 0, 0, 0}});
   w->touched.clear();
   for (PetscInt c = 0; c < sl->nslice; c++)
     if (reach[c]) w->touched.push_back(c);
+  /* only what the sweep uses: the scalar fallback needs no scratch, shifted slots alone no rows of 4 */
+  w->ring.clear();
+  w->f4.clear();
+#if MSIM_SIMD_ROWS
+  w->ring.assign(9 * MSimRingStride(w->W) / 4, MSimRow4{{0, 0, 0, 0}});
+  if (!w->touched.empty()) w->f4.assign(4 * sl->nslice, MSimRow4{{0, 0, 0, 0}});
+#endif
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -117,7 +122,7 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
   const double   *sk = sl->sk.data(), *sL = sl->sL.data();
   double *const   X = w->ring[0].v, *const Y = X + m, *const Z = Y + m, *const FX = Z + m, *const FY = FX + m, *const FZ = FY + m;
   double *const   GX = FZ + m, *const GY = GX + m, *const GZ = GY + m;
-  double *const   f4   = w->f4[0].v;
+  double *const   f4   = w->f4.empty() ? NULL : w->f4[0].v; /* used only by gathered slots */
   const __m256d   va   = _mm256_set1_pd(alpha), vb = _mm256_set1_pd(beta), zero = _mm256_setzero_pd();
   __m256d         ve   = zero;
   /* the base's a repeated along four rows of 3: (a0 a1 a2 a0 | a1 a2 a0 a1 | a2 a0 a1 a2) */
