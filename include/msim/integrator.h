@@ -63,3 +63,5 @@ PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt
 /* Newton on the exact Hessian (-msim_psd 0): directions replaced so far by the PSD-projected
    Hessian's because they did not lower Phi (-msim_psd_fallback). */
 PetscErrorCode MSimImplicitEulerGetProjectedFallbacks(MSimIntegrator integ, PetscInt *n);
+/* The SNES that solves each step (NULL before the integrator is set up). */
+PetscErrorCode MSimImplicitEulerGetSNES(MSimIntegrator integ, SNES *snes);

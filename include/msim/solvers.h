@@ -4,6 +4,7 @@
 #include <petscsnes.h>
 
 #define SNESPD "pd"
+#define SNESNTR "ntr"
 #define PCMSIMLLT "msimllt"
 
 /* PC type msimllt (serial sparse Cholesky, up to four right-hand sides in one sweep of the factor). */
@@ -24,7 +25,13 @@ typedef struct {
 } MSimLineSearchCtx;
 PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx);
 
-/* Registers "pd" once. */
+/* SNES type ntr: Newton trust region on the objective, truncated CG (-ksp_type stcg|nash|gltr). */
+PetscErrorCode SNESCreate_NTR(SNES snes);
+/* over the life of snes: steps ntr rejected, and its CG solves ended by negative curvature (both
+   0 for other types; either pointer may be NULL) */
+PetscErrorCode SNESNTRGetCounts(SNES snes, PetscInt *rejected, PetscInt *negative);
+
+/* Registers "pd", "ntr" and "msimllt" once. */
 PetscErrorCode MSimSolversRegisterAll(void);
 
 /* What the pd type needs from the problem it solves, composed on the SNES's DM under the name

@@ -115,6 +115,7 @@ PetscErrorCode MSimSolversRegisterAll(void)
   if (MSimSolversRegistered) PetscFunctionReturn(PETSC_SUCCESS);
   MSimSolversRegistered = PETSC_TRUE;
   PetscCall(SNESRegister(SNESPD, SNESCreate_PD));
+  PetscCall(SNESRegister(SNESNTR, SNESCreate_NTR));
   PetscCall(PCRegister(PCMSIMLLT, PCCreate_MSimLLT));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

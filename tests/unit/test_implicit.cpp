@@ -50,6 +50,7 @@ static PetscErrorCode TestSolversAgree(void)
     "-snes_type anderson -npc_snes_type pd -npc_snes_max_it 1 -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 2000",
     "-snes_type qn -snes_qn_scale_type jacobian -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 2000",
     "-snes_type pd -snes_pd_anderson 5 -snes_atol 1e-10 -snes_rtol 1e-30 -snes_max_it 5000",
+    "-snes_type ntr -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 500",
   };
   const int nsolvers = sizeof(solvers) / sizeof(solvers[0]);
   TestSim   ref;
@@ -367,10 +368,61 @@ static PetscErrorCode TestNewtonIndefinite(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Largest rise of Phi from one iterate to the next, relative to |Phi| (a SNES monitor) */
+typedef struct {
+  PetscReal last, worst;
+} PhiRise;
+
+static PetscErrorCode MonitorPhiRise(SNES snes, PetscInt it, PetscReal fnorm, void *ctx)
+{
+  PhiRise  *r = (PhiRise *)ctx;
+  Vec       X;
+  PetscReal phi;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetSolution(snes, &X));
+  PetscCall(SNESComputeObjective(snes, X, &phi));
+  if (it > 0) r->worst = PetscMax(r->worst, (phi - r->last) / PetscAbsReal(phi));
+  r->last = phi;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The trust region on the same indefinite scene, with no fallback: its truncated CG meets
+   negative curvature, Phi never rises from one iterate to the next (a step is taken only where
+   Phi falls), and every step converges. */
+static PetscErrorCode TestTrustRegionIndefinite(void)
+{
+  TestSim        s;
+  SNES           snes;
+  PetscInt       unconverged = 0, rejected, negative, maxits = 0;
+  PetscBool      failed = PETSC_FALSE;
+  PhiRise        rise = {0, 0};
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate("-msim_cloth_n 21 -msim_stiffness 2e4 -msim_dt 0.0333333333333 -msim_integrator implicit_euler -snes_type ntr -snes_rtol 1e-8 -snes_max_it 200", &s));
+  PetscCall(MSimIntegratorSetUp(s.integ));
+  PetscCall(MSimImplicitEulerGetSNES(s.integ, &snes));
+  PetscCall(SNESMonitorSet(snes, MonitorPhiRise, &rise, NULL));
+  for (PetscInt n = 0; n < 20; n++) {
+    PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
+    failed = (PetscBool)(failed || s.integ->failed);
+    if (s.integ->nonlinear_its >= 200) unconverged++;
+    maxits = PetscMax(maxits, s.integ->nonlinear_its);
+  }
+  PetscCall(SNESNTRGetCounts(snes, &rejected, &negative));
+  NOTE("trust-region Newton on the indefinite scene: a step failed: %s, %d steps at -snes_max_it, at most %d iterations, %d steps rejected, %d CG solves ended by negative curvature, largest rise of Phi %.1e relative\n", failed ? "yes" : "no", (int)unconverged, (int)maxits, (int)rejected, (int)negative, (double)rise.worst);
+  CHECK(rise.worst <= 1e-12, "ntr raised Phi by %g relative", (double)rise.worst);
+  CHECK(!failed && unconverged == 0, "ntr failed on the indefinite scene (%d steps unconverged)", (int)unconverged);
+  CHECK(negative >= 1, "ntr never met negative curvature: the scene no longer tests the trust region");
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode TestImplicit(void)
 {
   PetscFunctionBeginUser;
   PetscCall(TestNewtonIndefinite());
+  PetscCall(TestTrustRegionIndefinite());
   PetscCall(TestNewtonToRoundoff());
   PetscCall(TestLinearSolvers());
   PetscCall(TestJacobianFD());

@@ -95,13 +95,13 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   DM             dm;
   PetscContainer c;
   SNESType       type;
-  PetscBool      needs_jacobian = PETSC_TRUE, has_pc, is_qn;
+  PetscBool      needs_jacobian = PETSC_TRUE, has_pc, is_qn, is_ntr, psd_set;
 
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitCreate(sys, &ie->imp));
   ie->imp->h = integ->dt;
   PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
-  PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable)", NULL, ie->imp->psd, &ie->imp->psd, NULL));
+  PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &psd_set));
   PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   {
@@ -171,7 +171,10 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     if (type && !strcmp(type, t)) needs_jacobian = PETSC_FALSE;
   is_qn = (PetscBool)(type && !strcmp(type, SNESQN));
   PetscCall(PetscOptionsHasName(NULL, NULL, "-pc_type", &has_pc));
-  if (is_qn && !has_pc) ie->pc_pd = PETSC_TRUE;
+  is_ntr = (PetscBool)(type && !strcmp(type, SNESNTR));
+  if ((is_qn || is_ntr) && !has_pc) ie->pc_pd = PETSC_TRUE;
+  /* the trust region handles indefinite Hessians: ntr gets the exact one unless told otherwise */
+  if (is_ntr && !psd_set) ie->imp->psd = PETSC_FALSE;
   if (is_qn && ie->pc_pd) {
     /* L-BFGS with the PD matrix as initial Hessian: constant shell Jacobian, PD factor as PC */
     ie->jacobian_is_pd = PETSC_TRUE;
@@ -287,5 +290,13 @@ PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt
   ImplicitEuler *ie = (ImplicitEuler *)integ->data;
   PetscFunctionBeginUser;
   *n = ie->imp ? ie->imp->nfactor : 0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitEulerGetSNES(MSimIntegrator integ, SNES *snes)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  PetscFunctionBeginUser;
+  *snes = ie->snes;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
