@@ -52,7 +52,7 @@ static PetscErrorCode SNESSolve_NTR(SNES snes)
   KSPConvergedReason kreason;
   PetscReal          fnorm, fnorm0, gnorm, xnorm, ynorm = 0, phi, phi_w, q, dnorm, pred, ared, rho, rtol, abstol, dtol;
   PetscInt           lits, maxit;
-  PetscBool          accepted;
+  PetscBool          accepted, have_g = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscCheck(!snes->vec_rhs, PetscObjectComm((PetscObject)snes), PETSC_ERR_SUP, "-snes_type ntr solves grad Phi(x) = 0: no right-hand side");
@@ -102,12 +102,14 @@ static PetscErrorCode SNESSolve_NTR(SNES snes)
       pred = -q; /* q = -g.p + 1/2 p.J p: the model's change of Phi along x - p */
       PetscCall(VecWAXPY(W, -1.0, Y, X));
       PetscCall(SNESComputeObjective(snes, W, &phi_w));
-      ared = phi - phi_w;
+      ared   = phi - phi_w;
+      have_g = PETSC_FALSE;
       if (PetscIsInfOrNanReal(phi_w) || !(pred > 0)) rho = -1;
       else if (PetscAbsReal(ared) <= MSIM_NTR_PHI_ROUNDOFF * PetscAbsReal(phi) && pred <= MSIM_NTR_PHI_ROUNDOFF * PetscAbsReal(phi)) {
         PetscCall(SNESComputeFunction(snes, W, G));
         PetscCall(VecNorm(G, NORM_2, &gnorm));
-        rho = gnorm < fnorm ? 1 : -1;
+        have_g = PETSC_TRUE;
+        rho    = gnorm < fnorm ? 1 : -1;
       } else rho = ared / pred;
       if (rho < 0.25) tr->delta = 0.25 * PetscMin(tr->delta, dnorm);
       else if (rho > 0.75 && dnorm >= 0.99 * tr->delta) tr->delta *= 2;
@@ -122,7 +124,8 @@ static PetscErrorCode SNESSolve_NTR(SNES snes)
     if (!accepted) break;
     PetscCall(VecCopy(W, X));
     phi = phi_w;
-    PetscCall(SNESComputeFunction(snes, X, F));
+    if (have_g) PetscCall(VecCopy(G, F));
+    else PetscCall(SNESComputeFunction(snes, X, F));
     PetscCall(VecNorm(F, NORM_2, &fnorm));
     SNESCheckFunctionNorm(snes, fnorm);
     PetscCall(VecNorm(X, NORM_2, &xnorm));
