@@ -103,7 +103,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
   PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &psd_set));
   PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
-  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
+  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   {
     /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
     PetscBool pd_fixed = PETSC_FALSE;
