@@ -13,6 +13,10 @@ PetscErrorCode PCCreate_MSimLLT(PC pc);
    block size nrhs), without copies; sets the PC up if needed. Errors unless pc is msimllt. */
 PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
 
+/* Phi carries roundoff from its spring terms' cancellation (l - L): changes below this fraction of
+   |Phi| are not resolved, and Newton's line search and the trust region judge a step by |g| there. */
+#define MSIM_PHI_ROUNDOFF 1e-12
+
 /* Line search for Newton on the implicit step (a SNESLineSearch shell function): backtracking on
    Phi, and near convergence, where Phi stops resolving progress, on |g|. ctx is NULL or an
    MSimLineSearchCtx whose descent callback replaces a Newton direction that does not lower Phi

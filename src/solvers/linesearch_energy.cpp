@@ -25,7 +25,7 @@ static PetscErrorCode Backtrack(SNES snes, Vec X, Vec F, Vec Y, Vec W, Vec G, Pe
     PetscCall(SNESComputeObjective(snes, W, &phi));
     if (PetscIsInfOrNanReal(phi)) continue;
     if (phi <= phi0 + 1e-4 * *lambda * slope) *accepted = PETSC_TRUE;
-    else if (PetscAbsReal(phi - phi0) <= 1e-12 * PetscAbsReal(phi0)) {
+    else if (PetscAbsReal(phi - phi0) <= MSIM_PHI_ROUNDOFF * PetscAbsReal(phi0)) {
       PetscCall(SNESComputeFunction(snes, W, G));
       PetscCall(VecNorm(G, NORM_2, gnorm));
       *have_g   = PETSC_TRUE;

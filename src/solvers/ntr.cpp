@@ -40,10 +40,6 @@ static PetscErrorCode SNESSetUp_NTR(SNES snes)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The model's decrease is resolved by Phi only above roundoff of Phi itself (its spring terms
-   cancel, (l - L)): below that, a step is judged by |g| instead, as the energy line search does. */
-#define MSIM_NTR_PHI_ROUNDOFF 1e-12
-
 static PetscErrorCode SNESSolve_NTR(SNES snes)
 {
   SNES_NTR          *tr = (SNES_NTR *)snes->data;
@@ -105,7 +101,8 @@ static PetscErrorCode SNESSolve_NTR(SNES snes)
       ared   = phi - phi_w;
       have_g = PETSC_FALSE;
       if (PetscIsInfOrNanReal(phi_w) || !(pred > 0)) rho = -1;
-      else if (PetscAbsReal(ared) <= MSIM_NTR_PHI_ROUNDOFF * PetscAbsReal(phi) && pred <= MSIM_NTR_PHI_ROUNDOFF * PetscAbsReal(phi)) {
+      else if (PetscAbsReal(ared) <= MSIM_PHI_ROUNDOFF * PetscAbsReal(phi) && pred <= MSIM_PHI_ROUNDOFF * PetscAbsReal(phi)) {
+        /* a decrease Phi cannot resolve: judged by |g|, as the energy line search does */
         PetscCall(SNESComputeFunction(snes, W, G));
         PetscCall(VecNorm(G, NORM_2, &gnorm));
         have_g = PETSC_TRUE;
