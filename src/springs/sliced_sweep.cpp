@@ -13,8 +13,11 @@
    out-of-order window too short to cover a miss to memory, and the hardware prefetcher alone does
    not run far enough ahead on its five streams: with N = 512 (50 MB a step, past the L3) the
    force took 1.9 ns per spring without these prefetches and 1.4 with them, and 6 to 16 slices
-   did alike. */
-#define MSIM_PREFETCH_SLICES 10
+   did alike. Below MSIM_PREFETCH_MIN_BYTES of springs, positions and masses the data stay in cache
+   from one sweep to the next and the prefetches only take load slots: with N = 64 (0.8 MB) they
+   made the force 10% slower; with N = 128 (3.1 MB) and 256 (12.5 MB) they neither helped nor hurt. */
+#define MSIM_PREFETCH_SLICES    10
+#define MSIM_PREFETCH_MIN_BYTES (8 << 20)
 
 /* Values from one ring array to the next: W, 4 mirrored, and 36 more so that the arrays start
    320 bytes apart modulo 4096. Were they 4096-aligned alike (W is a power of two), a load from
@@ -180,11 +183,14 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
     _mm256_store_pd(FX + r, zero), _mm256_store_pd(FY + r, zero), _mm256_store_pd(FZ + r, zero);
   };
 
+  /* springs (other end, k, L: 20 B) and vertices (position, mass, force: 72 B) */
+  const bool prefetch = 20.0 * 4 * cptr[nslice] + 72.0 * 4 * nslice > MSIM_PREFETCH_MIN_BYTES;
+
   for (PetscInt g = 0; g < PetscMin(MSIM_RING_LEAD, nslice); g++) convert(g);
   for (PetscInt c = 0; c < nslice; c++) {
     const PetscInt r = (4 * c) & mask;
     if (c + MSIM_RING_LEAD < nslice) convert(c + MSIM_RING_LEAD);
-    if (c + MSIM_PREFETCH_SLICES < nslice) MSimPrefetchSlice(sl, c + MSIM_PREFETCH_SLICES, x, base);
+    if (prefetch && c + MSIM_PREFETCH_SLICES < nslice) MSimPrefetchSlice(sl, c + MSIM_PREFETCH_SLICES, x, base);
     /* shifted slots: the four other ends are one run of the ring */
     const __m256d vx = _mm256_load_pd(X + r), vy = _mm256_load_pd(Y + r), vz = _mm256_load_pd(Z + r);
     __m256d       ax = zero, ay = zero, az = zero;
