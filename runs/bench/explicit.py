@@ -2,7 +2,8 @@
 """Explicit step cost per spring: cloth N = 64, 128, 256, 512 at 1 and 2 ranks, symplectic Euler.
 Reads PETSc's -log_view (MSimForce: the force evaluation; MSimStep: the whole step) and
 -memory_view (maximum resident memory), best of 3 runs. Writes runs/bench/explicit.csv and
-explicit.png.
+explicit.png. Usage: explicit.py [ranks, e.g. 1,2]; explicit.py --plot redraws explicit.png from
+explicit.csv.
 Bytes per spring a force evaluation must move, as msim stores springs: the spring record (the
 other end as int32, k and L as double: 20 B; the vertex is implied by its slice of four) plus the
 position read and force write of the vertices (2 x 24 B per vertex), shared among the springs
@@ -42,7 +43,44 @@ def stream_bandwidth(np):
     return float(subprocess.run(["mpirun", "-n", str(np), exe], capture_output=True, text=True, check=True, env=ENV).stdout)
 
 
+def plot(rows):
+    """explicit.png from the rows (those of explicit.csv)"""
+    ranks = sorted({r["ranks"] for r in rows})
+    bw = {r["ranks"]: r["triad_gb_s"] for r in rows}
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    for np in ranks:
+        sel = [r for r in rows if r["ranks"] == np]
+        ax[0].plot([r["springs"] for r in sel], [r["force_ns_per_spring"] for r in sel], "o-", label=f"force, {np} rank(s)")
+        ax[0].plot([r["springs"] for r in sel], [r["step_ns_per_spring"] for r in sel], "s--", label=f"whole step, {np} rank(s)")
+        ax[1].plot([r["springs"] for r in sel], [r["max_rss_mb_total"] for r in sel], "o-", label=f"{np} rank(s), all ranks")
+    for np, style in zip(ranks, ("k", "0.5")):
+        sel = [r for r in rows if r["ranks"] == np]
+        ax[0].plot([r["springs"] for r in sel], [2 * r["traffic_ns_per_spring"] for r in sel], ":", color=style, lw=1.0,
+                   label=f"target: 2x its bytes at {bw[np]:.1f} GB/s ({np} rank(s) at once)")
+    ax[0].set_xscale("log")
+    ax[0].set_xlabel("springs")
+    ax[0].set_ylabel("wall ns per spring")
+    ax[0].set_title("Explicit step cost (symplectic Euler, cloth N x N)")
+    ax[0].set_ylim(0, None)
+    ax[0].legend(fontsize=7, loc="lower left", ncol=2)
+    ax[1].set_xscale("log")
+    ax[1].set_yscale("log")
+    ax[1].set_xlabel("springs")
+    ax[1].set_ylabel("max resident memory (MB)")
+    ax[1].set_title("Memory")
+    ax[1].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "explicit.png"), dpi=110)
+
+
 def main():
+    if len(sys.argv) > 1 and sys.argv[1] == "--plot":
+        with open(os.path.join(HERE, "explicit.csv")) as f:
+            plot([{k: (float(v) if k not in ("n", "ranks", "springs", "steps") else int(v)) for k, v in r.items()} for r in csv.DictReader(f)])
+        return
     ranks = [int(x) for x in (sys.argv[1].split(",") if len(sys.argv) > 1 else ["1", "2"])]
     bw = {np: stream_bandwidth(np) for np in ranks}
     for np in ranks:
@@ -82,32 +120,7 @@ def main():
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
         w.writerows(rows)
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-    for np in ranks:
-        sel = [r for r in rows if r["ranks"] == np]
-        ax[0].plot([r["springs"] for r in sel], [r["force_ns_per_spring"] for r in sel], "o-", label=f"force, {np} rank(s)")
-        ax[0].plot([r["springs"] for r in sel], [r["step_ns_per_spring"] for r in sel], "s--", label=f"whole step, {np} rank(s)")
-        ax[1].plot([r["springs"] for r in sel], [r["max_rss_mb_total"] for r in sel], "o-", label=f"{np} rank(s), all ranks")
-    for np, style in zip(ranks, ("k", "0.5")):
-        sel = [r for r in rows if r["ranks"] == np]
-        ax[0].plot([r["springs"] for r in sel], [2 * r["traffic_ns_per_spring"] for r in sel], ":", color=style, lw=1.0,
-                   label=f"target: 2x its bytes at {bw[np]:.1f} GB/s ({np} rank(s) at once)")
-    ax[0].set_xscale("log")
-    ax[0].set_xlabel("springs")
-    ax[0].set_ylabel("wall ns per spring")
-    ax[0].set_title("Explicit step cost (symplectic Euler, cloth N x N)")
-    ax[0].legend(fontsize=8)
-    ax[1].set_xscale("log")
-    ax[1].set_yscale("log")
-    ax[1].set_xlabel("springs")
-    ax[1].set_ylabel("max resident memory (MB)")
-    ax[1].set_title("Memory")
-    ax[1].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "explicit.png"), dpi=110)
+    plot(rows)
 
 
 if __name__ == "__main__":
