@@ -1,7 +1,7 @@
 // STREAM-style triad a = b + s c on arrays far larger than cache, on every rank at once: the
 // memory bandwidth that many ranks get together, the yardstick for "within 2x of the memory
 // traffic" of the force loop run on as many ranks. Ranks on one machine share its memory system:
-// here two ranks get about 1.2x what one does, not 2x, so one core's figure would be the wrong
+// here two ranks got 1.2-1.7x what one does, not 2x, so one core's figure would be the wrong
 // yardstick for a two-rank run.
 #include <mpi.h>
 #include <chrono>
