@@ -12,7 +12,7 @@ ring and scratch rows the sums pass through (in cache) are not counted: they are
 overhead; nor are the masses read for the weight m g (24 B per vertex), which would lower the
 ratio.
 The yardstick is the triad bandwidth of as many ranks as the run, streaming at once (stream.cpp):
-ranks on one machine share its memory system (here two get about 1.2x what one gets, not 2x), so
+ranks on one machine share its memory system (here two got 1.2-1.7x what one gets, not 2x), so
 ratio_to_traffic compares the force's wall time per spring with its bytes at that bandwidth.
 core_ns_per_spring_force (wall time x ranks) is kept for comparing work across rank counts."""
 import csv
@@ -36,11 +36,11 @@ def event(log, name):
     return int(m.group(1)), float(m.group(2))
 
 
-def stream_bandwidth(np):
-    """GB/s of np ranks streaming at once (stream.cpp)"""
+def stream_bandwidths(ranks):
+    """{np: GB/s of np ranks streaming at once} (stream.cpp, built once)"""
     exe = os.path.join("/tmp", "msim_stream")
     subprocess.run(["mpicxx", "-O3", "-march=x86-64-v2", os.path.join(HERE, "stream.cpp"), "-o", exe], check=True)
-    return float(subprocess.run(["mpirun", "-n", str(np), exe], capture_output=True, text=True, check=True, env=ENV).stdout)
+    return {np: float(subprocess.run(["mpirun", "-n", str(np), exe], capture_output=True, text=True, check=True, env=ENV).stdout) for np in ranks}
 
 
 def plot(rows):
@@ -82,7 +82,7 @@ def main():
             plot([{k: (float(v) if k not in ("n", "ranks", "springs", "steps") else int(v)) for k, v in r.items()} for r in csv.DictReader(f)])
         return
     ranks = [int(x) for x in (sys.argv[1].split(",") if len(sys.argv) > 1 else ["1", "2"])]
-    bw = {np: stream_bandwidth(np) for np in ranks}
+    bw = stream_bandwidths(ranks)
     for np in ranks:
         print(f"triad bandwidth, {np} rank(s) at once: {bw[np]:.2f} GB/s")
     rows = []
@@ -107,12 +107,12 @@ def main():
             mem = re.search(r"Maximum \(over computational time\) process memory:\s+total\s+(\S+)\s+max\s+(\S+)", r.stdout)
             rss_total, rss_max = float(mem.group(1)), float(mem.group(2))
             bps = 20.0 + 48.0 * n * n / ns  # bytes per spring (docstring)
-            ns_force = tf / nf / ns * 1e9 * np  # core-nanoseconds per spring
-            ns_step = tstep / nstep / ns * 1e9 * np
-            rows.append(dict(n=n, ranks=np, springs=ns, steps=steps, force_ns_per_spring=round(tf / nf / ns * 1e9, 3),
+            ns_wall = tf / nf / ns * 1e9  # wall nanoseconds per spring
+            ns_force = ns_wall * np  # core-nanoseconds per spring
+            rows.append(dict(n=n, ranks=np, springs=ns, steps=steps, force_ns_per_spring=round(ns_wall, 3),
                              step_ns_per_spring=round(tstep / nstep / ns * 1e9, 3), core_ns_per_spring_force=round(ns_force, 3),
                              bytes_per_spring=round(bps, 1), triad_gb_s=round(bw[np], 2), traffic_ns_per_spring=round(bps / bw[np], 3),
-                             ratio_to_traffic=round(tf / nf / ns * 1e9 / (bps / bw[np]), 2),
+                             ratio_to_traffic=round(ns_wall / (bps / bw[np]), 2),
                              max_rss_mb_total=round(rss_total / 2**20, 1), max_rss_mb_per_rank=round(rss_max / 2**20, 1),
                              bytes_per_spring_rss=round(rss_total / ns, 1)))
             print(rows[-1])
