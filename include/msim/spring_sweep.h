@@ -13,7 +13,8 @@
 void MSimSpringSweep(PetscInt n, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, const PetscReal *x, PetscReal *f, PetscReal alpha, PetscReal beta, PetscReal *energy);
 
 /* The same over springs [s0, s1) whose ends are local slots (msim/system.h): a slot below nown is
-   row slot of xown / fown (the Vec arrays), any other is row slot of xloc / floc. */
+   row slot of xown / fown (the Vec arrays), any other is row slot of xloc / floc. With floc NULL
+   only the owned ends' rows are updated (a ghost's row is its owner's to compute). */
 void MSimSpringSweepSlots(PetscInt s0, PetscInt s1, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, PetscInt nown, const PetscReal *xown, const PetscReal *xloc, PetscReal *fown, PetscReal *floc, PetscReal alpha, PetscReal beta, PetscReal *energy);
 
 /* One vertex's x, y, z and a pad, aligned for one 4-wide load and store */

@@ -1,7 +1,9 @@
 /* Springs layer: the distributed spring system. State Vecs (block size 3) hold only the free
    vertices, each rank a contiguous block; fixed vertices live in a boundary vector b(t) =
    b0 + t v_fix known to every rank (the references' K and b). Each rank owns the springs whose
-   first free endpoint it owns, and gathers the ghost positions it needs with one VecScatter. */
+   first free endpoint it owns, and gathers the ghost positions it needs with one VecScatter. The
+   springs across a rank boundary are also computed by the rank of their other end (the halo
+   springs), so that the undamped sweeps add forces only into owned rows: nothing travels back. */
 #pragma once
 #include <msim/scene.h>
 #include <msim/spring_sweep.h>
@@ -11,13 +13,18 @@
    block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices. Springs with both ends
    owned are stored by slices for the hot loop (msim/spring_sweep.h); the remaining ones are plain
    arrays: first the owned-owned ones of vertices past the last full slice (ninner of them), then
-   those with a ghost or fixed end. */
+   those with a ghost or fixed end. The halo springs are not owned: each joins an owned vertex (hi)
+   to a ghost (hj) and belongs to the ghost's rank; a sweep that counts them adds their force to
+   hi's row only and leaves their energy to the owner. Ghosts are the other ends of owned and halo
+   springs alike. */
 typedef struct {
   MSimSlices             slices;
   std::vector<PetscInt>  i, j;
   std::vector<PetscReal> k, L;
   PetscInt               n, ninner; /* entries of i, j, k, L; the owned-owned ones among them */
   PetscInt               total;     /* owned springs in all */
+  std::vector<PetscInt>  hi, hj;    /* halo springs: owned slot, ghost slot */
+  std::vector<PetscReal> hk, hL;
 } MSimSprings;
 
 /* Calls f(i, j, k, L) for every owned spring (slots as above). */
@@ -71,8 +78,8 @@ PetscErrorCode MSimSystemVelocityToLocal(MSimSystem sys, Vec V, Vec vloc);
 /* F += sum of local slot contributions (ghost parts go to their owners) */
 PetscErrorCode MSimSystemLocalToGlobalAdd(MSimSystem sys, Vec floc, Vec F);
 /* The hot loops' exchange: ghost positions of X into xloc's ghost slots (begin/end, so the owned
-   springs run in between) and b(t) into its fixed slots; the owned rows stay in X. Afterwards the
-   ghost slots of floc are added to their owners' rows of F. */
+   springs run in between) and b(t) into its fixed slots; the owned rows stay in X. GhostsAdd adds
+   the ghost slots of floc to their owners' rows of F (for sweeps that do not use the halo). */
 PetscErrorCode MSimSystemGhostsBegin(MSimSystem sys, Vec X, Vec xloc);
 PetscErrorCode MSimSystemGhostsEnd(MSimSystem sys, PetscReal t, Vec X, Vec xloc);
 PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F);

@@ -80,8 +80,9 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
 }
 
 /* One spring through the local slots (xloc: ghost and fixed slots filled; the owned rows of x and
-   rhs are the Vec arrays xo and ro; ghost contributions go to floc): the PD projection, the damping
-   term with the spring axes of x_n (xn, all slots, or NULL), and the coupling to fixed ends. */
+   rhs are the Vec arrays xo and ro; ghost contributions go to floc, or nowhere when fl is NULL):
+   the PD projection, the damping term with the spring axes of x_n (xn, all slots, or NULL), and
+   the coupling to fixed ends. */
 static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, PetscReal k, PetscReal L, const PetscScalar *xo, const PetscScalar *xl, const PetscScalar *xn, PetscScalar *ro, PetscScalar *fl, PetscReal *energy)
 {
   MSimSystem      sys = imp->sys;
@@ -100,8 +101,10 @@ static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, Petsc
   const PetscReal w = w1 + (xn ? hkd : 0.0);
   if (j >= nfl) p += w * xj;
   if (i >= nfl) p -= w * xi;
-  Map3((i < nown ? ro : fl) + 3 * i) += p;
-  Map3((j < nown ? ro : fl) + 3 * j) -= p;
+  if (i < nown) Map3(ro + 3 * i) += p;
+  else if (fl) Map3(fl + 3 * i) += p;
+  if (j < nown) Map3(ro + 3 * j) -= p;
+  else if (fl) Map3(fl + 3 * j) -= p;
 }
 
 /* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X; with phi,
@@ -148,21 +151,25 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
     PetscCall(MSimSystemGhostsEnd(sys, imp->t + h, X, sys->xloc));
     PetscCall(VecGetArrayRead(X, &x));
   }
-  PetscCall(VecGetArray(sys->floc, &fl));
-  PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
   PetscCall(VecGetArrayRead(sys->xloc, &xl));
   {
     PetscReal *e = phi ? &energy : NULL;
-    if (damped) MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) { PDSpringSlots(imp, i, j, k, L, x, xl, xn, r, fl, e); });
-    else
-      for (PetscInt s = sp.ninner; s < sp.n; s++) PDSpringSlots(imp, sp.i[s], sp.j[s], sp.k[s], sp.L[s], x, xl, NULL, r, fl, e);
+    if (damped) {
+      PetscCall(VecGetArray(sys->floc, &fl));
+      PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
+      MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) { PDSpringSlots(imp, i, j, k, L, x, xl, xn, r, fl, e); });
+      PetscCall(VecRestoreArray(sys->floc, &fl));
+    } else {
+      /* each adds to its owned end only; the halo's energy is its owners' */
+      for (PetscInt s = sp.ninner; s < sp.n; s++) PDSpringSlots(imp, sp.i[s], sp.j[s], sp.k[s], sp.L[s], x, xl, NULL, r, NULL, e);
+      for (size_t s = 0; s < sp.hi.size(); s++) PDSpringSlots(imp, sp.hi[s], sp.hj[s], sp.hk[s], sp.hL[s], x, xl, NULL, r, NULL, NULL);
+    }
   }
   PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
-  PetscCall(VecRestoreArray(sys->floc, &fl));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscCall(VecRestoreArrayWrite(rhs, &r));
   if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
-  if (sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, rhs)); /* collective */
+  if (damped && sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, rhs)); /* collective */
   if (phi) PetscCall(MPIU_Allreduce(&energy, phi, 1, MPIU_REAL, MPIU_SUM, sys->comm));
   PetscCall(PetscLogEventEnd(MSIM_PDLocal, X, rhs, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);

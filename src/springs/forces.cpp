@@ -1,8 +1,9 @@
 /* Force and energy assembly over owned springs; the per-spring physics is in msim/kernels.hpp and,
    for the hot loops, msim/spring_sweep.h. Without spring damping the force is built in place in F:
    F starts as the external force, the springs with both ends owned add into F's array while the
-   ghost positions travel, the others (ghost or fixed ends) follow, and ghost contributions go to
-   their owners. With damping every spring goes through the local slots. */
+   ghost positions travel, the others (ghost or fixed ends) and the halo follow, each adding to its
+   owned end only. With damping every spring goes through the local slots, and the ghost slots'
+   sums go to their owners. */
 #include <msim/system.h>
 #include <msim/kernels.hpp>
 #include <msim/spring_sweep.h>
@@ -40,7 +41,7 @@ static PetscErrorCode SpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, Pet
 {
   const MSimSprings &sp = sys->springs;
   const PetscScalar *x, *xl, *m = NULL;
-  PetscScalar       *f = NULL, *fl = NULL;
+  PetscScalar       *f = NULL;
   PetscReal          e = 0;
   MSimSweepBase      base;
 
@@ -59,25 +60,18 @@ static PetscErrorCode SpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, Pet
   PetscCall(VecRestoreArrayRead(X, &x));
   if (F) PetscCall(VecRestoreArray(F, &f));
   PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));
-  /* springs with a ghost or fixed end; the ghost forces then go to their owners (collective: every
-     rank takes part, whether or not it has such springs) */
-  if (F) {
-    PetscCall(VecGetArray(sys->floc, &fl));
-    PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
-    PetscCall(VecGetArray(F, &f));
-  }
+  /* springs with a ghost or fixed end, then the halo (their energy is their owners'): each adds
+     to its owned end only, so no force goes back to an owner */
+  if (F) PetscCall(VecGetArray(F, &f));
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->xloc, &xl));
-  MSimSpringSweepSlots(sp.ninner, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, xl, f, fl, alpha, beta, energy ? &e : NULL);
+  MSimSpringSweepSlots(sp.ninner, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, xl, f, NULL, alpha, beta, energy ? &e : NULL);
+  if (F) MSimSpringSweepSlots(0, (PetscInt)sp.hi.size(), sp.hi.data(), sp.hj.data(), sp.hk.data(), sp.hL.data(), sys->nown, x, xl, f, NULL, alpha, beta, NULL);
   PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(X, &x));
-  if (F) {
-    PetscCall(VecRestoreArray(F, &f));
-    PetscCall(VecRestoreArray(sys->floc, &fl));
-    if (sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, F));
-  }
+  if (F) PetscCall(VecRestoreArray(F, &f));
   if (energy) PetscCall(MPIU_Allreduce(&e, energy, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  PetscCall(PetscLogFlops((F ? 30.0 : 12.0) * sp.total));
+  PetscCall(PetscLogFlops(F ? 30.0 * (sp.total + (PetscReal)sp.hi.size()) : 12.0 * sp.total));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -98,13 +98,10 @@ void MSimSpringSweepSlots(PetscInt s0, PetscInt s1, const PetscInt *i, const Pet
     e2 += k[s] * (l - L[s]) * (l - L[s]);
     if (fown) {
       const PetscReal c  = k[s] * (alpha + beta * L[s] / l);
-      PetscReal      *fi = (i[s] < nown ? fown : floc) + 3 * i[s], *fj = (j[s] < nown ? fown : floc) + 3 * j[s];
-      fi[0] += c * d0;
-      fi[1] += c * d1;
-      fi[2] += c * d2;
-      fj[0] -= c * d0;
-      fj[1] -= c * d1;
-      fj[2] -= c * d2;
+      PetscReal      *fi = i[s] < nown ? fown + 3 * i[s] : (floc ? floc + 3 * i[s] : NULL);
+      PetscReal      *fj = j[s] < nown ? fown + 3 * j[s] : (floc ? floc + 3 * j[s] : NULL);
+      if (fi) fi[0] += c * d0, fi[1] += c * d1, fi[2] += c * d2;
+      if (fj) fj[0] -= c * d0, fj[1] -= c * d1, fj[2] -= c * d2;
     }
   }
   if (energy) *energy += 0.5 * e2;

@@ -94,17 +94,17 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
   sys->nown   = count[sys->rank + 1] - count[sys->rank];
   PetscCheck(sys->nown > 0, comm, PETSC_ERR_ARG_WRONG, "rank %d owns no vertex: %" PetscInt_FMT " free vertices on %d ranks; use fewer ranks", sys->rank, nfree, sys->size);
 
-  /* owned springs, ghosts */
+  /* owned springs, ghosts: the other ends of every spring with an owned end (owned or halo) */
   std::map<PetscInt, PetscInt> ghost; /* global block -> slot, filled in sorted order below */
   auto owner = [&](PetscInt s) { PetscInt v = freeid[S.si[s]] >= 0 ? S.si[s] : S.sj[s]; return freeid[v] >= 0 ? part[freeid[v]] : -1; };
+  auto mine  = [&](PetscInt v) { return freeid[v] >= 0 && part[freeid[v]] == sys->rank; };
   sys->nspring_global = 0;
   for (PetscInt s = 0; s < ns; s++) {
-    PetscMPIInt o = owner(s);
-    if (o < 0) continue; /* both ends fixed: no effect on the motion */
+    if (owner(s) < 0) continue; /* both ends fixed: no effect on the motion */
     sys->nspring_global++;
-    if (o != sys->rank) continue;
+    if (!mine(S.si[s]) && !mine(S.sj[s])) continue;
     for (PetscInt v : {S.si[s], S.sj[s]})
-      if (freeid[v] >= 0 && part[freeid[v]] != sys->rank) ghost[gnum[freeid[v]]] = 0;
+      if (freeid[v] >= 0 && !mine(v)) ghost[gnum[freeid[v]]] = 0;
   }
   sys->nghost = (PetscInt)ghost.size();
   sys->nloc   = sys->nown + sys->nghost + nfix;
@@ -155,7 +155,19 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     }
     sp.n     = (PetscInt)sp.i.size();
     sp.total = (PetscInt)(ia.size() + other.size());
+    /* the halo: springs of another rank with an owned end (the other end is then free: it
+       decided the owner), stored from the owned end */
+    for (PetscInt s = 0; s < ns; s++) {
+      const PetscMPIInt o = owner(s);
+      if (o < 0 || o == sys->rank || !(mine(S.si[s]) || mine(S.sj[s]))) continue;
+      const bool first = mine(S.si[s]);
+      sp.hi.push_back(slot_of(first ? S.si[s] : S.sj[s]));
+      sp.hj.push_back(slot_of(first ? S.sj[s] : S.si[s]));
+      sp.hk.push_back(S.sk[s]);
+      sp.hL.push_back(S.sL[s]);
+    }
     PetscCall(MSimSweepScratchSetUp(&sp.slices, &sys->sweep));
+    PetscCall(PetscInfo(NULL, "rank %d: %" PetscInt_FMT " owned vertices, %" PetscInt_FMT " ghosts; %" PetscInt_FMT " owned springs (%" PetscInt_FMT " in %" PetscInt_FMT " slots of 4, %" PetscInt_FMT " with a ghost or fixed end), %" PetscInt_FMT " halo springs\n", sys->rank, sys->nown, sys->nghost, sp.total, (PetscInt)ia.size() - (PetscInt)rest.size(), sp.slices.cptr.back(), sp.n - sp.ninner, (PetscInt)sp.hi.size()));
   }
 
   /* boundary: every rank keeps all fixed vertices (they are few: corners, an edge, a face) */
