@@ -17,6 +17,17 @@ void MSimSpringSweep(PetscInt n, const PetscInt *i, const PetscInt *j, const Pet
    only the owned ends' rows are updated (a ghost's row is its owner's to compute). */
 void MSimSpringSweepSlots(PetscInt s0, PetscInt s1, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, PetscInt nown, const PetscReal *xown, const PetscReal *xloc, PetscReal *fown, PetscReal *floc, PetscReal alpha, PetscReal beta, PetscReal *energy);
 
+/* Spring damping in a sweep: c gains -kd ((v_i - v_j) . d) / l^2, the force along each spring
+   that opposes its ends' relative axial velocity (msim::SpringDampingForce); v rows of 3 like x. */
+typedef struct {
+  const PetscReal *v;
+  PetscReal        kd;
+} MSimSweepDamping;
+
+/* The damped spring force (alpha = -1, beta = 1, damping kd) over springs [s0, s1) of local slots,
+   velocities as positions (vown / vloc); only the owned ends' rows of fown are updated. */
+void MSimSpringForceSlotsDamped(PetscInt s0, PetscInt s1, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, PetscInt nown, const PetscReal *xown, const PetscReal *xloc, const PetscReal *vown, const PetscReal *vloc, PetscReal kd, PetscReal *fown);
+
 /* One vertex's x, y, z and a pad, aligned for one 4-wide load and store */
 struct alignas(32) MSimRow4 {
   PetscReal v[4];
@@ -48,7 +59,7 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
    slices they touch. */
 typedef struct {
   PetscInt              W, lag;
-  std::vector<MSimRow4> ring;    /* x, y, z; other ends' sums; own sums: W + 4 values each (4 mirror the start) and padding */
+  std::vector<MSimRow4> ring;    /* x, y, z; other ends' sums; own sums; velocities: W + 4 values each (4 mirror the start) and padding */
   std::vector<MSimRow4> f4;      /* rows of 4, zero between sweeps */
   std::vector<PetscInt> touched; /* slices whose rows of 4 the gathered slots reach */
 } MSimSweepScratch;
@@ -63,5 +74,6 @@ typedef struct {
 } MSimSweepBase;
 
 /* f += the sliced springs' sums (f may be NULL: energy only); with base, f = base + the sums on
-   the sliced vertices' rows [0, 4 nslice) instead. energy += their energy (may be NULL). */
-void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *energy);
+   the sliced vertices' rows [0, 4 nslice) instead; with damp (f only), the damping along each
+   spring too. energy += their energy (may be NULL). */
+void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, const MSimSweepDamping *damp, PetscReal alpha, PetscReal beta, PetscReal *energy);

@@ -58,6 +58,7 @@ struct _n_MSimSystem {
   MSimSweepScratch      sweep;      /* the sliced sweep's scratch */
   VecScatter  g2l;                  /* global free -> owned+ghost slots */
   VecScatter  ghosts;               /* global free -> ghost slots only */
+  VecScatter  vghosts;              /* the same for velocities (spring damping only) */
   Vec         X0, V0;               /* initial state */
   /* rank 0 only: what output needs in input vertex order */
   std::vector<char>     fixed_flag; /* nv */
@@ -83,6 +84,10 @@ PetscErrorCode MSimSystemLocalToGlobalAdd(MSimSystem sys, Vec floc, Vec F);
 PetscErrorCode MSimSystemGhostsBegin(MSimSystem sys, Vec X, Vec xloc);
 PetscErrorCode MSimSystemGhostsEnd(MSimSystem sys, PetscReal t, Vec X, Vec xloc);
 PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F);
+/* The same for velocities (spring damping; may be in flight with the positions' exchange): ghost
+   velocities into vloc's ghost slots, the handles' velocity into its fixed slots. */
+PetscErrorCode MSimSystemVelocityGhostsBegin(MSimSystem sys, Vec V, Vec vloc);
+PetscErrorCode MSimSystemVelocityGhostsEnd(MSimSystem sys, Vec V, Vec vloc);
 PetscErrorCode MSimSystemBoundary(MSimSystem sys, PetscReal t, PetscReal *b); /* fills 3 nfix */
 
 /* F = f_springs(x) + f_damping(x, v) + m g + drag (wind - v). V may be NULL when damping and drag

@@ -144,7 +144,7 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
      positions travel, then those with a ghost or fixed end; with damping, all through the slots */
   if (!damped) {
     PetscReal es = 0;
-    MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, r, NULL, 0.0, h * h, phi ? &es : NULL);
+    MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, r, NULL, NULL, 0.0, h * h, phi ? &es : NULL);
     MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, 0.0, h * h, phi ? &es : NULL);
     energy += h * h * es;
     PetscCall(VecRestoreArrayRead(X, &x));

@@ -1,9 +1,8 @@
 /* Force and energy assembly over owned springs; the per-spring physics is in msim/kernels.hpp and,
    for the hot loops, msim/spring_sweep.h. Without spring damping the force is built in place in F:
    F starts as the external force, the springs with both ends owned add into F's array while the
-   ghost positions travel, the others (ghost or fixed ends) and the halo follow, each adding to its
-   owned end only. With damping every spring goes through the local slots, and the ghost slots'
-   sums go to their owners. */
+   ghost positions (and, with spring damping, velocities) travel, the others (ghost or fixed ends)
+   and the halo follow, each adding to its owned end only. */
 #include <msim/system.h>
 #include <msim/kernels.hpp>
 #include <msim/spring_sweep.h>
@@ -36,77 +35,62 @@ static PetscErrorCode MSimSystemExternalForce(MSimSystem sys, Vec V, Vec F, Pets
 
 /* F += alpha/beta spring sweep (spring_sweep.h) over every owned spring, in place in F's array;
    with energy, also the spring energy (summed over ranks). With weight, the sliced vertices' rows
-   of F start from m g instead of F's values (the sweep writes them whole). */
-static PetscErrorCode SpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscBool weight, PetscReal alpha, PetscReal beta, PetscReal *energy)
+   of F start from m g instead of F's values (the sweep writes them whole). With V (the force only:
+   alpha = -1, beta = 1), spring damping too, the ghost velocities travelling with the positions. */
+static PetscErrorCode SpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F, PetscBool weight, PetscReal alpha, PetscReal beta, PetscReal *energy)
 {
   const MSimSprings &sp = sys->springs;
-  const PetscScalar *x, *xl, *m = NULL;
+  const PetscScalar *x, *xl, *m = NULL, *v = NULL, *vl = NULL;
   PetscScalar       *f = NULL;
   PetscReal          e = 0;
   MSimSweepBase      base;
+  MSimSweepDamping   damp;
 
   PetscFunctionBeginUser;
+  PetscCheck(!V || (F && alpha == -1 && beta == 1 && !energy), sys->comm, PETSC_ERR_PLIB, "the damped sweep computes the force only");
   PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
+  if (V) PetscCall(MSimSystemVelocityGhostsBegin(sys, V, sys->vloc));
   PetscCall(VecGetArrayRead(X, &x));
+  if (V) PetscCall(VecGetArrayRead(V, &v));
   if (F) PetscCall(VecGetArray(F, &f));
   if (weight) {
     PetscCall(VecGetArrayRead(sys->mass, &m));
     base.m = m;
     for (int c = 0; c < 3; c++) base.a[c] = sys->gravity[c];
   }
-  MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, f, weight ? &base : NULL, alpha, beta, energy ? &e : NULL);
+  damp.v  = v;
+  damp.kd = sys->damping;
+  MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, f, weight ? &base : NULL, V ? &damp : NULL, alpha, beta, energy ? &e : NULL);
   if (weight) PetscCall(VecRestoreArrayRead(sys->mass, &m));
-  MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, f, alpha, beta, energy ? &e : NULL);
-  PetscCall(VecRestoreArrayRead(X, &x));
-  if (F) PetscCall(VecRestoreArray(F, &f));
+  if (V) MSimSpringForceSlotsDamped(0, sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, NULL, v, NULL, sys->damping, f);
+  else MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, f, alpha, beta, energy ? &e : NULL);
   PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));
+  if (V) PetscCall(MSimSystemVelocityGhostsEnd(sys, V, sys->vloc));
   /* springs with a ghost or fixed end, then the halo (their energy is their owners'): each adds
      to its owned end only, so no force goes back to an owner */
-  if (F) PetscCall(VecGetArray(F, &f));
-  PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->xloc, &xl));
-  MSimSpringSweepSlots(sp.ninner, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, xl, f, NULL, alpha, beta, energy ? &e : NULL);
-  if (F) MSimSpringSweepSlots(0, (PetscInt)sp.hi.size(), sp.hi.data(), sp.hj.data(), sp.hk.data(), sp.hL.data(), sys->nown, x, xl, f, NULL, alpha, beta, NULL);
+  if (V) {
+    PetscCall(VecGetArrayRead(sys->vloc, &vl));
+    MSimSpringForceSlotsDamped(sp.ninner, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, xl, v, vl, sys->damping, f);
+    MSimSpringForceSlotsDamped(0, (PetscInt)sp.hi.size(), sp.hi.data(), sp.hj.data(), sp.hk.data(), sp.hL.data(), sys->nown, x, xl, v, vl, sys->damping, f);
+    PetscCall(VecRestoreArrayRead(sys->vloc, &vl));
+  } else {
+    MSimSpringSweepSlots(sp.ninner, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), sys->nown, x, xl, f, NULL, alpha, beta, energy ? &e : NULL);
+    if (F) MSimSpringSweepSlots(0, (PetscInt)sp.hi.size(), sp.hi.data(), sp.hj.data(), sp.hk.data(), sp.hL.data(), sys->nown, x, xl, f, NULL, alpha, beta, NULL);
+  }
   PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(X, &x));
+  if (V) PetscCall(VecRestoreArrayRead(V, &v));
   if (F) PetscCall(VecRestoreArray(F, &f));
   if (energy) PetscCall(MPIU_Allreduce(&e, energy, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  PetscCall(PetscLogFlops(F ? 30.0 * (sp.total + (PetscReal)sp.hi.size()) : 12.0 * sp.total));
+  PetscCall(PetscLogFlops(F ? (V ? 45.0 : 30.0) * (sp.total + (PetscReal)sp.hi.size()) : 12.0 * sp.total));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal alpha, PetscReal beta, PetscReal *energy)
 {
   PetscFunctionBeginUser;
-  PetscCall(SpringSweep(sys, t, X, F, PETSC_FALSE, alpha, beta, energy));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-/* With spring damping: every spring through the local slots (positions and velocities). */
-static PetscErrorCode MSimSystemDampedSpringForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F)
-{
-  const MSimSprings &sp = sys->springs;
-  const PetscScalar *x, *v;
-  PetscScalar       *f;
-
-  PetscFunctionBeginUser;
-  PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
-  PetscCall(MSimSystemVelocityToLocal(sys, V, sys->vloc));
-  PetscCall(VecZeroEntries(sys->floc));
-  PetscCall(VecGetArrayRead(sys->xloc, &x));
-  PetscCall(VecGetArrayRead(sys->vloc, &v));
-  PetscCall(VecGetArray(sys->floc, &f));
-  MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
-    Vec3 fi = msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L);
-    fi += msim::SpringDampingForce(CMap3(x + 3 * i), CMap3(x + 3 * j), CMap3(v + 3 * i), CMap3(v + 3 * j), sys->damping);
-    Map3(f + 3 * i) += fi;
-    Map3(f + 3 * j) -= fi;
-  });
-  PetscCall(VecRestoreArray(sys->floc, &f));
-  PetscCall(VecRestoreArrayRead(sys->vloc, &v));
-  PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, F));
-  PetscCall(PetscLogFlops(60.0 * sp.total));
+  PetscCall(SpringSweep(sys, t, X, NULL, F, PETSC_FALSE, alpha, beta, energy));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -115,12 +99,11 @@ PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V,
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Force, X, F, 0, 0));
   PetscCheck(V || (sys->damping == 0 && sys->drag == 0), sys->comm, PETSC_ERR_ARG_NULL, "velocity needed for damping and drag");
-  /* without damping and drag the weight of the sliced vertices comes with the sweep, which writes
-     their rows whole: one pass over F instead of two */
-  const PetscBool weight = (PetscBool)(sys->damping == 0 && sys->drag == 0);
+  /* without drag the weight of the sliced vertices comes with the sweep, which writes their rows
+     whole: one pass over F instead of two */
+  const PetscBool weight = (PetscBool)(sys->drag == 0);
   PetscCall(MSimSystemExternalForce(sys, V, F, weight ? 4 * sys->springs.slices.nslice : 0));
-  if (sys->damping > 0) PetscCall(MSimSystemDampedSpringForce(sys, t, X, V, F));
-  else PetscCall(SpringSweep(sys, t, X, F, weight, -1.0, 1.0, NULL));
+  PetscCall(SpringSweep(sys, t, X, sys->damping > 0 ? V : NULL, F, weight, -1.0, 1.0, NULL));
   PetscCall(PetscLogEventEnd(MSIM_Force, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

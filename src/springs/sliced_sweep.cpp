@@ -117,7 +117,7 @@ PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w)
   w->ring.clear();
   w->f4.clear();
 #if MSIM_SIMD_ROWS
-  w->ring.assign(9 * MSimRingStride(w->W) / 4, MSimRow4{{0, 0, 0, 0}});
+  w->ring.assign(12 * MSimRingStride(w->W) / 4, MSimRow4{{0, 0, 0, 0}});
   if (!w->touched.empty()) w->f4.assign(4 * sl->nslice, MSimRow4{{0, 0, 0, 0}});
 #endif
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -140,14 +140,19 @@ __attribute__((always_inline)) static inline void MSimPrefetchSlice(const MSimSl
   for (int o = 0; o < 128; o += 64) _mm_prefetch(pj + o, _MM_HINT_T0), _mm_prefetch(px + o, _MM_HINT_T0), _mm_prefetch(pm + o, _MM_HINT_T0);
 }
 
-template <bool F, bool E>
-static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *e2)
+/* D: with spring damping (damp->v, damp->kd; F only): c gains -kd ((v_i - v_j) . d) / l^2, with
+   1/l from one division instead of L/l */
+template <bool F, bool E, bool D>
+static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, const MSimSweepDamping *damp, PetscReal alpha, PetscReal beta, PetscReal *e2)
 {
   const PetscInt  nslice = sl->nslice, W = w->W, mask = W - 1, m = MSimRingStride(W);
   const PetscInt *cptr = sl->cptr.data(), *cmid = sl->cmid.data(), *sj = sl->sj.data();
   const double   *sk = sl->sk.data(), *sL = sl->sL.data();
   double *const   X = w->ring[0].v, *const Y = X + m, *const Z = Y + m, *const FX = Z + m, *const FY = FX + m, *const FZ = FY + m;
   double *const   GX = FZ + m, *const GY = GX + m, *const GZ = GY + m;
+  double *const   VX = GZ + m, *const VY = VX + m, *const VZ = VY + m; /* velocities (D) */
+  const double   *v  = D ? damp->v : NULL;
+  const __m256d   vg = _mm256_set1_pd(D ? -damp->kd : 0.0), one = _mm256_set1_pd(1.0);
   double *const   f4   = w->f4.empty() ? NULL : w->f4[0].v; /* used only by gathered slots */
   const __m256d   va   = _mm256_set1_pd(alpha), vb = _mm256_set1_pd(beta), zero = _mm256_setzero_pd();
   __m256d         ve   = zero;
@@ -163,6 +168,11 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
     MSimRowsToXYZ(x + 12 * g, &gx, &gy, &gz);
     _mm256_store_pd(X + r, gx), _mm256_store_pd(Y + r, gy), _mm256_store_pd(Z + r, gz);
     if (r == 0) _mm256_store_pd(X + W, gx), _mm256_store_pd(Y + W, gy), _mm256_store_pd(Z + W, gz);
+    if (D) {
+      MSimRowsToXYZ(v + 12 * g, &gx, &gy, &gz);
+      _mm256_store_pd(VX + r, gx), _mm256_store_pd(VY + r, gy), _mm256_store_pd(VZ + r, gz);
+      if (r == 0) _mm256_store_pd(VX + W, gx), _mm256_store_pd(VY + W, gy), _mm256_store_pd(VZ + W, gz);
+    }
   };
   /* group g's complete sums into f: its own (G), its other ends' (F, with what runs wrote into the
      mirror); F back to zero */
@@ -193,6 +203,7 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
     if (prefetch && c + MSIM_PREFETCH_SLICES < nslice) MSimPrefetchSlice(sl, c + MSIM_PREFETCH_SLICES, x, base);
     /* shifted slots: the four other ends are one run of the ring */
     const __m256d vx = _mm256_load_pd(X + r), vy = _mm256_load_pd(Y + r), vz = _mm256_load_pd(Z + r);
+    const __m256d ux = D ? _mm256_load_pd(VX + r) : zero, uy = D ? _mm256_load_pd(VY + r) : zero, uz = D ? _mm256_load_pd(VZ + r) : zero;
     __m256d       ax = zero, ay = zero, az = zero;
     for (PetscInt q = cptr[c]; q < cmid[c]; q++) {
       const PetscInt j  = sj[4 * q] & mask;
@@ -204,7 +215,13 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
         ve              = _mm256_fmadd_pd(_mm256_mul_pd(vk, e), e, ve);
       }
       if (F) {
-        const __m256d cc = _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va));
+        __m256d cc;
+        if (D) {
+          const __m256d ex = _mm256_sub_pd(ux, _mm256_loadu_pd(VX + j)), ey = _mm256_sub_pd(uy, _mm256_loadu_pd(VY + j)), ez = _mm256_sub_pd(uz, _mm256_loadu_pd(VZ + j));
+          const __m256d sv = _mm256_fmadd_pd(ez, dz, _mm256_fmadd_pd(ey, dy, _mm256_mul_pd(ex, dx)));
+          const __m256d ri = _mm256_div_pd(one, l);
+          cc               = _mm256_fmadd_pd(_mm256_mul_pd(vg, sv), _mm256_mul_pd(ri, ri), _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_mul_pd(vL, ri), va)));
+        } else cc = _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va));
         const __m256d fx = _mm256_mul_pd(cc, dx), fy = _mm256_mul_pd(cc, dy), fz = _mm256_mul_pd(cc, dz);
         ax = _mm256_add_pd(ax, fx), ay = _mm256_add_pd(ay, fy), az = _mm256_add_pd(az, fz);
         _mm256_storeu_pd(FX + j, _mm256_sub_pd(_mm256_loadu_pd(FX + j), fx));
@@ -219,6 +236,8 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
     if (cmid[c] < cptr[c + 1]) {
       const double *xv = x + 12 * c;
       const __m256d x0 = MSimLoad3(xv), x1 = MSimLoad3(xv + 3), x2 = MSimLoad3(xv + 6), x3 = MSimLoad3(xv + 9);
+      const double *uv = D ? v + 12 * c : NULL;
+      const __m256d u0 = D ? MSimLoad3(uv) : zero, u1 = D ? MSimLoad3(uv + 3) : zero, u2 = D ? MSimLoad3(uv + 6) : zero, u3 = D ? MSimLoad3(uv + 9) : zero;
       __m256d       a0 = zero, a1 = zero, a2 = zero, a3 = zero;
       for (PetscInt q = cmid[c]; q < cptr[c + 1]; q++) {
         const PetscInt *J   = sj + 4 * q;
@@ -236,7 +255,16 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
         }
         if (F) {
           /* padded lanes (k = 0, l = 0) give 0/0: masked to zero */
-          const __m256d c4 = _mm256_and_pd(_mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va)), _mm256_cmp_pd(vk, zero, _CMP_NEQ_OQ));
+          __m256d c4;
+          if (D) {
+            /* (v_i - v_j) . d of the four springs in the four lanes, as |d|^2 above */
+            const __m256d s01 = _mm256_hadd_pd(_mm256_mul_pd(_mm256_sub_pd(u0, MSimLoad3(v + 3 * J[0])), d0), _mm256_mul_pd(_mm256_sub_pd(u1, MSimLoad3(v + 3 * J[1])), d1));
+            const __m256d s23 = _mm256_hadd_pd(_mm256_mul_pd(_mm256_sub_pd(u2, MSimLoad3(v + 3 * J[2])), d2), _mm256_mul_pd(_mm256_sub_pd(u3, MSimLoad3(v + 3 * J[3])), d3));
+            const __m256d sv  = _mm256_add_pd(_mm256_permute2f128_pd(s01, s23, 0x20), _mm256_permute2f128_pd(s01, s23, 0x31));
+            const __m256d ri  = _mm256_div_pd(one, l);
+            c4                = _mm256_fmadd_pd(_mm256_mul_pd(vg, sv), _mm256_mul_pd(ri, ri), _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_mul_pd(vL, ri), va)));
+          } else c4 = _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va));
+          c4 = _mm256_and_pd(c4, _mm256_cmp_pd(vk, zero, _CMP_NEQ_OQ));
           const __m256d f0 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0x00), d0);
           const __m256d f1 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0x55), d1);
           const __m256d f2 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0xAA), d2);
@@ -276,8 +304,8 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
 }
 #else
 /* without AVX2: lane by lane, straight into f (the scratch is unused) */
-template <bool F, bool E>
-static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *e2)
+template <bool F, bool E, bool D>
+static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, const MSimSweepDamping *damp, PetscReal alpha, PetscReal beta, PetscReal *e2)
 {
   if (F && base)
     for (PetscInt i = 0; i < 12 * sl->nslice; i++) f[i] = base->m[i] * base->a[i % 3];
@@ -292,7 +320,11 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscRea
         const PetscReal l = std::sqrt(d0 * d0 + d1 * d1 + d2 * d2);
         if (E) *e2 += k * (l - L) * (l - L);
         if (F) {
-          const PetscReal cc = k * (alpha + beta * L / l);
+          PetscReal cc = k * (alpha + beta * L / l);
+          if (D) {
+            const PetscReal *vi = damp->v + 3 * v, *vj = damp->v + 3 * j;
+            cc -= damp->kd * ((vi[0] - vj[0]) * d0 + (vi[1] - vj[1]) * d1 + (vi[2] - vj[2]) * d2) / (l * l);
+          }
           f[3 * v] += cc * d0, f[3 * v + 1] += cc * d1, f[3 * v + 2] += cc * d2;
           f[3 * j] -= cc * d0, f[3 * j + 1] -= cc * d1, f[3 * j + 2] -= cc * d2;
         }
@@ -300,11 +332,13 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *, const PetscRea
 }
 #endif
 
-void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, PetscReal alpha, PetscReal beta, PetscReal *energy)
+void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, const MSimSweepDamping *damp, PetscReal alpha, PetscReal beta, PetscReal *energy)
 {
   PetscReal e2 = 0;
-  if (f && energy) SweepSlices<true, true>(sl, w, x, f, base, alpha, beta, &e2);
-  else if (f) SweepSlices<true, false>(sl, w, x, f, base, alpha, beta, &e2);
-  else if (energy) SweepSlices<false, true>(sl, w, x, f, base, alpha, beta, &e2);
+  if (f && damp && energy) SweepSlices<true, true, true>(sl, w, x, f, base, damp, alpha, beta, &e2);
+  else if (f && damp) SweepSlices<true, false, true>(sl, w, x, f, base, damp, alpha, beta, &e2);
+  else if (f && energy) SweepSlices<true, true, false>(sl, w, x, f, base, NULL, alpha, beta, &e2);
+  else if (f) SweepSlices<true, false, false>(sl, w, x, f, base, NULL, alpha, beta, &e2);
+  else if (energy) SweepSlices<false, true, false>(sl, w, x, f, base, NULL, alpha, beta, &e2);
   if (energy) *energy += 0.5 * e2;
 }

@@ -106,3 +106,17 @@ void MSimSpringSweepSlots(PetscInt s0, PetscInt s1, const PetscInt *i, const Pet
   }
   if (energy) *energy += 0.5 * e2;
 }
+
+void MSimSpringForceSlotsDamped(PetscInt s0, PetscInt s1, const PetscInt *i, const PetscInt *j, const PetscReal *k, const PetscReal *L, PetscInt nown, const PetscReal *xown, const PetscReal *xloc, const PetscReal *vown, const PetscReal *vloc, PetscReal kd, PetscReal *fown)
+{
+  for (PetscInt s = s0; s < s1; s++) {
+    const PetscInt   a = i[s], b = j[s];
+    const PetscReal *xi = (a < nown ? xown : xloc) + 3 * a, *xj = (b < nown ? xown : xloc) + 3 * b;
+    const PetscReal *vi = (a < nown ? vown : vloc) + 3 * a, *vj = (b < nown ? vown : vloc) + 3 * b;
+    const PetscReal  d0 = xi[0] - xj[0], d1 = xi[1] - xj[1], d2 = xi[2] - xj[2];
+    const PetscReal  l2 = d0 * d0 + d1 * d1 + d2 * d2, l = std::sqrt(l2);
+    const PetscReal  c  = k[s] * (L[s] / l - 1.0) - kd * ((vi[0] - vj[0]) * d0 + (vi[1] - vj[1]) * d1 + (vi[2] - vj[2]) * d2) / l2;
+    if (a < nown) fown[3 * a] += c * d0, fown[3 * a + 1] += c * d1, fown[3 * a + 2] += c * d2;
+    if (b < nown) fown[3 * b] -= c * d0, fown[3 * b + 1] -= c * d1, fown[3 * b + 2] -= c * d2;
+  }
+}

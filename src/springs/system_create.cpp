@@ -213,6 +213,8 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     PetscCall(VecScatterCreate(sys->X0, from, sys->xloc, to, &sys->ghosts));
     PetscCall(ISDestroy(&from));
     PetscCall(ISDestroy(&to));
+    /* a scatter keeps the arrays of one operation in flight: the velocities need their own */
+    if (sys->damping > 0) PetscCall(VecScatterCopy(sys->ghosts, &sys->vghosts));
   }
 
   /* output: rank 0 gathers free positions in input order, and keeps the connectivity */
@@ -261,6 +263,7 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
   PetscCall(VecDestroy(&(*sys)->gathered));
   PetscCall(VecScatterDestroy(&(*sys)->g2l));
   PetscCall(VecScatterDestroy(&(*sys)->ghosts));
+  PetscCall(VecScatterDestroy(&(*sys)->vghosts));
   PetscCall(VecScatterDestroy(&(*sys)->gather));
   delete *sys;
   *sys = NULL;

@@ -63,6 +63,26 @@ PetscErrorCode MSimSystemGhostsEnd(MSimSystem sys, PetscReal t, Vec X, Vec xloc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimSystemVelocityGhostsBegin(MSimSystem sys, Vec V, Vec vloc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterBegin(sys->vghosts, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemVelocityGhostsEnd(MSimSystem sys, Vec V, Vec vloc)
+{
+  PetscScalar *v;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterEnd(sys->vghosts, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArray(vloc, &v));
+  for (PetscInt f = sys->nown + sys->nghost; f < sys->nloc; f++)
+    for (int c = 0; c < 3; c++) v[3 * f + c] = sys->fix_velocity[c];
+  PetscCall(VecRestoreArray(vloc, &v));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F)
 {
   PetscFunctionBeginUser;

@@ -65,7 +65,8 @@ static PetscErrorCode TestKernels(void)
 
 /* A random graph of 4 m + 3 vertices (three past the last slice) with uneven degrees (padded
    lanes): the sliced sweep plus the array sweep plus the fold give every vertex the force the
-   per-spring kernel gives, for the force (-1, 1) and the PD projection (0, h^2), and the energy. */
+   per-spring kernel gives, for the force (-1, 1) and the PD projection (0, h^2), and the energy;
+   also the force with spring damping. */
 static PetscErrorCode TestSweeps(void)
 {
   std::mt19937                           rng(777);
@@ -130,9 +131,9 @@ static PetscErrorCode TestSweeps(void)
     for (int pass = 0; pass < 2; pass++) {
       std::vector<PetscReal> f(3 * nv, 0.0);
       PetscReal              e = 0, eonly = 0, diff = 0;
-      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), NULL, alpha, beta, &e);
+      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), NULL, NULL, alpha, beta, &e);
       MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), f.data(), alpha, beta, &e);
-      MSimSpringSweepSlices(&sl, &w, x.data(), NULL, NULL, alpha, beta, &eonly);
+      MSimSpringSweepSlices(&sl, &w, x.data(), NULL, NULL, NULL, alpha, beta, &eonly);
       MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), NULL, alpha, beta, &eonly);
       for (PetscInt i = 0; i < 3 * nv; i++) diff = std::max(diff, std::abs(f[i] - fref[i]));
       NOTE("sweep test (%s, pass %d): max force difference %.2e of %.2e, energy %.15e vs %.15e\n", mode ? "PD projection" : "force", pass, diff, fmax, e, eref);
@@ -145,7 +146,7 @@ static PetscErrorCode TestSweeps(void)
       MSimSweepBase          base = {m.data(), {0.5, -2.0, -9.81}};
       PetscReal              diff = 0, wmax = 0;
       for (PetscInt i = 0; i < 3 * nv; i++) m[i] = 1 + std::abs(u(rng)), f[i] = i < 12 * sl.nslice ? 1e30 : 0.0;
-      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), &base, alpha, beta, NULL);
+      MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), &base, NULL, alpha, beta, NULL);
       MSimSpringSweep(sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x.data(), f.data(), alpha, beta, NULL);
       for (PetscInt i = 0; i < 3 * nv; i++) {
         const PetscReal wi = i < 12 * sl.nslice ? m[i] * base.a[i % 3] : 0.0;
@@ -154,6 +155,29 @@ static PetscErrorCode TestSweeps(void)
       NOTE("sweep test (%s, with the weight as base): max difference %.2e\n", mode ? "PD projection" : "force", diff);
       CHECK(diff <= 1e-12 * (fmax + wmax), "sweep with a base (%s): rows differ by %g", mode ? "PD projection" : "force", diff);
     }
+  }
+  {
+    /* with spring damping: the sliced sweep (shifted and gathered slots, velocities through the
+       ring) plus the damped slot sweep over the rest give every vertex SpringForce +
+       SpringDampingForce; the slot sweep, given every vertex as owned, reads only xown / vown */
+    std::vector<PetscReal> v(3 * nv), fref(3 * nv, 0.0), f(3 * nv, 0.0);
+    const PetscReal        kd = 80.0;
+    PetscReal              fmax = 0, diff = 0, dmax = 0;
+    for (auto &c : v) c = 5 * u(rng);
+    for (size_t s = 0; s < a.size(); s++) {
+      const Vec3 xi(&x[3 * a[s]]), xj(&x[3 * b[s]]), vi(&v[3 * a[s]]), vj(&v[3 * b[s]]);
+      const Vec3 fd = msim::SpringDampingForce(xi, xj, vi, vj, kd), fi = msim::SpringForce(xi, xj, k[s], L[s]) + fd;
+      for (int c = 0; c < 3; c++) fref[3 * a[s] + c] += fi[c], fref[3 * b[s] + c] -= fi[c];
+      dmax = std::max(dmax, fd.norm());
+    }
+    for (PetscReal q : fref) fmax = std::max(fmax, std::abs(q));
+    MSimSweepDamping damp = {v.data(), kd};
+    MSimSpringSweepSlices(&sl, &w, x.data(), f.data(), NULL, &damp, -1.0, 1.0, NULL);
+    MSimSpringForceSlotsDamped(0, sp.n, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), nv, x.data(), NULL, v.data(), NULL, kd, f.data());
+    for (PetscInt i = 0; i < 3 * nv; i++) diff = std::max(diff, std::abs(f[i] - fref[i]));
+    NOTE("sweep test (force with damping): max difference %.2e of %.2e (damping forces up to %.2e)\n", diff, fmax, dmax);
+    CHECK(dmax > 1e-2 * fmax, "the damping test needs damping forces that matter (%g of %g)", dmax, fmax);
+    CHECK(diff <= 1e-12 * fmax, "damped sweep: force differs by %g of %g", diff, fmax);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
