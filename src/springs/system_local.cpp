@@ -22,17 +22,25 @@ PetscErrorCode MSimSystemGlobalToLocal(MSimSystem sys, PetscReal t, Vec X, Vec x
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSystemVelocityToLocal(MSimSystem sys, Vec V, Vec vloc)
+/* the handles' velocity into vloc's fixed slots */
+static PetscErrorCode MSimSystemFixedVelocities(MSimSystem sys, Vec vloc)
 {
   PetscScalar *v;
 
   PetscFunctionBeginUser;
-  PetscCall(VecScatterBegin(sys->g2l, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sys->g2l, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArray(vloc, &v));
   for (PetscInt f = sys->nown + sys->nghost; f < sys->nloc; f++)
     for (int c = 0; c < 3; c++) v[3 * f + c] = sys->fix_velocity[c];
   PetscCall(VecRestoreArray(vloc, &v));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemVelocityToLocal(MSimSystem sys, Vec V, Vec vloc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterBegin(sys->g2l, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sys->g2l, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(MSimSystemFixedVelocities(sys, vloc));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -72,14 +80,9 @@ PetscErrorCode MSimSystemVelocityGhostsBegin(MSimSystem sys, Vec V, Vec vloc)
 
 PetscErrorCode MSimSystemVelocityGhostsEnd(MSimSystem sys, Vec V, Vec vloc)
 {
-  PetscScalar *v;
-
   PetscFunctionBeginUser;
   PetscCall(VecScatterEnd(sys->vghosts, V, vloc, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecGetArray(vloc, &v));
-  for (PetscInt f = sys->nown + sys->nghost; f < sys->nloc; f++)
-    for (int c = 0; c < 3; c++) v[3 * f + c] = sys->fix_velocity[c];
-  PetscCall(VecRestoreArray(vloc, &v));
+  PetscCall(MSimSystemFixedVelocities(sys, vloc));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
