@@ -64,7 +64,8 @@ typedef struct {
   std::vector<PetscInt> touched; /* slices whose rows of 4 the gathered slots reach */
 } MSimSweepScratch;
 
-PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w);
+/* velocities: room for them in the ring (sweeps with spring damping need it; others do not) */
+PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, PetscBool velocities, MSimSweepScratch *w);
 
 /* A row value the sweep starts from instead of f's: m_v .* a (m rows of 3, a per component; the
    weight m g), so that no earlier pass has to write f only for the sweep to read it back. */
@@ -74,6 +75,6 @@ typedef struct {
 } MSimSweepBase;
 
 /* f += the sliced springs' sums (f may be NULL: energy only); with base, f = base + the sums on
-   the sliced vertices' rows [0, 4 nslice) instead; with damp (f only), the damping along each
-   spring too. energy += their energy (may be NULL). */
+   the sliced vertices' rows [0, 4 nslice) instead; with damp (f only; w set up with velocities),
+   the damping along each spring too. energy += their energy (may be NULL). */
 void MSimSpringSweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscReal *x, PetscReal *f, const MSimSweepBase *base, const MSimSweepDamping *damp, PetscReal alpha, PetscReal beta, PetscReal *energy);

@@ -92,7 +92,7 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w)
+PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, PetscBool velocities, MSimSweepScratch *w)
 {
   PetscInt          span = 0;
   std::vector<char> reach(sl->nslice, 0);
@@ -117,7 +117,7 @@ PetscErrorCode MSimSweepScratchSetUp(const MSimSlices *sl, MSimSweepScratch *w)
   w->ring.clear();
   w->f4.clear();
 #if MSIM_SIMD_ROWS
-  w->ring.assign(12 * MSimRingStride(w->W) / 4, MSimRow4{{0, 0, 0, 0}});
+  w->ring.assign((velocities ? 12 : 9) * MSimRingStride(w->W) / 4, MSimRow4{{0, 0, 0, 0}});
   if (!w->touched.empty()) w->f4.assign(4 * sl->nslice, MSimRow4{{0, 0, 0, 0}});
 #endif
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -140,6 +140,16 @@ __attribute__((always_inline)) static inline void MSimPrefetchSlice(const MSimSl
   for (int o = 0; o < 128; o += 64) _mm_prefetch(pj + o, _MM_HINT_T0), _mm_prefetch(px + o, _MM_HINT_T0), _mm_prefetch(pm + o, _MM_HINT_T0);
 }
 
+/* c = k (alpha + beta L/l) of four springs; with damping (D), also + g s / l^2 (g = -kd, s the
+   relative velocity along d), 1/l from one division instead of L/l */
+template <bool D>
+__attribute__((always_inline)) static inline __m256d MSimSpringCoefficient(__m256d k, __m256d L, __m256d l, __m256d va, __m256d vb, __m256d g, __m256d s)
+{
+  if (!D) return _mm256_mul_pd(k, _mm256_fmadd_pd(vb, _mm256_div_pd(L, l), va));
+  const __m256d ri = _mm256_div_pd(_mm256_set1_pd(1.0), l);
+  return _mm256_fmadd_pd(_mm256_mul_pd(g, s), _mm256_mul_pd(ri, ri), _mm256_mul_pd(k, _mm256_fmadd_pd(vb, _mm256_mul_pd(L, ri), va)));
+}
+
 /* D: with spring damping (damp->v, damp->kd; F only): c gains -kd ((v_i - v_j) . d) / l^2, with
    1/l from one division instead of L/l */
 template <bool F, bool E, bool D>
@@ -150,9 +160,9 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
   const double   *sk = sl->sk.data(), *sL = sl->sL.data();
   double *const   X = w->ring[0].v, *const Y = X + m, *const Z = Y + m, *const FX = Z + m, *const FY = FX + m, *const FZ = FY + m;
   double *const   GX = FZ + m, *const GY = GX + m, *const GZ = GY + m;
-  double *const   VX = GZ + m, *const VY = VX + m, *const VZ = VY + m; /* velocities (D) */
+  double *const   VX = D ? GZ + m : NULL, *const VY = D ? VX + m : NULL, *const VZ = D ? VY + m : NULL; /* velocities: a ring set up with them */
   const double   *v  = D ? damp->v : NULL;
-  const __m256d   vg = _mm256_set1_pd(D ? -damp->kd : 0.0), one = _mm256_set1_pd(1.0);
+  const __m256d   vg = _mm256_set1_pd(D ? -damp->kd : 0.0);
   double *const   f4   = w->f4.empty() ? NULL : w->f4[0].v; /* used only by gathered slots */
   const __m256d   va   = _mm256_set1_pd(alpha), vb = _mm256_set1_pd(beta), zero = _mm256_setzero_pd();
   __m256d         ve   = zero;
@@ -215,13 +225,12 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
         ve              = _mm256_fmadd_pd(_mm256_mul_pd(vk, e), e, ve);
       }
       if (F) {
-        __m256d cc;
+        __m256d sv = zero;
         if (D) {
           const __m256d ex = _mm256_sub_pd(ux, _mm256_loadu_pd(VX + j)), ey = _mm256_sub_pd(uy, _mm256_loadu_pd(VY + j)), ez = _mm256_sub_pd(uz, _mm256_loadu_pd(VZ + j));
-          const __m256d sv = _mm256_fmadd_pd(ez, dz, _mm256_fmadd_pd(ey, dy, _mm256_mul_pd(ex, dx)));
-          const __m256d ri = _mm256_div_pd(one, l);
-          cc               = _mm256_fmadd_pd(_mm256_mul_pd(vg, sv), _mm256_mul_pd(ri, ri), _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_mul_pd(vL, ri), va)));
-        } else cc = _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va));
+          sv               = _mm256_fmadd_pd(ez, dz, _mm256_fmadd_pd(ey, dy, _mm256_mul_pd(ex, dx)));
+        }
+        const __m256d cc = MSimSpringCoefficient<D>(vk, vL, l, va, vb, vg, sv);
         const __m256d fx = _mm256_mul_pd(cc, dx), fy = _mm256_mul_pd(cc, dy), fz = _mm256_mul_pd(cc, dz);
         ax = _mm256_add_pd(ax, fx), ay = _mm256_add_pd(ay, fy), az = _mm256_add_pd(az, fz);
         _mm256_storeu_pd(FX + j, _mm256_sub_pd(_mm256_loadu_pd(FX + j), fx));
@@ -255,16 +264,14 @@ static void SweepSlices(const MSimSlices *sl, MSimSweepScratch *w, const PetscRe
         }
         if (F) {
           /* padded lanes (k = 0, l = 0) give 0/0: masked to zero */
-          __m256d c4;
+          __m256d sv = zero;
           if (D) {
             /* (v_i - v_j) . d of the four springs in the four lanes, as |d|^2 above */
             const __m256d s01 = _mm256_hadd_pd(_mm256_mul_pd(_mm256_sub_pd(u0, MSimLoad3(v + 3 * J[0])), d0), _mm256_mul_pd(_mm256_sub_pd(u1, MSimLoad3(v + 3 * J[1])), d1));
             const __m256d s23 = _mm256_hadd_pd(_mm256_mul_pd(_mm256_sub_pd(u2, MSimLoad3(v + 3 * J[2])), d2), _mm256_mul_pd(_mm256_sub_pd(u3, MSimLoad3(v + 3 * J[3])), d3));
-            const __m256d sv  = _mm256_add_pd(_mm256_permute2f128_pd(s01, s23, 0x20), _mm256_permute2f128_pd(s01, s23, 0x31));
-            const __m256d ri  = _mm256_div_pd(one, l);
-            c4                = _mm256_fmadd_pd(_mm256_mul_pd(vg, sv), _mm256_mul_pd(ri, ri), _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_mul_pd(vL, ri), va)));
-          } else c4 = _mm256_mul_pd(vk, _mm256_fmadd_pd(vb, _mm256_div_pd(vL, l), va));
-          c4 = _mm256_and_pd(c4, _mm256_cmp_pd(vk, zero, _CMP_NEQ_OQ));
+            sv                = _mm256_add_pd(_mm256_permute2f128_pd(s01, s23, 0x20), _mm256_permute2f128_pd(s01, s23, 0x31));
+          }
+          const __m256d c4 = _mm256_and_pd(MSimSpringCoefficient<D>(vk, vL, l, va, vb, vg, sv), _mm256_cmp_pd(vk, zero, _CMP_NEQ_OQ));
           const __m256d f0 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0x00), d0);
           const __m256d f1 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0x55), d1);
           const __m256d f2 = _mm256_mul_pd(_mm256_permute4x64_pd(c4, 0xAA), d2);

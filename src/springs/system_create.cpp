@@ -166,7 +166,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
       sp.hk.push_back(S.sk[s]);
       sp.hL.push_back(S.sL[s]);
     }
-    PetscCall(MSimSweepScratchSetUp(&sp.slices, &sys->sweep));
+    PetscCall(MSimSweepScratchSetUp(&sp.slices, (PetscBool)(sys->damping > 0), &sys->sweep));
     PetscCall(PetscInfo(NULL, "rank %d: %" PetscInt_FMT " owned vertices, %" PetscInt_FMT " ghosts; %" PetscInt_FMT " owned springs (%" PetscInt_FMT " in %" PetscInt_FMT " slots of 4, %" PetscInt_FMT " with a ghost or fixed end), %" PetscInt_FMT " halo springs\n", sys->rank, sys->nown, sys->nghost, sp.total, (PetscInt)ia.size() - (PetscInt)rest.size(), sp.slices.cptr.back(), sp.n - sp.ninner, (PetscInt)sp.hi.size()));
   }
 

@@ -96,7 +96,7 @@ static PetscErrorCode TestSweeps(void)
     for (int q = 0; q < deg; q++) add(v, (PetscInt)(rng() % v));
   }
   PetscCall(MSimSlicesCreate(nv, a, b, k, L, &sl, rest));
-  PetscCall(MSimSweepScratchSetUp(&sl, &w));
+  PetscCall(MSimSweepScratchSetUp(&sl, PETSC_TRUE, &w));
   MSimSprings sp;
   sp.slices = sl;
   for (PetscInt s : rest) sp.i.push_back(a[s]), sp.j.push_back(b[s]), sp.k.push_back(k[s]), sp.L.push_back(L[s]);
