@@ -54,6 +54,7 @@ struct _n_MSimSystem {
   PetscReal   gravity[3], wind[3], drag, damping;
   PetscReal   total_mass, diameter;
   Vec         mass;                 /* per dof (block size 3), global layout */
+  Vec         massinv;              /* 1 / mass: made on first use (MSimSystemGetInverseMass) */
   Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
   MSimSweepScratch      sweep;      /* the sliced sweep's scratch */
   VecScatter  g2l;                  /* global free -> owned+ghost slots */
@@ -116,6 +117,9 @@ PetscErrorCode MSimSystemGraphPreallocation(MSimSystem sys, std::vector<PetscInt
 /* A = mass_coef M + diag_coef I + stiff_coef K(X) + damp_coef kd sum_s n_s n_s^T (spring axes at
    Xn at time tn, the start of the step; pass NULL to skip). psd: project each spring block to PSD. */
 PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, PetscReal tn, Vec Xn, PetscReal damp_coef, Mat A);
+/* 1 / mass per dof, made on the first call (the explicit integrators' accelerations use it: a
+   product vectorizes, where PETSc's VecPointwiseDivide tests every divisor and does not) */
+PetscErrorCode MSimSystemGetInverseMass(MSimSystem sys, Vec *massinv);
 /* Lumped mass as a diagonal Mat. */
 PetscErrorCode MSimSystemCreateMassMatrix(MSimSystem sys, Mat *M);
 /* Gershgorin bound on omega_max^2 of (K, M): max_i (2/m_i) sum_j k_ij, over free vertices. */

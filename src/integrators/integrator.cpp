@@ -153,8 +153,11 @@ PetscErrorCode MSimIntegratorDestroy(MSimIntegrator *integ)
 
 PetscErrorCode MSimSystemAcceleration(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A)
 {
+  Vec massinv;
+
   PetscFunctionBeginUser;
+  PetscCall(MSimSystemGetInverseMass(sys, &massinv));
   PetscCall(MSimSystemComputeForce(sys, t, X, V, A));
-  PetscCall(VecPointwiseDivide(A, A, sys->mass));
+  PetscCall(VecPointwiseMult(A, A, massinv));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

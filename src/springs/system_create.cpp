@@ -250,6 +250,18 @@ PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimSystemGetInverseMass(MSimSystem sys, Vec *massinv)
+{
+  PetscFunctionBeginUser;
+  if (!sys->massinv) {
+    PetscCall(VecDuplicate(sys->mass, &sys->massinv));
+    PetscCall(VecCopy(sys->mass, sys->massinv));
+    PetscCall(VecReciprocal(sys->massinv)); /* every free vertex has a positive mass */
+  }
+  *massinv = sys->massinv;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
 {
   PetscFunctionBeginUser;
@@ -257,6 +269,7 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
   PetscCall(VecDestroy(&(*sys)->X0));
   PetscCall(VecDestroy(&(*sys)->V0));
   PetscCall(VecDestroy(&(*sys)->mass));
+  PetscCall(VecDestroy(&(*sys)->massinv));
   PetscCall(VecDestroy(&(*sys)->xloc));
   PetscCall(VecDestroy(&(*sys)->vloc));
   PetscCall(VecDestroy(&(*sys)->floc));

@@ -6,34 +6,66 @@
 #include <msim/integrator.h>
 
 typedef struct {
-  Vec A; /* acceleration work vector */
+  Vec F; /* force work vector */
 } Euler;
 
 static PetscErrorCode Setup_Euler(MSimIntegrator integ)
 {
   Euler *e = (Euler *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(VecDuplicate(integ->sys->X0, &e->A));
+  PetscCall(VecDuplicate(integ->sys->X0, &e->F));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The force, then both updates in one pass over the rows (three Vec operations, a = F / m and two
+   AXPYs, took a third of a cloth's step: PETSc's pointwise division tests each divisor and does
+   not vectorize). symplectic: x moves with the new velocity, else with the old. */
+static PetscErrorCode Step_Euler(MSimIntegrator integ, PetscReal t, Vec X, Vec V, PetscBool symplectic)
+{
+  Euler             *e = (Euler *)integ->data;
+  const PetscReal    h = integ->dt;
+  const PetscScalar *f, *minv;
+  PetscScalar       *x, *v;
+  PetscInt           n;
+  Vec                massinv;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemGetInverseMass(integ->sys, &massinv));
+  PetscCall(MSimSystemComputeForce(integ->sys, t, X, V, e->F));
+  PetscCall(VecGetLocalSize(X, &n));
+  PetscCall(VecGetArrayRead(e->F, &f));
+  PetscCall(VecGetArrayRead(massinv, &minv));
+  PetscCall(VecGetArray(X, &x));
+  PetscCall(VecGetArray(V, &v));
+  if (symplectic)
+    for (PetscInt i = 0; i < n; i++) {
+      v[i] += h * minv[i] * f[i];
+      x[i] += h * v[i];
+    }
+  else
+    for (PetscInt i = 0; i < n; i++) {
+      x[i] += h * v[i];
+      v[i] += h * minv[i] * f[i];
+    }
+  PetscCall(VecRestoreArray(V, &v));
+  PetscCall(VecRestoreArray(X, &x));
+  PetscCall(VecRestoreArrayRead(massinv, &minv));
+  PetscCall(VecRestoreArrayRead(e->F, &f));
+  PetscCall(PetscLogFlops(5.0 * n));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 static PetscErrorCode Step_ExplicitEuler(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 {
-  Euler *e = (Euler *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemAcceleration(integ->sys, t, X, V, e->A));
-  PetscCall(VecAXPY(X, integ->dt, V));
-  PetscCall(VecAXPY(V, integ->dt, e->A));
+  PetscCall(Step_Euler(integ, t, X, V, PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 static PetscErrorCode Step_SymplecticEuler(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 {
-  Euler *e = (Euler *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemAcceleration(integ->sys, t, X, V, e->A));
-  PetscCall(VecAXPY(V, integ->dt, e->A));
-  PetscCall(VecAXPY(X, integ->dt, V));
+  PetscCall(Step_Euler(integ, t, X, V, PETSC_TRUE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -41,7 +73,7 @@ static PetscErrorCode Destroy_Euler(MSimIntegrator integ)
 {
   Euler *e = (Euler *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&e->A));
+  PetscCall(VecDestroy(&e->F));
   PetscCall(PetscFree(integ->data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
