@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Bad input: each case must exit non-zero with exactly one line on stderr, 'msim: error: ...',
-naming the option (and the allowed range), and must not create the output directory. A run that
+naming the option (and the allowed range) or the options file (and its line), and must not create
+the output directory. A misspelled option must be named in one warning line. A run that
 diverges must keep the frames written before it and the last finite state."""
 import os
 import subprocess
@@ -29,6 +30,13 @@ CASES = [
     (["-msim_drag", "-1"], "-msim_drag must be >= 0"),
     (["-msim_partition", "random"], "-msim_partition random is not known"),
     (["-msim_output_every", "0"], "-msim_output_every must be >= 1"),
+    # values PETSc cannot convert: the line names the option
+    (["-msim_dt", "abc"], "-msim_dt: 'abc' is not a number"),
+    (["-msim_cloth_n", "2.5"], "-msim_cloth_n: '2.5' is not an integer"),
+    (["-msim_integrator", "implicit_euler", "-msim_psd", "maybe"], "-msim_psd: 'maybe' is not true or false"),
+    # options files, read inside PetscInitialize (written by main() below)
+    (["-options_file", "missing.opts"], "Unable to open options file missing.opts"),
+    (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
 ]
 
 
@@ -42,6 +50,8 @@ def run(args, cwd, np=1):
 def main():
     passed = failed = 0
     with tempfile.TemporaryDirectory() as tmp:
+        with open(os.path.join(tmp, "malformed.opts"), "w") as f:
+            f.write("-msim_cloth_n 8\nmsim_steps 3\n")  # the dash forgotten on line 2
         for np in (1, 2):
             for args, message in CASES:
                 out = os.path.join(tmp, f"series_{np}")
@@ -59,6 +69,15 @@ def main():
                     print(f"FAIL np={np} {' '.join(args)}: " + "; ".join(problems))
                 else:
                     passed += 1
+        # a misspelled option runs with the defaults, so it is named in a warning (one line, exit 0)
+        for np in (1, 2):
+            r = run(["-msim_stifness", "10", "-msim_steps", "2"], tmp, np)
+            lines = [l for l in r.stderr.splitlines() if l.strip()]
+            if r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: -msim_stifness was set but never used"):
+                passed += 1
+            else:
+                failed += 1
+                print(f"FAIL np={np} misspelled option: rc {r.returncode}, stderr {lines!r}")
         # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
         out = os.path.join(tmp, "diverged")
         r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)

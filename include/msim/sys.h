@@ -14,6 +14,17 @@ extern PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacob
 /* Registers log events, the integrator and scene types and msim's SNES type "pd".
    Installs an error handler that prints the first error message as one line on rank 0. */
 PetscErrorCode MSimInitialize(void);
+/* errors.cpp. The first message of an error, one line ("msim: error: ..."), from rank 0 of the
+   communicator it was raised on; -msim_traceback restores PETSc's full trace. */
+PetscErrorCode MSimErrorHandler(MPI_Comm, int, const char *, const char *, PetscErrorCode, PetscErrorType, const char *, void *);
+/* Around SlepcInitialize, whose errors (an options file that does not open or parse) come before
+   the handler: Begin keeps PETSc's trace to itself; End(ierr) prints its message as one line and
+   finalizes MPI where ierr is set, returning the exit code (0 or 1). */
+void MSimInitializeBegin(void);
+int  MSimInitializeEnd(PetscErrorCode ierr);
+/* Options set but never read (a misspelled name does nothing otherwise): one warning line each on
+   stderr, unless -options_left asked PETSc to list them. */
+PetscErrorCode MSimWarnUnusedOptions(MPI_Comm comm);
 PetscErrorCode MSimFinalize(void);
 
 /* Parse "a,b,c" into three reals inside a PetscOptionsBegin block; errors name the option. */

@@ -40,6 +40,7 @@ static PetscErrorCode MSimMain(void)
   PetscCall(VecDestroy(&V));
   PetscCall(MSimIntegratorDestroy(&integ));
   PetscCall(MSimSystemDestroy(&sys));
+  PetscCall(MSimWarnUnusedOptions(PETSC_COMM_WORLD));
   PetscCall(MSimFinalize());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -48,7 +49,8 @@ int main(int argc, char **argv)
 {
   PetscErrorCode ierr;
 
-  PetscCall(SlepcInitialize(&argc, &argv, NULL, help));
+  MSimInitializeBegin();
+  if (MSimInitializeEnd(SlepcInitialize(&argc, &argv, NULL, help))) return 1;
   ierr = MSimMain();
   /* the error was reported as one line by msim's handler; finalize so MPI exits cleanly */
   if (SlepcFinalize() || ierr) return 1;

@@ -1,4 +1,5 @@
-/* Package initialization: log events, registries, msim's SNES type, the one-line error handler. */
+/* Package initialization: log events, registries, msim's SNES type, the one-line error handler
+   (errors.cpp). */
 #include <msim/sys.h>
 #include <msim/scene.h>
 #include <msim/integrator.h>
@@ -8,22 +9,6 @@
 
 PetscClassId  MSIM_CLASSID;
 PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
-
-/* Users get the first message of an error as one line ("msim: error: ..."), printed by rank 0 of
-   the communicator the error was raised on; -msim_traceback restores PETSc's full trace. */
-static PetscErrorCode MSimErrorHandler(MPI_Comm comm, int line, const char *fun, const char *file, PetscErrorCode n, PetscErrorType p, const char *mess, void *ctx)
-{
-  PetscMPIInt rank = 0;
-  if (p != PETSC_ERROR_INITIAL) return n;
-  if (comm != MPI_COMM_NULL) MPI_Comm_rank(comm, &rank);
-  if (rank == 0) {
-    const char *text = NULL;
-    if (!mess || !mess[0]) PetscErrorMessage(n, &text, NULL);
-    fprintf(stderr, "msim: error: %s\n", mess && mess[0] ? mess : (text ? text : "unknown error"));
-    fflush(stderr);
-  }
-  return n;
-}
 
 /* OpenBLAS's threads fight the MPI ranks for the cores and make PETSc's small BLAS-1 calls slow
    (a 30k-entry VecAXPY took 1.5 ms with two threads on two cores): one thread per rank unless
