@@ -21,6 +21,9 @@ PetscErrorCode MSimErrorHandler(MPI_Comm, int, const char *, const char *, Petsc
    the handler: Begin keeps PETSc's trace to itself; End(ierr) prints its message as one line and
    finalizes MPI where ierr is set, returning the exit code (0 or 1). */
 void MSimInitializeBegin(void);
+/* mpi_defaults.cpp: MPI transport settings msim prefers, set before MPI_Init where the user has not
+   set them (Open MPI's eager limit for shared memory, which the ghost exchange's messages exceed) */
+void MSimSetMPIDefaults(void);
 int  MSimInitializeEnd(PetscErrorCode ierr);
 /* Options set but never read (a misspelled name does nothing otherwise): one warning line each on
    stderr, unless -options_left asked PETSc to list them. */

@@ -49,6 +49,7 @@ int main(int argc, char **argv)
 {
   PetscErrorCode ierr;
 
+  MSimSetMPIDefaults();
   MSimInitializeBegin();
   if (MSimInitializeEnd(SlepcInitialize(&argc, &argv, NULL, help))) return 1;
   ierr = MSimMain();
