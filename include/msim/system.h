@@ -1,12 +1,14 @@
 /* Springs layer: the distributed spring system. State Vecs (block size 3) hold only the free
    vertices, each rank a contiguous block; fixed vertices live in a boundary vector b(t) =
    b0 + t v_fix known to every rank (the references' K and b). Each rank owns the springs whose
-   first free endpoint it owns, and gathers the ghost positions it needs with one VecScatter. The
-   springs across a rank boundary are also computed by the rank of their other end (the halo
-   springs), so that the undamped sweeps add forces only into owned rows: nothing travels back. */
+   first free endpoint it owns, and gathers the ghost positions it needs with one exchange
+   (msim/ghost_exchange.h). The springs across a rank boundary are also computed by the rank of
+   their other end (the halo springs), so that the undamped sweeps add forces only into owned
+   rows: nothing travels back. */
 #pragma once
 #include <msim/scene.h>
 #include <msim/spring_sweep.h>
+#include <msim/ghost_exchange.h>
 #include <vector>
 
 /* Owned springs. Endpoints are local vertex slots: [0, nown) owned (also the rows of the rank's
@@ -58,8 +60,9 @@ struct _n_MSimSystem {
   Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
   MSimSweepScratch      sweep;      /* the sliced sweep's scratch */
   VecScatter  g2l;                  /* global free -> owned+ghost slots */
-  VecScatter  ghosts;               /* global free -> ghost slots only */
-  VecScatter  vghosts;              /* the same for velocities (spring damping only) */
+  VecScatter  ghosts;               /* global free -> ghost slots only (GhostsAdd's reverse scatter) */
+  MSimGhostExchange xghosts;        /* the hot loops' forward exchange of ghost positions (ranks > 1) */
+  MSimGhostExchange vghosts;        /* the same for velocities (spring damping only) */
   Vec         X0, V0;               /* initial state */
   /* rank 0 only: what output needs in input vertex order */
   std::vector<char>     fixed_flag; /* nv */

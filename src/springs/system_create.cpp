@@ -213,8 +213,11 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     PetscCall(VecScatterCreate(sys->X0, from, sys->xloc, to, &sys->ghosts));
     PetscCall(ISDestroy(&from));
     PetscCall(ISDestroy(&to));
-    /* a scatter keeps the arrays of one operation in flight: the velocities need their own */
-    if (sys->damping > 0) PetscCall(VecScatterCopy(sys->ghosts, &sys->vghosts));
+    if (sys->size > 1) {
+      PetscCall(MSimGhostExchangeCreate(comm, 3, sys->nown, sys->nghost, sys->local_to_global.data() + sys->nown, count.data(), &sys->xghosts));
+      /* an exchange has one operation in flight: the velocities need their own */
+      if (sys->damping > 0) PetscCall(MSimGhostExchangeCreate(comm, 3, sys->nown, sys->nghost, sys->local_to_global.data() + sys->nown, count.data(), &sys->vghosts));
+    }
   }
 
   /* output: rank 0 gathers free positions in input order, and keeps the connectivity */
@@ -276,7 +279,8 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
   PetscCall(VecDestroy(&(*sys)->gathered));
   PetscCall(VecScatterDestroy(&(*sys)->g2l));
   PetscCall(VecScatterDestroy(&(*sys)->ghosts));
-  PetscCall(VecScatterDestroy(&(*sys)->vghosts));
+  PetscCall(MSimGhostExchangeDestroy(&(*sys)->xghosts));
+  PetscCall(MSimGhostExchangeDestroy(&(*sys)->vghosts));
   PetscCall(VecScatterDestroy(&(*sys)->gather));
   delete *sys;
   *sys = NULL;
