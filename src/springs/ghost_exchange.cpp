@@ -20,19 +20,15 @@ PetscErrorCode MSimGhostExchangeCreate(MPI_Comm comm, PetscInt bs, PetscInt nown
   /* receiving side: ghosts ascend, so those of one owner are one run */
   PetscCall(PetscMalloc1(nghost, &remote));
   x->from.clear();
-  x->from_off.assign(1, 0);
+  x->from_off.clear();
   for (PetscInt g = 0; g < nghost; g++) {
     const PetscMPIInt r = (PetscMPIInt)(std::upper_bound(ranges, ranges + size + 1, ghosts[g]) - ranges - 1);
-    PetscCheck(g == 0 || ghosts[g] > ghosts[g - 1], comm, PETSC_ERR_PLIB, "ghosts must ascend");
+    PetscCheck(g == 0 || ghosts[g] > ghosts[g - 1], PETSC_COMM_SELF, PETSC_ERR_PLIB, "ghosts must ascend");
     remote[g].rank  = r;
     remote[g].index = ghosts[g] - ranges[r];
-    if (x->from.empty() || x->from.back() != r) {
-      if (!x->from.empty()) x->from_off.push_back(g);
-      x->from.push_back(r);
-    }
+    if (x->from.empty() || x->from.back() != r) x->from.push_back(r), x->from_off.push_back(g);
   }
   x->from_off.push_back(nghost);
-  if (x->from.empty()) x->from_off.assign(1, 0);
   /* sending side: the SF's roots that other ranks' leaves read, grouped by rank; ascending within a
      group, as the receiver's run of ghosts ascends, so each message lands in that run as it is */
   PetscCall(PetscSFCreate(comm, &sf));
