@@ -14,6 +14,7 @@
 
 void MSimSetMPIDefaults(void)
 {
-  /* overwrite = 0: a value already in the environment stays */
+  /* overwrite = 0: a value already in the environment stays. Open MPI 5 renamed vader to sm. */
   setenv("OMPI_MCA_btl_vader_eager_limit", "32768", 0);
+  setenv("OMPI_MCA_btl_sm_eager_limit", "32768", 0);
 }
