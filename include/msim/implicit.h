@@ -20,6 +20,9 @@ struct _n_MSimImplicit {
   KSP        pdksp;
   Mat        B, Xd;           /* dense nown x 3: right-hand sides and solutions */
   PetscBool  pd_direct;       /* preonly + msimllt: solve the interleaved Vec arrays directly */
+  PetscBool  pd_iterative;    /* a Krylov -pd_ksp_type: x, y, z one at a time from a guess */
+  Vec        pdb, pdx;        /* one column of the right-hand side and of the solution */
+  PetscInt   pd_lits;         /* Krylov iterations of the PD solves in the current step */
   PetscInt   nfactor;         /* numeric factorizations done by the PD solves */
   Vec        rhs;
   MSimPDProblem pd;
@@ -35,7 +38,8 @@ PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
 /* PD pieces */
 PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp);
 PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *phi);
-PetscErrorCode MSimImplicitPDSolve(MSimImplicit imp, Vec rhs, Vec X);
+/* A X = rhs (A kron I3); an iterative -pd_ksp_type starts from guess (NULL: zero; may be X) */
+PetscErrorCode MSimImplicitPDSolve(MSimImplicit imp, Vec rhs, Vec guess, Vec X);
 /* A kron I3 as a shell Mat whose only use is as a KSP operator for the PD-factor PC */
 PetscErrorCode MSimImplicitPDCreateShell(MSimImplicit imp, Mat *J);
 PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp);

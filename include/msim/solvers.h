@@ -42,8 +42,10 @@ PetscErrorCode MSimSolversRegisterAll(void);
    "MSimPDProblem" by whoever sets the problem up, so the type finds it also when it runs as the
    nonlinear preconditioner of another SNES (which shares the DM). */
 typedef struct {
-  /* global step: solve A x = rhs for the constant PD matrix A */
-  PetscErrorCode (*global_solve)(void *ctx, Vec rhs, Vec x);
+  /* global step: solve A x = rhs for the constant PD matrix A. guess (NULL: zero; may be x) is
+     where an iterative solver starts, and the current iterate is the right one: the solver then
+     reduces the residual of that guess, so its relative tolerance shrinks with PD's corrections */
+  PetscErrorCode (*global_solve)(void *ctx, Vec rhs, Vec guess, Vec x);
   /* local step and right-hand side: rhs = M y + h^2 sum_s k_s A_s^T d_s(x) + boundary terms;
      when phi is not NULL also Phi(x), from the same pass over the springs */
   PetscErrorCode (*rhs)(void *ctx, Vec x, Vec rhs, PetscReal *phi);

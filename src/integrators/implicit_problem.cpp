@@ -28,6 +28,8 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
   PetscCall(MatDestroy(&(*imp)->A));
   PetscCall(MatDestroy(&(*imp)->B));
   PetscCall(MatDestroy(&(*imp)->Xd));
+  PetscCall(VecDestroy(&(*imp)->pdb));
+  PetscCall(VecDestroy(&(*imp)->pdx));
   PetscCall(KSPDestroy(&(*imp)->pdksp));
   delete *imp;
   *imp = NULL;
@@ -42,8 +44,9 @@ PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h,
 
   PetscFunctionBeginUser;
   PetscCheck(!imp->A || h == imp->h, sys->comm, PETSC_ERR_ARG_WRONGSTATE, "the PD matrix was built for h = %g; a new h needs a new factorization", (double)imp->h);
-  imp->t = t;
-  imp->h = h;
+  imp->t       = t;
+  imp->h       = h;
+  imp->pd_lits = 0;
   PetscCall(VecCopy(X, imp->Xn));
   PetscCall(VecWAXPY(imp->Y, h, V, X));
   PetscCall(VecGetArray(imp->Y, &y));

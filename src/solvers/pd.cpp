@@ -62,12 +62,12 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   for (k = 1; k <= maxit && reason == SNES_CONVERGED_ITERATING; k++) {
     if (!m) {
       PetscCall((*pd->rhs)(pd->ctx, X, rhs, NULL));      /* local step */
-      PetscCall((*pd->global_solve)(pd->ctx, rhs, X)); /* global step */
+      PetscCall((*pd->global_solve)(pd->ctx, rhs, X, X)); /* global step */
     } else {
       /* Anderson on the PD map, with Peng et al.'s energy safeguard: keep the mixed iterate only
          if it lowers Phi below the current iterate's; otherwise take the plain PD step (which never
          raises Phi) and restart the history */
-      PetscCall((*pd->global_solve)(pd->ctx, rhs, G));
+      PetscCall((*pd->global_solve)(pd->ctx, rhs, X, G));
       PetscCall(MSimAndersonMix(&aa, X, G, &accelerated));
       PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi_new));
       if (accelerated && !(phi_new < phi)) {

@@ -1,6 +1,7 @@
 /* Implicit Euler: every SNES method solves the same g(x) = 0.
-   - Newton, PD to tolerance, Anderson-PD and L-BFGS reach the same x_{n+1} (1e-8 relative) on a
-     small cloth with a step where explicit methods blow up;
+   - Newton, PD to tolerance (with its factor, and with CG global steps), Anderson-PD and L-BFGS
+     reach the same x_{n+1} (1e-8 relative) on a small cloth with a step where explicit methods
+     blow up;
    - Baraff-Witkin (ksponly) equals one Newton iteration from x0 = x_n + h v_n;
    - PD, plain and with safeguarded Anderson, never increases Phi, and factors its matrix once over
      50 steps;
@@ -51,6 +52,9 @@ static PetscErrorCode TestSolversAgree(void)
     "-snes_type qn -snes_qn_scale_type jacobian -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 2000",
     "-snes_type pd -snes_pd_anderson 5 -snes_atol 1e-10 -snes_rtol 1e-30 -snes_max_it 5000",
     "-snes_type ntr -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it 500",
+    /* Krylov global steps at their default tolerance (1e-5 of the current iterate's residual) */
+    "-snes_type pd -pd_ksp_type cg -pd_pc_type jacobi -snes_atol 1e-10 -snes_rtol 1e-30 -snes_max_it 20000",
+    "-snes_type pd -snes_pd_anderson 5 -pd_ksp_type cg -pd_pc_type gamg -snes_atol 1e-10 -snes_rtol 1e-30 -snes_max_it 5000",
   };
   const int nsolvers = sizeof(solvers) / sizeof(solvers[0]);
   TestSim   ref;

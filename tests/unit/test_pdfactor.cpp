@@ -41,7 +41,7 @@ static PetscErrorCode CompareWithMUMPS(const char *scene)
   }
   PetscCall(VecNorm(xref, NORM_2, &nrm));
   /* the interleaved path of the PD global step */
-  PetscCall(MSimImplicitPDSolve(imp, b, x));
+  PetscCall(MSimImplicitPDSolve(imp, b, NULL, x));
   PetscCall(VecAXPY(x, -1.0, xref));
   PetscCall(VecNorm(x, NORM_2, &d));
   NOTE("%s: msimllt (x, y, z together) vs MUMPS: relative difference %.2e\n", scene, (double)(d / nrm));

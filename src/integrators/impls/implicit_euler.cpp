@@ -79,10 +79,10 @@ static PetscErrorCode PDRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec X)
+static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitPDSolve((MSimImplicit)ctx, rhs, X));
+  PetscCall(MSimImplicitPDSolve((MSimImplicit)ctx, rhs, guess, X));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -217,7 +217,9 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));
   PetscCall(SNESGetType(ie->snes, &type));
   integ->nonlinear_its = its;
-  integ->linear_its    = lits;
+  /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
+     counts, also where pd runs as another SNES's nonlinear preconditioner */
+  integ->linear_its = lits + ie->imp->pd_lits;
   /* ksponly and fixed-count pd do not evaluate g at their result: do it here for the monitor */
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
   if (!strcmp(type, SNESKSPONLY) || reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
