@@ -20,6 +20,7 @@ SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333
 METHODS = [
     ("PD, 10 iterations", "-snes_type pd -snes_max_it 10 -snes_pd_fixed"),
     ("PD, 10 iterations, MUMPS factor", "-snes_type pd -snes_max_it 10 -snes_pd_fixed -pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps"),
+    ("PD, 10 iterations, CG + GAMG global step", "-snes_type pd -snes_max_it 10 -snes_pd_fixed -pd_ksp_type cg -pd_pc_type gamg"),
     ("PD + safeguarded Anderson (m=5), 10 iterations", "-snes_type pd -snes_max_it 10 -snes_pd_fixed -snes_pd_anderson 5"),
     ("PETSc Anderson-PD, 10 iterations", "-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
     ("L-BFGS (PD Hessian), 10 iterations", "-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
@@ -81,6 +82,8 @@ def main():
             old = list(csv.DictReader(f))
         new = {(r["method"], str(r["ranks"])): r for r in rows}
         rows = [new.pop((r["method"], r["ranks"]), r) for r in old] + list(new.values())
+        order = {name: i for i, (name, _) in enumerate(METHODS)}
+        rows.sort(key=lambda r: (order.get(r["method"], len(order)), int(r["ranks"])))
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
         w.writeheader()
