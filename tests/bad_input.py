@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Bad input: each case must exit non-zero with exactly one line on stderr, 'msim: error: ...',
 naming the option (and the allowed range) or the options file (and its line), and must not create
-the output directory. A misspelled option must be named in one warning line. A run that
-diverges must keep the frames written before it and the last finite state."""
+the output directory. A misspelled option must be named in one warning line, and so must implicit
+steps cut off by -snes_max_it. A run that diverges must keep the frames written before it and the
+last finite state."""
 import os
 import subprocess
 import sys
@@ -78,6 +79,19 @@ def main():
             else:
                 failed += 1
                 print(f"FAIL np={np} misspelled option: rc {r.returncode}, stderr {lines!r}")
+        # an implicit solve cut off by -snes_max_it before its tolerance: the run goes on, and one
+        # warning line at its end says how many steps stopped short; a fixed count says nothing
+        implicit = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "8", "-msim_dt", "0.0333", "-msim_steps", "4"]
+        for np in (1, 2):
+            r = run(implicit + ["-snes_type", "newtonls", "-snes_max_it", "1"], tmp, np)
+            lines = [l for l in r.stderr.splitlines() if l.strip()]
+            r2 = run(implicit + ["-snes_type", "pd", "-snes_max_it", "3", "-snes_pd_fixed"], tmp, np)
+            if (r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: in 4 of 4 steps -snes_type newtonls stopped at -snes_max_it 1")
+                    and r2.returncode == 0 and not r2.stderr.strip()):
+                passed += 1
+            else:
+                failed += 1
+                print(f"FAIL np={np} unconverged steps: rc {r.returncode}, stderr {lines!r}; fixed count: rc {r2.returncode}, stderr {r2.stderr.strip()!r}")
         # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
         out = os.path.join(tmp, "diverged")
         r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)

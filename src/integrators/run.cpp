@@ -50,9 +50,9 @@ static PetscErrorCode MSimGuard(MSimSystem sys, MSimIntegrator integ, Vec X, MSi
   if (integ->dt > hcrit) {
     info->warned = PETSC_TRUE;
     if (hcrit > 0)
-      PetscCall(PetscPrintf(sys->comm, "msim: warning: -msim_dt %g exceeds the stability limit h <= %g of %s (omega_max <= %g from the %s bound)\n", (double)integ->dt, (double)hcrit, integ->type, (double)info->omega_max_bound, slepc ? "SLEPc" : "Gershgorin"));
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: -msim_dt %g exceeds the stability limit h <= %g of %s (omega_max <= %g from the %s bound)\n", (double)integ->dt, (double)hcrit, integ->type, (double)info->omega_max_bound, slepc ? "SLEPc" : "Gershgorin"));
     else
-      PetscCall(PetscPrintf(sys->comm, "msim: warning: %s is unstable for every h without drag (omega_max <= %g from the %s bound); add -msim_drag or use another integrator\n", integ->type, (double)info->omega_max_bound, slepc ? "SLEPc" : "Gershgorin"));
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: %s is unstable for every h without drag (omega_max <= %g from the %s bound); add -msim_drag or use another integrator\n", integ->type, (double)info->omega_max_bound, slepc ? "SLEPc" : "Gershgorin"));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -137,6 +137,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   }
   info->steps_done = integ->steps;
   info->t          = integ->steps * integ->dt;
+  if (integ->unconverged_steps)
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, integ->steps, integ->tolerance));
   PetscCall(MSimViewFinal(sys, info->t, X));
   PetscCall(MSimMonitorDestroy(sys->comm, &mon));
   PetscCall(MSimOutputDestroy(&out));

@@ -14,7 +14,6 @@ typedef struct {
   Vec                    G;
   PetscBool              jacobian_is_pd; /* L-BFGS: constant shell Jacobian, PD factor as PC */
   PetscBool              pc_pd;
-  PetscInt               unconverged;
   MSimConvergenceMonitor conv;
   PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
   MSimLineSearchCtx      ls;
@@ -225,7 +224,15 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   if (!strcmp(type, SNESKSPONLY) || reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
   if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
-  if (reason == SNES_DIVERGED_MAX_IT) ie->unconverged++;
+  if (reason == SNES_DIVERGED_MAX_IT) {
+    PetscReal atol, rtol, stol;
+    PetscInt  maxit, maxf;
+    PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
+    if (atol > 0 || rtol > 0) {
+      integ->unconverged_steps++;
+      PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)", type, maxit, (double)atol, (double)rtol));
+    }
+  }
   else if (reason < 0) integ->failed = PETSC_TRUE;
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
   PetscCall(VecAXPBYPCZ(V, 1.0 / integ->dt, -1.0 / integ->dt, 0.0, X, ie->imp->Xn));
@@ -236,7 +243,7 @@ static PetscErrorCode View_ImplicitEuler(MSimIntegrator integ, PetscViewer viewe
 {
   ImplicitEuler *ie = (ImplicitEuler *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", ie->unconverged));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", integ->unconverged_steps));
   if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
   if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
   if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
