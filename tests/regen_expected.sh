@@ -13,6 +13,6 @@ run cloth_wind
 run cloth_newton "$small"
 run cloth_bw "$small"
 run cloth_pd "$small"
-run cloth_anderson "$small -msim_dt 0.005 -snes_rtol 0 -snes_atol 0 -snes_max_it 30"
-run cloth_lbfgs "$small -msim_dt 0.005 -snes_rtol 0 -snes_atol 0 -snes_max_it 30"
+run cloth_anderson "$small -msim_dt 0.005 -snes_max_it 30"
+run cloth_lbfgs "$small -msim_dt 0.005 -snes_max_it 30"
 run chain_spectrum
