@@ -132,8 +132,10 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, sys->size > 1 ? PCBJACOBI : PCICC));
   /* |g| has units of mass x length: below 1e-10 of total mass x scene size the step is converged
-     to roundoff, and line searches on Phi can only fail there */
-  PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, 10000));
+     to roundoff, and line searches on Phi can only fail there. -snes_max_it is the one budget: no
+     cap on function evaluations (PETSc's 10,000 stopped L-BFGS, two per iteration, at 5,000
+     iterations as a failure). */
+  PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, -1));
   {
     /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence,
        unless the user chose one (-snes_linesearch_type) */
@@ -233,7 +235,10 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
       PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)", type, maxit, (double)atol, (double)rtol));
     }
   }
-  else if (reason < 0) integ->failed = PETSC_TRUE;
+  else if (reason < 0) {
+    integ->failed = PETSC_TRUE;
+    PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), "(-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
+  }
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
   PetscCall(VecAXPBYPCZ(V, 1.0 / integ->dt, -1.0 / integ->dt, 0.0, X, ie->imp->Xn));
   PetscFunctionReturn(PETSC_SUCCESS);
