@@ -41,6 +41,10 @@ struct _n_MSimIntegrator {
      and that tolerance in words, for the warning at the end of the run */
   PetscInt          unconverged_steps;
   char              tolerance[160];
+  /* Newton on the exact Hessian factored by MUMPS (LDL^T): steps that converged where that factor
+     had negative pivots, i.e. to a saddle point of Phi, not a minimum, and the most negative
+     eigenvalues seen there (the inertia comes free with the factorization) */
+  PetscInt          saddle_steps, saddle_negative;
   PetscBool         help_listing; /* a throwaway instance made only so -help lists its options */
 };
 

@@ -3,7 +3,10 @@
 corners fixed, gravity, h = 1/30 s): ms per step and max RSS at 1 and 2 ranks for each method, and
 the one-off PD factorization. Per-step time is PETSc's MSimStep event minus the one-off MSimPDSetUp
 (assembly + factorization of the PD matrix, done lazily in the first step), best of 5 runs (2 for
-Baraff-Witkin, 1 over 10 steps for Newton): timings on this shared 2-core machine vary by up to 40 % between runs. Writes implicit.csv.
+Baraff-Witkin, 1 over 10 steps for Newton): timings on this shared 2-core machine vary by up to 40 % between runs.
+Newton on the exact Hessian with MUMPS also counts the steps that converged to a saddle point of
+Phi (negative eigenvalues of the Hessian at the solution, from one more LDL^T per step, which the
+time includes). Writes implicit.csv.
 Usage: implicit.py [ranks, e.g. 1,2] [steps] [only methods containing this text: their rows
 replace those in an existing implicit.csv]"""
 import csv
@@ -60,12 +63,15 @@ def main():
                 nstep, tstep = event(text, "MSimStep")
                 _, tsetup = event(text, "MSimPDSetUp")
                 if best is None or tstep - tsetup < best[1] - best[2]:
-                    best = (nstep, tstep, tsetup, r.stdout)
+                    best = (nstep, tstep, tsetup, r.stdout, r.stderr)
             if r.returncode:
                 print(name, np, "failed:", r.stderr.strip()[-300:])
                 continue
-            nstep, tstep, tsetup, stdout = best
+            nstep, tstep, tsetup, stdout, stderr = best
             r.stdout = stdout
+            # Newton on the exact Hessian with MUMPS checks each converged step for a saddle of Phi
+            checked = "newtonls" in opts and "-msim_psd 0" in opts and "mumps" in opts
+            saddle = re.search(r"in (\d+) of \d+ steps Newton converged to a saddle point of Phi, not a minimum \(up to (\d+) negative", stderr)
             mem = re.search(r"Maximum \(over computational time\) process memory:\s+total\s+(\S+)\s+max\s+(\S+)", r.stdout)
             with open("/tmp/msim_implicit_mon.csv") as f:
                 mon = list(csv.DictReader(f))[1:]
@@ -74,6 +80,8 @@ def main():
             rows.append(dict(method=name, ranks=np, steps=nstep, ms_per_step=round((tstep - tsetup) / nstep * 1e3, 2),
                              pd_factorization_ms=round(tsetup * 1e3, 1), mean_iterations=round(its, 1), max_final_residual=f"{res:.2e}",
                              max_rss_mb_total=round(float(mem.group(1)) / 2**20, 1), max_rss_mb_per_rank=round(float(mem.group(2)) / 2**20, 1),
+                             saddle_steps=(saddle.group(1) if saddle else 0) if checked else "",
+                             max_negative_eigenvalues=(saddle.group(2) if saddle else 0) if checked else "",
                              options=opts))
             print({k: v for k, v in rows[-1].items() if k != "options"}, flush=True)
     path = os.path.join(HERE, "implicit.csv")
@@ -84,8 +92,12 @@ def main():
         rows = [new.pop((r["method"], r["ranks"]), r) for r in old] + list(new.values())
         order = {name: i for i, (name, _) in enumerate(METHODS)}
         rows.sort(key=lambda r: (order.get(r["method"], len(order)), int(r["ranks"])))
+    fields = []
+    for r in rows:
+        fields += [k for k in r if k not in fields]
+    fields = [k for k in fields if k != "options"] + ["options"]
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
 

@@ -17,6 +17,8 @@ typedef struct {
   MSimConvergenceMonitor conv;
   PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
   MSimLineSearchCtx      ls;
+  PetscBool              check_saddle;   /* -msim_check_saddle */
+  PetscBool              inertia;        /* Newton's PC is MUMPS LDL^T of the exact Hessian: check for saddles */
 } ImplicitEuler;
 
 static PetscErrorCode FormFunction(SNES snes, Vec X, Vec G, void *ctx)
@@ -35,8 +37,9 @@ static PetscErrorCode FormObjective(SNES snes, Vec X, PetscReal *phi, void *ctx)
 
 static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
 {
+  ImplicitEuler *ie = (ImplicitEuler *)ctx;
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitJacobian((MSimImplicit)ctx, X, P));
+  PetscCall(MSimImplicitJacobian(ie->imp, X, P));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -46,7 +49,8 @@ static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
    keeps its quadratic convergence where the Hessian turns definite near the solution. */
 static PetscErrorCode DescentProjected(SNES snes, Vec X, Vec F, Vec Y, void *ctx)
 {
-  MSimImplicit       imp = (MSimImplicit)ctx;
+  ImplicitEuler     *ie  = (ImplicitEuler *)ctx;
+  MSimImplicit       imp = ie->imp;
   Mat                J, P;
   KSP                ksp;
   KSPConvergedReason reason;
@@ -85,6 +89,66 @@ static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Newton (newtonls) on the exact Hessian with MUMPS Cholesky, which is LDL^T with pivoting on an
+   indefinite matrix: its inertia tells whether a converged step sits at a minimum of Phi or at a
+   saddle (compressed springs: on the benchmark cloth from the third step on, with hundreds of
+   negative eigenvalues, where descent methods find lower Phi). -msim_check_saddle turns the check
+   off. In parallel MUMPS counts the pivots of its last front only with ICNTL(13) = 1 (no ScaLAPACK
+   there). */
+static PetscErrorCode SetUpInertia(ImplicitEuler *ie, SNESType type, PetscMPIInt size)
+{
+  KSP           ksp;
+  PC            pc;
+  PetscBool     newton, cholesky, set;
+  MatSolverType solver;
+  PetscInt      icntl13 = 1;
+
+  PetscFunctionBeginUser;
+  ie->inertia = PETSC_FALSE;
+  PetscCall(PetscStrcmp(type, SNESNEWTONLS, &newton));
+  if (!newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESGetKSP(ie->snes, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
+  if (!cholesky) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PCFactorGetMatSolverType(pc, &solver));
+  if (!solver || strcmp(solver, MATSOLVERMUMPS)) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!ie->check_saddle) PetscFunctionReturn(PETSC_SUCCESS);
+  if (size > 1) {
+    PetscCall(PetscOptionsGetInt(NULL, NULL, "-mat_mumps_icntl_13", &icntl13, &set));
+    if (!set) PetscCall(PetscOptionsSetValue(NULL, "-mat_mumps_icntl_13", "1"));
+  }
+  ie->inertia = (PetscBool)(icntl13 == 1);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* After a converged Newton solve: one more factorization, of the exact Hessian at the solution X
+   (Newton's last one was at the iterate before, which after one or two iterations can still be
+   far: a chain compressed further by gravity turned indefinite only at the solution). */
+static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X)
+{
+  KSP      ksp;
+  PC       pc;
+  Mat      F;
+  PetscInt its, nneg;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetIterationNumber(ie->snes, &its));
+  if (!ie->inertia || its == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimImplicitJacobian(ie->imp, X, ie->J));
+  PetscCall(SNESGetKSP(ie->snes, &ksp));
+  PetscCall(KSPSetOperators(ksp, ie->J, ie->J));
+  PetscCall(KSPSetUp(ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCFactorGetMatrix(pc, &F));
+  PetscCall(MatGetInertia(F, &nneg, NULL, NULL));
+  if (nneg > 0) {
+    integ->saddle_steps++;
+    integ->saddle_negative = PetscMax(integ->saddle_negative, nneg);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
 {
   ImplicitEuler *ie  = (ImplicitEuler *)integ->data;
@@ -102,6 +166,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
   PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &psd_set));
   PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
+  PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, NULL));
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   {
     /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
@@ -146,7 +211,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
       PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
       ie->ls.descent = ie->imp->psd || !ie->psd_fallback ? NULL : DescentProjected;
-      ie->ls.ctx     = ie->imp;
+      ie->ls.ctx     = ie;
       PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
     }
   }
@@ -193,9 +258,10 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
       PetscCall(MatSetNearNullSpace(ie->J, nsp));
       PetscCall(MatNullSpaceDestroy(&nsp));
     }
-    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie));
     if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
   }
+  PetscCall(SetUpInertia(ie, type, sys->size));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -218,6 +284,7 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));
   PetscCall(SNESGetType(ie->snes, &type));
   integ->nonlinear_its = its;
+  if (reason > 0) PetscCall(CountSaddle(integ, ie, X));
   /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
      counts, also where pd runs as another SNES's nonlinear preconditioner */
   integ->linear_its = lits + ie->imp->pd_lits;
@@ -249,6 +316,7 @@ static PetscErrorCode View_ImplicitEuler(MSimIntegrator integ, PetscViewer viewe
   ImplicitEuler *ie = (ImplicitEuler *)integ->data;
   PetscFunctionBeginUser;
   PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", integ->unconverged_steps));
+  if (ie->inertia) PetscCall(PetscViewerASCIIPrintf(viewer, "steps converged to a saddle point of Phi (negative pivots in the exact Hessian's LDL^T): %" PetscInt_FMT ", at most %" PetscInt_FMT " negative eigenvalues\n", integ->saddle_steps, integ->saddle_negative));
   if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
   if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
   if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
@@ -282,6 +350,7 @@ PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator integ)
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&ie));
   ie->psd_fallback          = PETSC_TRUE;
+  ie->check_saddle          = PETSC_TRUE;
   integ->data               = ie;
   integ->ops.setfromoptions = SetFromOptions_ImplicitEuler;
   integ->ops.setup          = Setup_ImplicitEuler;
