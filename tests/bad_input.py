@@ -2,7 +2,7 @@
 """Bad input: each case must exit non-zero with exactly one line on stderr, 'msim: error: ...',
 naming the option (and the allowed range) or the options file (and its line), and must not create
 the output directory. A misspelled option must be named in one warning line, and so must implicit
-steps cut off by -snes_max_it; an implicit solve that fails is named with PETSc's reason. A run that diverges must keep the frames written before it and the
+steps cut off by -snes_max_it; an implicit solve that fails is named with PETSc's reason, and its convergence history is kept. A run that diverges must keep the frames written before it and the
 last finite state."""
 import os
 import subprocess
@@ -94,14 +94,18 @@ def main():
                 print(f"FAIL np={np} unconverged steps: rc {r.returncode}, stderr {lines!r}; fixed count: rc {r2.returncode}, stderr {r2.stderr.strip()!r}")
         # an implicit solve that fails (here a function-evaluation cap it cannot meet): one error
         # line naming the step, the SNES type and PETSc's reason
+        # its per-iteration history up to the failure is kept under the name given
         for np in (1, 2):
-            r = run(implicit + ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-snes_max_funcs", "5"], tmp, np)
+            hist = os.path.join(tmp, f"failed_history_{np}.csv")
+            r = run(implicit + ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-snes_max_funcs", "5", "-msim_monitor_convergence", hist], tmp, np)
             lines = [l for l in r.stderr.splitlines() if l.strip()]
-            if (r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: the nonlinear solver failed (-snes_type qn: DIVERGED_FUNCTION_COUNT) at step 1")):
+            rows = open(hist).read().splitlines() if os.path.exists(hist) else []
+            if (r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: the nonlinear solver failed (-snes_type qn: DIVERGED_FUNCTION_COUNT) at step 1")
+                    and len(rows) >= 2 and rows[0] == "step,iteration,wall_s,phi,gnorm" and rows[1].startswith("1,0,") and not os.path.exists(hist + ".tmp")):
                 passed += 1
             else:
                 failed += 1
-                print(f"FAIL np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}")
+                print(f"FAIL np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}, history {rows[:2]!r}")
         # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
         out = os.path.join(tmp, "diverged")
         r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)

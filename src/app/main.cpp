@@ -34,7 +34,16 @@ static PetscErrorCode MSimMain(void)
   PetscCall(VecCopy(sys->X0, X));
   PetscCall(VecCopy(sys->V0, V));
   PetscCall(MSimSpectrumFromOptions(sys, X, &spectrum_only));
-  if (!spectrum_only) PetscCall(MSimRun(sys, integ, X, V, &info));
+  if (!spectrum_only) {
+    PetscErrorCode rerr = MSimRun(sys, integ, X, V, &info);
+    if (rerr) {
+      /* the error line is out; closing the integrator keeps what its monitors wrote, such as the
+         per-iteration history of the step that failed (-msim_monitor_convergence), under the
+         name the user gave */
+      PetscCall(MSimIntegratorDestroy(&integ));
+      return rerr;
+    }
+  }
   if (view) PetscCall(MSimIntegratorView(integ, PETSC_VIEWER_STDOUT_WORLD));
   PetscCall(VecDestroy(&X));
   PetscCall(VecDestroy(&V));
