@@ -37,9 +37,8 @@ static PetscErrorCode FormObjective(SNES snes, Vec X, PetscReal *phi, void *ctx)
 
 static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)ctx;
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitJacobian(ie->imp, X, P));
+  PetscCall(MSimImplicitJacobian((MSimImplicit)ctx, X, P));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -49,8 +48,7 @@ static PetscErrorCode FormJacobian(SNES snes, Vec X, Mat J, Mat P, void *ctx)
    keeps its quadratic convergence where the Hessian turns definite near the solution. */
 static PetscErrorCode DescentProjected(SNES snes, Vec X, Vec F, Vec Y, void *ctx)
 {
-  ImplicitEuler     *ie  = (ImplicitEuler *)ctx;
-  MSimImplicit       imp = ie->imp;
+  MSimImplicit       imp = (MSimImplicit)ctx;
   Mat                J, P;
   KSP                ksp;
   KSPConvergedReason reason;
@@ -211,7 +209,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
       PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
       ie->ls.descent = ie->imp->psd || !ie->psd_fallback ? NULL : DescentProjected;
-      ie->ls.ctx     = ie;
+      ie->ls.ctx     = ie->imp;
       PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
     }
   }
@@ -258,7 +256,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
       PetscCall(MatSetNearNullSpace(ie->J, nsp));
       PetscCall(MatNullSpaceDestroy(&nsp));
     }
-    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie));
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
     if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
   }
   PetscCall(SetUpInertia(ie, type, sys->size));
