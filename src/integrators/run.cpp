@@ -124,7 +124,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(MSimOutputDestroy(&out));
       PetscCall(VecDestroy(&Xgood));
       PetscCall(VecDestroy(&Vgood));
-      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? "the nonlinear solver failed" : "diverged", solver_failed && integ->failure[0] ? " " : "", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
+      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? "the nonlinear solver failed" : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
     }
     if (check) {
       last_good = n;

@@ -104,14 +104,13 @@ static PetscErrorCode SetUpInertia(ImplicitEuler *ie, SNESType type, PetscMPIInt
   PetscFunctionBeginUser;
   ie->inertia = PETSC_FALSE;
   PetscCall(PetscStrcmp(type, SNESNEWTONLS, &newton));
-  if (!newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!ie->check_saddle || !newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESGetKSP(ie->snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
   if (!cholesky) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PCFactorGetMatSolverType(pc, &solver));
   if (!solver || strcmp(solver, MATSOLVERMUMPS)) PetscFunctionReturn(PETSC_SUCCESS);
-  if (!ie->check_saddle) PetscFunctionReturn(PETSC_SUCCESS);
   if (size > 1) {
     PetscCall(PetscOptionsGetInt(NULL, NULL, "-mat_mumps_icntl_13", &icntl13, &set));
     if (!set) PetscCall(PetscOptionsSetValue(NULL, "-mat_mumps_icntl_13", "1"));
@@ -302,7 +301,7 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   }
   else if (reason < 0) {
     integ->failed = PETSC_TRUE;
-    PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), "(-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
+    PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
   }
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
   PetscCall(VecAXPBYPCZ(V, 1.0 / integ->dt, -1.0 / integ->dt, 0.0, X, ie->imp->Xn));
