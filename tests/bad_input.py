@@ -35,6 +35,8 @@ CASES = [
     (["-msim_dt", "abc"], "-msim_dt: 'abc' is not a number"),
     (["-msim_cloth_n", "2.5"], "-msim_cloth_n: '2.5' is not an integer"),
     (["-msim_integrator", "implicit_euler", "-msim_psd", "maybe"], "-msim_psd: 'maybe' is not true or false"),
+    # inertia correction reads the inertia of MUMPS's LDL^T of the exact Hessian: nothing else has it
+    (["-msim_integrator", "implicit_euler", "-msim_inertia_correction"], "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "Unable to open options file missing.opts"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),

@@ -35,6 +35,19 @@ PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h,
 PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G);
 PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi);
 PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
+/* the Jacobian plus delta M (inertia correction) */
+PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal delta, Mat J);
+/* Newton with inertia correction (-msim_inertia_correction): the exact Hessian H, or H + delta M
+   with the least delta of a geometric sequence for which the LDL^T in the KSP's Cholesky PC
+   (MUMPS) has no negative pivot, so every Newton direction descends and Newton converges to
+   minima of Phi, not to saddles. Assembles into J and leaves it factored in ksp. */
+typedef struct {
+  PetscReal delta_last; /* the previous iteration's shift: the next one starts from a third of it */
+  PetscReal delta_max;  /* largest shift used */
+  PetscInt  shifted;    /* Newton iterations that needed a shift */
+  PetscInt  extra;      /* factorizations beyond one per iteration */
+} MSimInertiaCorrection;
+PetscErrorCode MSimImplicitJacobianInertiaCorrected(MSimImplicit imp, KSP ksp, Vec X, Mat J, MSimInertiaCorrection *ic);
 /* PD pieces */
 PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp);
 PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *phi);

@@ -158,8 +158,15 @@ PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi)
 
 PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J)
 {
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitJacobianShifted(imp, X, 0.0, J));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal delta, Mat J)
+{
   MSimSystem sys = imp->sys;
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemAssembleMatrix(sys, imp->t + imp->h, X, 1.0, imp->h * sys->drag, imp->h * imp->h, imp->psd, imp->t, sys->damping > 0 ? imp->Xn : NULL, imp->h, J));
+  PetscCall(MSimSystemAssembleMatrix(sys, imp->t + imp->h, X, 1.0 + delta, imp->h * sys->drag, imp->h * imp->h, imp->psd, imp->t, sys->damping > 0 ? imp->Xn : NULL, imp->h, J));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -18,7 +18,9 @@ typedef struct {
   PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
   MSimLineSearchCtx      ls;
   PetscBool              check_saddle;   /* -msim_check_saddle */
-  PetscBool              inertia;        /* Newton's PC is MUMPS LDL^T of the exact Hessian: check for saddles */
+  PetscBool              inertia;        /* Newton's PC is MUMPS LDL^T of the exact Hessian: its inertia is known */
+  PetscBool              inertia_correction; /* -msim_inertia_correction */
+  MSimInertiaCorrection  ic;
 } ImplicitEuler;
 
 static PetscErrorCode FormFunction(SNES snes, Vec X, Vec G, void *ctx)
@@ -66,6 +68,19 @@ static PetscErrorCode DescentProjected(SNES snes, Vec X, Vec F, Vec Y, void *ctx
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Newton with inertia correction: H + delta M, factored here with no negative pivot; the KSP
+   solve that follows finds the factor current and reuses it. */
+static PetscErrorCode FormJacobianInertiaCorrected(SNES snes, Vec X, Mat J, Mat P, void *ctx)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)ctx;
+  KSP            ksp;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(MSimImplicitJacobianInertiaCorrected(ie->imp, ksp, X, P, &ie->ic));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* L-BFGS: the PD matrix is constant; returning without touching it keeps one factorization. */
 static PetscErrorCode FormJacobianConstant(SNES snes, Vec X, Mat J, Mat P, void *ctx)
 {
@@ -90,9 +105,9 @@ static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 /* Newton (newtonls) on the exact Hessian with MUMPS Cholesky, which is LDL^T with pivoting on an
    indefinite matrix: its inertia tells whether a converged step sits at a minimum of Phi or at a
    saddle (compressed springs: on the benchmark cloth from the third step on, with hundreds of
-   negative eigenvalues, where descent methods find lower Phi). -msim_check_saddle turns the check
-   off. In parallel MUMPS counts the pivots of its last front only with ICNTL(13) = 1 (no ScaLAPACK
-   there). */
+   negative eigenvalues, where descent methods find lower Phi), and -msim_inertia_correction needs
+   it to steer Newton to minima. -msim_check_saddle turns the check off. In parallel MUMPS counts
+   the pivots of its last front only with ICNTL(13) = 1 (no ScaLAPACK there). */
 static PetscErrorCode SetUpInertia(ImplicitEuler *ie, SNESType type, PetscMPIInt size)
 {
   KSP           ksp;
@@ -104,7 +119,7 @@ static PetscErrorCode SetUpInertia(ImplicitEuler *ie, SNESType type, PetscMPIInt
   PetscFunctionBeginUser;
   ie->inertia = PETSC_FALSE;
   PetscCall(PetscStrcmp(type, SNESNEWTONLS, &newton));
-  if (!ie->check_saddle || !newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!(ie->check_saddle || ie->inertia_correction) || !newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESGetKSP(ie->snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
@@ -131,7 +146,7 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X
 
   PetscFunctionBeginUser;
   PetscCall(SNESGetIterationNumber(ie->snes, &its));
-  if (!ie->inertia || its == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!ie->inertia || !ie->check_saddle || its == 0) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimImplicitJacobian(ie->imp, X, ie->J));
   PetscCall(SNESGetKSP(ie->snes, &ksp));
   PetscCall(KSPSetOperators(ksp, ie->J, ie->J));
@@ -164,6 +179,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &psd_set));
   PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
   PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, NULL));
+  PetscCall(PetscOptionsBool("-msim_inertia_correction", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): factor H + delta M with the least delta (0, then 1e-3 x 8^k) that leaves no negative pivot, so Newton converges to minima of Phi, not saddles", NULL, ie->inertia_correction, &ie->inertia_correction, NULL));
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   {
     /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
@@ -207,7 +223,8 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     if (!set) {
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
       PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
-      ie->ls.descent = ie->imp->psd || !ie->psd_fallback ? NULL : DescentProjected;
+      /* inertia-corrected directions always descend: no fallback needed */
+      ie->ls.descent = ie->imp->psd || !ie->psd_fallback || ie->inertia_correction ? NULL : DescentProjected;
       ie->ls.ctx     = ie->imp;
       PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
     }
@@ -259,6 +276,10 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
   }
   PetscCall(SetUpInertia(ie, type, sys->size));
+  if (ie->inertia_correction) {
+    PetscCheck(ie->inertia, integ->comm, PETSC_ERR_ARG_INCOMP, "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS: -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps (and, in parallel, -mat_mumps_icntl_13 1)");
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianInertiaCorrected, ie));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -313,7 +334,8 @@ static PetscErrorCode View_ImplicitEuler(MSimIntegrator integ, PetscViewer viewe
   ImplicitEuler *ie = (ImplicitEuler *)integ->data;
   PetscFunctionBeginUser;
   PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", integ->unconverged_steps));
-  if (ie->inertia) PetscCall(PetscViewerASCIIPrintf(viewer, "steps converged to a saddle point of Phi (negative pivots in the exact Hessian's LDL^T): %" PetscInt_FMT ", at most %" PetscInt_FMT " negative eigenvalues\n", integ->saddle_steps, integ->saddle_negative));
+  if (ie->inertia_correction) PetscCall(PetscViewerASCIIPrintf(viewer, "inertia correction: %" PetscInt_FMT " Newton iterations factored H + delta M (delta up to %g), %" PetscInt_FMT " factorizations beyond one per iteration\n", ie->ic.shifted, (double)ie->ic.delta_max, ie->ic.extra));
+  if (ie->inertia && ie->check_saddle) PetscCall(PetscViewerASCIIPrintf(viewer, "steps converged to a saddle point of Phi (negative pivots in the exact Hessian's LDL^T): %" PetscInt_FMT ", at most %" PetscInt_FMT " negative eigenvalues\n", integ->saddle_steps, integ->saddle_negative));
   if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
   if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
   if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
