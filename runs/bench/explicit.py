@@ -25,18 +25,13 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-MSIM = os.path.join(ROOT, "build", "msim")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
+from msimrun import ENV, MSIM, ROOT, event  # noqa: E402
 
 
 def springs(n):
     return 2 * n * (n - 1) + 2 * (n - 1) ** 2 + 2 * n * (n - 2)
 
-
-def event(log, name):
-    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
-    return int(m.group(1)), float(m.group(2))
 
 
 STREAM = os.path.join("/tmp", "msim_stream")

@@ -16,10 +16,9 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-MSIM = os.path.join(ROOT, "build", "msim")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
-SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333"
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
+from msimrun import ENV, MSIM, ROOT, BENCH_CLOTH, event  # noqa: E402
+SCENE = BENCH_CLOTH
 METHODS = [
     ("PD, 10 iterations", "-snes_type pd -snes_max_it 10 -snes_pd_fixed"),
     ("PD, 10 iterations, MUMPS factor", "-snes_type pd -snes_max_it 10 -snes_pd_fixed -pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps"),
@@ -34,10 +33,6 @@ METHODS = [
     ("Newton to 1e-8, trust region, exact Hessian, Steihaug CG + PD factor", "-snes_type ntr -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 400"),
 ]
 
-
-def event(log, name):
-    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
-    return (int(m.group(1)), float(m.group(2))) if m else (0, 0.0)
 
 
 def main():

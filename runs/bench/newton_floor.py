@@ -24,10 +24,9 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-MSIM = os.path.join(ROOT, "build", "msim")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
-SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333"
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
+from msimrun import ENV, MSIM, ROOT, BENCH_CLOTH, event  # noqa: E402
+SCENE = BENCH_CLOTH
 NEWTON = "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 200 -msim_check_saddle 0"
 NEWTON_NAME = "MUMPS LDL^T, exact Hessian, inside Newton"
 # (name, options, parallel?) on the PSD-projected Hessian (msim's default for Cholesky)
@@ -39,10 +38,6 @@ FACTORS = [
 ]
 TARGET_MS = 150.0
 
-
-def event(log, name):
-    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
-    return (int(m.group(1)), float(m.group(2))) if m else (0, 0.0)
 
 
 def run(np, opts, steps, extra=()):

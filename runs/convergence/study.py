@@ -12,10 +12,9 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-MSIM = os.path.join(ROOT, "build", "msim")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
-SCENE = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333 -msim_steps 1"
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
+from msimrun import ENV, MSIM, ROOT, BENCH_CLOTH  # noqa: E402
+SCENE = BENCH_CLOTH + " -msim_steps 1"
 LOOSE = "-snes_rtol 0 -snes_atol 0 -snes_stol 0"
 METHODS = [
     ("PD", f"-snes_type pd -snes_pd_fixed -snes_max_it 20000"),

@@ -15,9 +15,8 @@ import subprocess
 import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(os.path.dirname(HERE))
-MSIM = os.path.join(ROOT, "build", "msim")
-ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OPENBLAS_NUM_THREADS="1")
+sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
+from msimrun import ENV, MSIM, ROOT  # noqa: E402
 TMP = "/tmp/msim_stability"
 os.makedirs(TMP, exist_ok=True)
 

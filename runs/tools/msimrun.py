@@ -1,0 +1,17 @@
+"""What the studies under runs/ share: where msim is, the environment its runs need (Open MPI as
+root and oversubscribed, single-threaded BLAS so rank counts mean cores), the benchmark cloth, and
+PETSc -log_view events. Import with sys.path pointing at runs/tools."""
+import os
+import re
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+MSIM = os.path.join(ROOT, "build", "msim")
+ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1", OMPI_MCA_rmaps_base_oversubscribe="1", OPENBLAS_NUM_THREADS="1")
+# the benchmark cloth of issue-tracked targets: 101 x 101, 1 m, 1 kg, k = 1000 N/m, h = 1/30 s
+BENCH_CLOTH = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333"
+
+
+def event(log, name):
+    """(count, max time in s) of a -log_view event, (0, 0.0) where the run did not log it"""
+    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
+    return (int(m.group(1)), float(m.group(2))) if m else (0, 0.0)
