@@ -34,7 +34,6 @@ METHODS = [
 ]
 
 
-
 def main():
     ranks = [int(x) for x in (sys.argv[1].split(",") if len(sys.argv) > 1 else ["1", "2"])]
     steps = int(sys.argv[2]) if len(sys.argv) > 2 else 30

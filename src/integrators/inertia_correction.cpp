@@ -47,7 +47,7 @@ PetscErrorCode MSimImplicitJacobianInertiaCorrected(MSimImplicit imp, KSP ksp, V
     PetscCall(MSimImplicitJacobianShifted(imp, X, delta, J));
     PetscCall(FactorInertia(ksp, J, &nneg));
     if (nneg == 0) break;
-    PetscCheck(try_ < MSIM_SHIFT_TRIES, PetscObjectComm((PetscObject)J), PETSC_ERR_NOT_CONVERGED, "-msim_inertia_correction: H + %g M still has %" PetscInt_FMT " negative eigenvalues", (double)delta, nneg);
+    PetscCheck(try_ < MSIM_SHIFT_TRIES, PetscObjectComm((PetscObject)J), PETSC_ERR_NOT_CONVERGED, "-msim_inertia_correction: H + %g M still %s", (double)delta, nneg < 0 ? "cannot be factored" : "has negative eigenvalues");
     PetscCall(PetscInfo(ksp, "inertia correction: H + %g M has %" PetscInt_FMT " negative eigenvalues%s\n", (double)delta, nneg, nneg < 0 ? " (factorization failed)" : ""));
     delta = delta == 0 ? MSIM_SHIFT_FIRST : MSIM_SHIFT_GROWTH * delta;
     ic->extra++;
