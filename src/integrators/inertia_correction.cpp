@@ -5,7 +5,7 @@
    of Phi, as in interior-point codes (Nocedal and Wright, Numerical Optimization, 2nd ed., sec.
    3.4 and 19.3): the least delta of the sequence 0 or a third of the previous iteration's shift,
    then first_shift, then x8, is kept. The shift scales the mass, so it is dimensionless; where H
-   is positive definite (stretched cloth, and near a minimum) delta falls back to 0 and Newton
+   is positive definite (stretched cloth, and near a minimum) delta shrinks 3x per iteration to 0 and Newton
    converges quadratically. */
 #include <msim/implicit.h>
 
