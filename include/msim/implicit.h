@@ -47,6 +47,9 @@ typedef struct {
   PetscInt  shifted;    /* Newton iterations that needed a shift */
   PetscInt  extra;      /* factorizations beyond one per iteration */
 } MSimInertiaCorrection;
+/* Factors J in ksp (a Cholesky PC whose factor knows its inertia: MUMPS) and returns its number
+   of negative eigenvalues, or -1 if the factorization failed (a zero pivot: J singular). */
+PetscErrorCode MSimImplicitFactorInertia(KSP ksp, Mat J, PetscInt *nneg);
 PetscErrorCode MSimImplicitJacobianInertiaCorrected(MSimImplicit imp, KSP ksp, Vec X, Mat J, MSimInertiaCorrection *ic);
 /* PD pieces */
 PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp);

@@ -14,9 +14,7 @@ static const PetscReal MSIM_SHIFT_MIN = 1e-8, MSIM_SHIFT_FIRST = 1e-3, MSIM_SHIF
 /* 1e-3 x 8^30 = 1e24: no mass-spring Hessian needs more; stop there with an error */
 static const PetscInt MSIM_SHIFT_TRIES = 30;
 
-/* Factors J in ksp and returns its number of negative eigenvalues, or -1 if the factorization
-   failed (a zero pivot: J singular, which a larger shift cures). */
-static PetscErrorCode FactorInertia(KSP ksp, Mat J, PetscInt *nneg)
+PetscErrorCode MSimImplicitFactorInertia(KSP ksp, Mat J, PetscInt *nneg)
 {
   PC             pc;
   Mat            F;
@@ -45,7 +43,7 @@ PetscErrorCode MSimImplicitJacobianInertiaCorrected(MSimImplicit imp, KSP ksp, V
   if (delta < MSIM_SHIFT_MIN) delta = 0;
   for (PetscInt try_ = 0;; try_++) {
     PetscCall(MSimImplicitJacobianShifted(imp, X, delta, J));
-    PetscCall(FactorInertia(ksp, J, &nneg));
+    PetscCall(MSimImplicitFactorInertia(ksp, J, &nneg));
     if (nneg == 0) break;
     PetscCheck(try_ < MSIM_SHIFT_TRIES, PetscObjectComm((PetscObject)J), PETSC_ERR_NOT_CONVERGED, "-msim_inertia_correction: H + %g M still %s", (double)delta, nneg < 0 ? "cannot be factored" : "has negative eigenvalues");
     PetscCall(PetscInfo(ksp, "inertia correction: H + %g M has %" PetscInt_FMT " negative eigenvalues%s\n", (double)delta, nneg, nneg < 0 ? " (factorization failed)" : ""));

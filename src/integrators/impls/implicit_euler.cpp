@@ -140,8 +140,6 @@ static PetscErrorCode SetUpInertia(ImplicitEuler *ie, SNESType type, PetscMPIInt
 static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X)
 {
   KSP      ksp;
-  PC       pc;
-  Mat      F;
   PetscInt its, nneg;
 
   PetscFunctionBeginUser;
@@ -149,11 +147,7 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X
   if (!ie->inertia || !ie->check_saddle || its == 0) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimImplicitJacobian(ie->imp, X, ie->J));
   PetscCall(SNESGetKSP(ie->snes, &ksp));
-  PetscCall(KSPSetOperators(ksp, ie->J, ie->J));
-  PetscCall(KSPSetUp(ksp));
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCFactorGetMatrix(pc, &F));
-  PetscCall(MatGetInertia(F, &nneg, NULL, NULL));
+  PetscCall(MSimImplicitFactorInertia(ksp, ie->J, &nneg));
   if (nneg > 0) {
     integ->saddle_steps++;
     integ->saddle_negative = PetscMax(integ->saddle_negative, nneg);
