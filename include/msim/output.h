@@ -18,10 +18,10 @@ PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal
 PetscErrorCode MSimOutputDestroy(MSimOutput *out);
 PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[]);
 
-/* One .vtu file of points and VTK_LINE cells, raw appended binary. Rank 0 only. */
-PetscErrorCode MSimWriteVTU(const char path[], PetscInt nv, const PetscReal *x, PetscInt ns, const PetscInt *si, const PetscInt *sj, const char *fixed);
-/* The same with one more point vector field (e.g. a mode shape). */
-PetscErrorCode MSimWriteVTUWithVector(const char path[], PetscInt nv, const PetscReal *x, PetscInt ns, const PetscInt *si, const PetscInt *sj, const char *fixed, const char name[], const PetscReal *field);
+/* One .vtu file (raw appended binary): points, cells of cell_size vertices each (2: VTK_LINE, 3:
+   VTK_TRIANGLE, 4: VTK_TETRA), the fixed flag, and optionally one point vector field `name` (e.g.
+   a mode shape; NULL for none). Rank 0 only. */
+PetscErrorCode MSimWriteVTU(const char path[], PetscInt nv, const PetscReal *x, PetscInt ncell, int cell_size, const PetscInt *cells, const char *fixed, const char name[], const PetscReal *field);
 /* Write text atomically: PATH.tmp then rename. */
 PetscErrorCode MSimWriteFileAtomic(const char path[], const void *data, size_t n);
 

@@ -64,9 +64,14 @@ struct _n_MSimSystem {
   MSimGhostExchange xghosts;        /* the hot loops' forward exchange of ghost positions (ranks > 1) */
   MSimGhostExchange vghosts;        /* the same for velocities (spring damping only) */
   Vec         X0, V0;               /* initial state */
-  /* rank 0 only: what output needs in input vertex order */
+  /* rank 0 only: what output needs in input vertex order: the cells drawn (a mesh's tets or
+     triangles, otherwise the springs as lines) */
   std::vector<char>     fixed_flag; /* nv */
-  std::vector<PetscInt> out_si, out_sj;
+  int                   out_cell_size; /* vertices per cell: 4, 3 or 2 */
+  std::vector<PetscInt> out_cells;
+  PetscInt              ncell_global;  /* a mesh's tets or triangles (0 for grids and chains) */
+  int                   cell_size;     /* 4 tets, 3 triangles, 0 none */
+  PetscInt              nspring_total; /* every spring of the scene, those between fixed vertices too */
   Vec                   gathered;   /* 3 nfree on rank 0, 0 elsewhere */
   VecScatter            gather;     /* global -> rank 0 in input order */
   std::string           scene_name;
@@ -75,6 +80,9 @@ struct _n_MSimSystem {
 /* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition). */
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *sys);
 PetscErrorCode MSimSystemDestroy(MSimSystem *sys);
+/* -msim_partition_view: the scene's counts, the edge cut (springs between free vertices of two
+   ranks), each rank's owned and ghost vertices and springs, and the load balance. Collective. */
+PetscErrorCode MSimSystemViewPartition(MSimSystem sys, const char partition[], PetscInt cut, PetscInt between_free);
 PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v);
 
 /* Local slots from global X at time t (fixed slots from b(t)); the returned array is sys->xloc's. */

@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """Render an msim ParaView series (.pvd) to PNG pictures and an animated GIF with matplotlib.
 Usage: /usr/bin/python3 runs/tools/render.py out/cloth/series.pvd [--png out/cloth/cloth.png]
-       [--gif out/cloth/cloth.gif] [--frames 50]
-The PNG shows four moments of the run side by side; the GIF plays the whole series."""
+       [--gif out/cloth/cloth.gif] [--frames 50] [--view elev,azim] [--up y]
+The PNG shows four moments of the run side by side; the GIF plays the whole series. Springs are
+drawn as lines, a surface's triangles and a solid's boundary (the faces of one tet only) shaded."""
 import argparse
 import os
 import sys
@@ -13,26 +14,45 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Line3DCollection  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vtu import read_pvd, read_vtu  # noqa: E402
+from vtu import boundary_faces, read_pvd, read_vtu  # noqa: E402
+
+UP = {"x": [1, 2, 0], "y": [2, 0, 1], "z": [0, 1, 2]}  # axes drawn as matplotlib's x, y, z
+BASE = np.array([0.45, 0.62, 0.85])  # the surface colour, lit by LIGHT (in plot coordinates)
+LIGHT = np.array([-0.4, -0.6, 0.7]) / np.linalg.norm([-0.4, -0.6, 0.7])
 
 
-def bounds(frames):
-    pts = np.concatenate([read_vtu(f)["points"] for _, f in frames[:: max(1, len(frames) // 20)] + [frames[-1]]])
+def shade(tri, two_sided):
+    """Lambert shading of triangles (t, 3, 3): ambient plus diffuse from LIGHT."""
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True) + 1e-300
+    d = n @ LIGHT
+    d = np.abs(d) if two_sided else np.clip(d, 0, None)
+    return np.clip((0.35 + 0.65 * d)[:, None] * BASE, 0, 1)
+
+
+def bounds(frames, up):
+    pts = np.concatenate([read_vtu(f)["points"][:, UP[up]] for _, f in frames[:: max(1, len(frames) // 20)] + [frames[-1]]])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     c, r = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05 + 1e-9
     return c, r
 
 
-def draw(ax, grid, c, r, title, max_lines=20000):
+def draw(ax, grid, c, r, title, view, up, max_lines=20000):
     ax.cla()
-    pts, conn = grid["points"], grid["connectivity"]
-    if len(conn) > max_lines:  # thin very dense meshes for legibility
-        conn = conn[:: len(conn) // max_lines + 1]
-    segs = pts[conn]
-    ax.add_collection3d(Line3DCollection(segs, colors="#1f5fa8", linewidths=0.4, alpha=0.8))
+    pts, conn = grid["points"][:, UP[up]], grid["connectivity"]
+    if conn.shape[1] == 2:
+        if len(conn) > max_lines:  # thin very dense meshes for legibility
+            conn = conn[:: len(conn) // max_lines + 1]
+        ax.add_collection3d(Line3DCollection(pts[conn], colors="#1f5fa8", linewidths=0.4, alpha=0.8))
+    else:
+        faces = conn if conn.shape[1] == 3 else boundary_faces(conn)
+        tri = pts[faces]
+        # the axis permutations in UP are cyclic: they keep orientation, outward stays outward
+        poly = Poly3DCollection(tri, facecolors=shade(tri, conn.shape[1] == 3), edgecolors="none")
+        ax.add_collection3d(poly)
     fixed = grid["fixed"].astype(bool)
     if fixed.any():
         ax.scatter(*pts[fixed].T, color="#d62728", s=12, depthshade=False)
@@ -40,10 +60,11 @@ def draw(ax, grid, c, r, title, max_lines=20000):
     ax.set_ylim(c[1] - r, c[1] + r)
     ax.set_zlim(c[2] - r, c[2] + r)
     ax.set_box_aspect((1, 1, 1))
-    ax.view_init(elev=20, azim=-60)
-    ax.set_xlabel("x (m)")
-    ax.set_ylabel("y (m)")
-    ax.set_zlabel("z (m)")
+    ax.view_init(elev=view[0], azim=view[1])
+    names = "xyz"
+    ax.set_xlabel(f"{names[UP[up][0]]} (m)")
+    ax.set_ylabel(f"{names[UP[up][1]]} (m)")
+    ax.set_zlabel(f"{names[UP[up][2]]} (m)")
     ax.set_title(title, fontsize=10)
 
 
@@ -53,20 +74,23 @@ def main():
     p.add_argument("--png")
     p.add_argument("--gif")
     p.add_argument("--frames", type=int, default=50)
+    p.add_argument("--view", default="20,-60", help="elevation,azimuth of the camera in degrees")
+    p.add_argument("--up", default="z", choices="xyz", help="the axis drawn upward")
     a = p.parse_args()
+    view = [float(v) for v in a.view.split(",")]
     frames = read_pvd(a.pvd)
     if not frames:
         sys.exit(f"{a.pvd}: no frames")
     base = os.path.splitext(a.pvd)[0]
     png = a.png or base + ".png"
     gif = a.gif or base + ".gif"
-    c, r = bounds(frames)
+    c, r = bounds(frames, a.up)
 
     picks = sorted(set(int(round(x)) for x in np.linspace(0, len(frames) - 1, 4)))
     fig = plt.figure(figsize=(4 * len(picks), 4.2))
     for k, i in enumerate(picks):
         ax = fig.add_subplot(1, len(picks), k + 1, projection="3d")
-        draw(ax, read_vtu(frames[i][1]), c, r, f"t = {frames[i][0]:.3f} s")
+        draw(ax, read_vtu(frames[i][1]), c, r, f"t = {frames[i][0]:.3f} s", view, a.up)
     fig.tight_layout()
     fig.savefig(png + ".tmp.png", dpi=110)
     os.replace(png + ".tmp.png", png)
@@ -78,7 +102,7 @@ def main():
     ax = fig.add_subplot(projection="3d")
 
     def update(k):
-        draw(ax, read_vtu(chosen[k][1]), c, r, f"t = {chosen[k][0]:.3f} s")
+        draw(ax, read_vtu(chosen[k][1]), c, r, f"t = {chosen[k][0]:.3f} s", view, a.up)
 
     anim = FuncAnimation(fig, update, frames=len(chosen))
     anim.save(gif + ".tmp.gif", writer=PillowWriter(fps=12), dpi=80)

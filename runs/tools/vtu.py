@@ -9,7 +9,8 @@ DTYPES = {"Float64": np.float64, "Int64": np.int64, "UInt8": np.uint8}
 
 
 def read_vtu(path):
-    """Returns dict name -> array: 'points' (n,3), 'connectivity' (m,2), 'fixed' (n,), others."""
+    """Returns dict name -> array: 'points' (n,3), 'connectivity' (m,k) for cells of k vertices
+    each (2 springs as lines, 3 triangles, 4 tets), 'fixed' (n,), others."""
     with open(path, "rb") as f:
         data = f.read()
     start = data.index(b"<AppendedData")
@@ -22,8 +23,21 @@ def read_vtu(path):
         (nbytes,) = struct.unpack("<Q", data[pos:pos + 8])
         arr = np.frombuffer(data[pos + 8:pos + 8 + nbytes], dtype=DTYPES[dtype])
         out[name] = arr.reshape(-1, ncomp) if ncomp > 1 else arr
-    out["connectivity"] = out["connectivity"].reshape(-1, 2)
+    sizes = np.diff(np.concatenate([[0], out["offsets"]]))
+    k = int(sizes[0]) if len(sizes) else 2
+    if len(sizes) and (sizes != k).any():
+        raise ValueError(f"{path}: cells of mixed sizes")
+    out["connectivity"] = out["connectivity"].reshape(-1, k)
     return out
+
+
+def boundary_faces(tets):
+    """The triangles of a tet mesh that belong to one tet only (its surface), each oriented
+    outward for tets of positive volume."""
+    faces = np.concatenate([tets[:, [1, 2, 3]], tets[:, [0, 3, 2]], tets[:, [0, 1, 3]], tets[:, [0, 2, 1]]])
+    key = np.sort(faces, axis=1)
+    _, first, count = np.unique(key, axis=0, return_index=True, return_counts=True)
+    return faces[first[count == 1]]
 
 
 def read_pvd(path):

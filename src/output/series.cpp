@@ -82,7 +82,7 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char file[], Pets
   PetscCall(MSimSystemGatherPositions(sys, t, X, all));
   if (sys->rank == 0) {
     PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s", out->dir, file));
-    PetscCall(MSimWriteVTU(path, sys->nv, all.data(), (PetscInt)sys->out_si.size(), sys->out_si.data(), sys->out_sj.data(), sys->fixed_flag.data()));
+    PetscCall(MSimWriteVTU(path, sys->nv, all.data(), (PetscInt)(sys->out_cells.size() / sys->out_cell_size), sys->out_cell_size, sys->out_cells.data(), sys->fixed_flag.data(), NULL, NULL));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

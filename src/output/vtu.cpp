@@ -29,20 +29,19 @@ static void AppendBlock(std::string &blob, const std::vector<T> &v)
   blob.append(reinterpret_cast<const char *>(v.data()), n);
 }
 
-PetscErrorCode MSimWriteVTUWithVector(const char path[], PetscInt nv, const PetscReal *x, PetscInt ns, const PetscInt *si, const PetscInt *sj, const char *fixed, const char name[], const PetscReal *field)
+PetscErrorCode MSimWriteVTU(const char path[], PetscInt nv, const PetscReal *x, PetscInt ncell, int cell_size, const PetscInt *cells, const char *fixed, const char name[], const PetscReal *field)
 {
+  /* VTK cell types by vertex count: VTK_LINE, VTK_TRIANGLE, VTK_TETRA */
+  const uint8_t        vtk_type = cell_size == 2 ? 3 : cell_size == 3 ? 5 : 10;
   std::vector<double>  pts(x, x + 3 * nv);
-  std::vector<int64_t> conn(2 * ns), offs(ns);
-  std::vector<uint8_t> types(ns, 3 /* VTK_LINE */), fix(fixed, fixed + nv);
+  std::vector<int64_t> conn(cells, cells + (size_t)cell_size * ncell), offs(ncell);
+  std::vector<uint8_t> types(ncell, vtk_type), fix(fixed, fixed + nv);
   std::string          blob;
   char                 head[2048];
 
   PetscFunctionBeginUser;
-  for (PetscInt s = 0; s < ns; s++) {
-    conn[2 * s]     = si[s];
-    conn[2 * s + 1] = sj[s];
-    offs[s]         = 2 * (s + 1);
-  }
+  PetscCheck(cell_size >= 2 && cell_size <= 4, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "no VTK cell of %d vertices", cell_size);
+  for (PetscInt c = 0; c < ncell; c++) offs[c] = (int64_t)cell_size * (c + 1);
   size_t o[5];
   o[0] = blob.size(); AppendBlock(blob, pts);
   o[1] = blob.size(); AppendBlock(blob, conn);
@@ -64,15 +63,8 @@ PetscErrorCode MSimWriteVTUWithVector(const char path[], PetscInt nv, const Pets
            "<DataArray type=\"UInt8\" Name=\"types\" format=\"appended\" offset=\"%zu\"/>\n</Cells>\n"
            "<PointData><DataArray type=\"UInt8\" Name=\"fixed\" format=\"appended\" offset=\"%zu\"/>%s</PointData>\n"
            "</Piece>\n</UnstructuredGrid>\n<AppendedData encoding=\"raw\">\n_",
-           (long long)nv, (long long)ns, o[0], o[1], o[2], o[3], o[4], extra);
+           (long long)nv, (long long)ncell, o[0], o[1], o[2], o[3], o[4], extra);
   std::string file = std::string(head) + blob + "\n</AppendedData>\n</VTKFile>\n";
   PetscCall(MSimWriteFileAtomic(path, file.data(), file.size()));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimWriteVTU(const char path[], PetscInt nv, const PetscReal *x, PetscInt ns, const PetscInt *si, const PetscInt *sj, const char *fixed)
-{
-  PetscFunctionBeginUser;
-  PetscCall(MSimWriteVTUWithVector(path, nv, x, ns, si, sj, fixed, NULL, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

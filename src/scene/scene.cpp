@@ -1,4 +1,4 @@
-/* Scene registry and the options every scene shares: stiffness, mass, fixed vertices. */
+/* Scene registry and the options every scene shares: stiffness, mass (fixed vertices: fix.cpp). */
 #include <msim/scene.h>
 #include <cmath>
 #include <algorithm>
@@ -21,6 +21,9 @@ PetscErrorCode MSimSceneRegisterAll(void)
   MSimSceneRegisterAllCalled = PETSC_TRUE;
   PetscCall(MSimSceneRegister("cloth", MSimSceneGenerate_Cloth));
   PetscCall(MSimSceneRegister("chain", MSimSceneGenerate_Chain));
+  PetscCall(MSimSceneRegister("tet", MSimSceneGenerate_Tet));
+  PetscCall(MSimSceneRegister("mesh", MSimSceneGenerate_Mesh));
+  PetscCall(MSimSceneRegister("box", MSimSceneGenerate_Box));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -63,36 +66,13 @@ PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode MSimSceneApplyFix(MPI_Comm comm, MSimSceneData *s, const char how[], const PetscInt *list, PetscInt nlist)
-{
-  PetscBool match;
-
-  PetscFunctionBeginUser;
-  s->fixed.assign(s->nv, 0);
-  PetscCall(PetscStrcmp(how, "none", &match));
-  if (match) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PetscStrcmp(how, "list", &match));
-  if (match) {
-    for (PetscInt k = 0; k < nlist; k++) {
-      PetscCheck(list[k] >= 0 && list[k] < s->nv, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: vertex %" PetscInt_FMT " is out of range [0, %" PetscInt_FMT "]", list[k], s->nv - 1);
-      s->fixed[list[k]] = 1;
-    }
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  SETERRQ(comm, PETSC_ERR_ARG_WRONG, "-msim_fix %s is not known for scene %s (use corners, edge, none or list)", how, s->name.c_str());
-}
-
 PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
 {
   MSimScene          sc;
-  char               type[64] = "cloth", fix[64] = "corners";
+  char               type[64] = "cloth";
   MSimSceneGenerator gen;
-  PetscReal          mass = 1.0, k = 1000.0;
-  PetscInt           nlist = 0;
-  std::vector<PetscInt> list;
-  PetscBool          set, listset = PETSC_FALSE;
-  const char        *fixes[] = {"corners", "edge", "none", "list"};
-  PetscInt           ifix = 0;
+  PetscReal          mass = 1.0, density = 0, k = 1000.0;
+  PetscBool          mass_set, density_set;
 
   PetscFunctionBeginUser;
   PetscCall(MSimSceneRegisterAll());
@@ -103,15 +83,16 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscOptionsBegin(comm, NULL, "msim scene", NULL);
   PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimSceneList, type, type, sizeof(type), NULL));
   PetscCall(PetscOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, k, &k, NULL));
-  PetscCall(PetscOptionsReal("-msim_mass", "Total mass, kg, lumped equally to the vertices", NULL, mass, &mass, NULL));
-  PetscCall(PetscOptionsEList("-msim_fix", "Fixed vertices", NULL, fixes, 4, fixes[0], &ifix, &set));
-  PetscCall(PetscStrncpy(fix, fixes[ifix], sizeof(fix)));
+  PetscCall(PetscOptionsReal("-msim_mass", "Total mass, kg, lumped to the vertices: equally on grids and chains, by volume or area on meshes", NULL, mass, &mass, &mass_set));
+  PetscCall(PetscOptionsReal("-msim_density", "Mass per volume (tets, kg/m^3) or per area (surfaces, kg/m^2), instead of -msim_mass", NULL, density, &density, &density_set));
   PetscCall(MSimOptionsVec3("-msim_fix_velocity", "Velocity of the fixed vertices (moving handles), m/s", sc->fix_velocity, NULL));
   PetscCall(PetscOptionsReal("-msim_prestretch", "Initial positions = prestretch * rest positions", NULL, sc->prestretch, &sc->prestretch, NULL));
   PetscCall(PetscOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
   PetscOptionsEnd();
   PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
+  PetscCheck(!density_set || density > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_density must be > 0 (got %g)", (double)density);
+  PetscCheck(!(mass_set && density_set), comm, PETSC_ERR_ARG_WRONG, "-msim_mass and -msim_density both set: give the total mass or the density, not both");
   PetscCheck(sc->perturb >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_perturb must be >= 0 m (got %g)", (double)sc->perturb);
   PetscCheck(sc->prestretch > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_prestretch must be > 0 (got %g)", (double)sc->prestretch);
 
@@ -120,24 +101,8 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   sc->data.name = type;
   PetscCall((*gen)(comm, &sc->data));
 
-  if (ifix >= 2) {
-    PetscInt nmax = sc->data.nv;
-    list.resize(PetscMax(nmax, 1));
-    nlist = nmax;
-    PetscOptionsBegin(comm, NULL, "msim fixed vertices", NULL);
-    PetscCall(PetscOptionsIntArray("-msim_fix_list", "Fixed vertex ids (with -msim_fix list)", NULL, list.data(), &nlist, &listset));
-    PetscOptionsEnd();
-    if (!listset) nlist = 0;
-    PetscCheck(ifix != 3 || listset, comm, PETSC_ERR_ARG_WRONG, "-msim_fix list needs -msim_fix_list i,j,...");
-    PetscCall(MSimSceneApplyFix(comm, &sc->data, fix, list.data(), nlist));
-  } else {
-    const std::vector<PetscInt> &set_ids = ifix == 0 ? sc->data.corners : sc->data.edge;
-    sc->data.fixed.assign(sc->data.nv, 0);
-    for (PetscInt v : set_ids) sc->data.fixed[v] = 1;
-  }
-
-  /* -help lists every scene's options, not only the chosen one's: run the other generators on a
-     scratch graph (they are cheap) so their option blocks print */
+  /* -help lists every scene's options, not only the chosen one's: the other generators read
+     their options on a scratch scene and build nothing */
   {
     PetscBool help;
     PetscCall(PetscOptionsHasHelp(NULL, &help));
@@ -145,25 +110,17 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
       const char **names;
       int           n;
       PetscCall(PetscFunctionListGet(MSimSceneList, &names, &n));
-      for (int k = 0; k < n && names[k]; k++) { /* the array ends with NULL, counted in n */
+      for (int q = 0; q < n && names[q]; q++) { /* the array ends with NULL, counted in n */
         MSimSceneData      scratch;
         MSimSceneGenerator g;
-        if (!strcmp(names[k], type)) continue;
-        PetscCall(PetscFunctionListFind(MSimSceneList, names[k], &g));
+        if (!strcmp(names[q], type)) continue;
+        scratch.options_only = PETSC_TRUE;
+        PetscCall(PetscFunctionListFind(MSimSceneList, names[q], &g));
         PetscCall((*g)(comm, &scratch));
       }
       PetscCall(PetscFree(names));
-      if (ifix < 2) {
-        PetscInt dummy[1], n = 1;
-        PetscOptionsBegin(comm, NULL, "msim fixed vertices", NULL);
-        PetscCall(PetscOptionsIntArray("-msim_fix_list", "Fixed vertex ids (with -msim_fix list)", NULL, dummy, &n, NULL));
-        PetscOptionsEnd();
-      }
     }
   }
-
-  /* Masses lumped equally (fixed vertices included, so the total is the stated one). */
-  sc->data.mass.assign(sc->data.nv, mass / sc->data.nv);
   {
     PetscReal lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {PETSC_MIN_REAL, PETSC_MIN_REAL, PETSC_MIN_REAL};
     for (PetscInt v = 0; v < sc->data.nv; v++)
@@ -172,6 +129,20 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
         hi[c] = std::max(hi[c], sc->data.x0[3 * v + c]);
       }
     sc->data.diameter = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  }
+  PetscCall(MSimSceneSelectFixed(comm, &sc->data));
+
+  /* Masses: on grids and chains equal, on meshes each vertex's share of the volume or area
+     (fixed vertices included, so the total is the stated one) */
+  if (sc->data.share.empty()) {
+    PetscCheck(!density_set, comm, PETSC_ERR_ARG_WRONG, "-msim_density needs a mesh (-msim_scene tet, box or mesh); a %s takes its total -msim_mass", sc->data.name.c_str());
+    sc->data.mass.assign(sc->data.nv, mass / sc->data.nv);
+  } else {
+    const PetscReal f = density_set ? density : mass / sc->data.measure;
+    sc->data.mass.resize(sc->data.nv);
+    for (PetscInt v = 0; v < sc->data.nv; v++) sc->data.mass[v] = f * sc->data.share[v];
+    sc->data.share.clear();
+    sc->data.share.shrink_to_fit();
   }
   *scene = sc;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -124,7 +124,7 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
         PetscCall(MSimSystemGatherVector(sys, modes[k], disp));
         if (sys->rank == 0) {
           PetscCall(PetscSNPrintf(path, sizeof(path), "%s/mode_%03" PetscInt_FMT ".vtu", dir, k));
-          PetscCall(MSimWriteVTUWithVector(path, sys->nv, pos.data(), (PetscInt)sys->out_si.size(), sys->out_si.data(), sys->out_sj.data(), sys->fixed_flag.data(), "mode", disp.data()));
+          PetscCall(MSimWriteVTU(path, sys->nv, pos.data(), (PetscInt)(sys->out_cells.size() / sys->out_cell_size), sys->out_cell_size, sys->out_cells.data(), sys->fixed_flag.data(), "mode", disp.data()));
         }
         PetscCall(VecDestroy(&modes[k]));
       }

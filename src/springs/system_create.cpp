@@ -4,7 +4,7 @@
 #include <algorithm>
 #include <map>
 
-static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], size_t len)
+static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], size_t len, PetscBool *view_partition)
 {
   PetscFunctionBeginUser;
   sys->gravity[0] = sys->gravity[1] = 0.0;
@@ -17,6 +17,7 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscCall(PetscOptionsReal("-msim_drag", "Air drag per vertex, N s/m: f = drag (wind - v)", NULL, sys->drag, &sys->drag, NULL));
   PetscCall(PetscOptionsReal("-msim_damping", "Spring damping along the spring, N s/m", NULL, sys->damping, &sys->damping, NULL));
   PetscCall(PetscOptionsString("-msim_partition", "Distribution of vertices across ranks: metis or natural", NULL, partition, partition, len, NULL));
+  PetscCall(PetscOptionsBool("-msim_partition_view", "Print the scene's counts, the edge cut, ghosts per rank and the load balance", NULL, *view_partition, view_partition, NULL));
   PetscOptionsEnd();
   PetscCheck(sys->drag >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_drag must be >= 0 N s/m (got %g)", (double)sys->drag);
   PetscCheck(sys->damping >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_damping must be >= 0 N s/m (got %g)", (double)sys->damping);
@@ -29,6 +30,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
   MSimSystem           sys = new _n_MSimSystem();
   const MSimSceneData &S   = scene->data;
   char                 partition[32];
+  PetscBool            view_partition = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Setup, 0, 0, 0, 0));
@@ -36,9 +38,12 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
   PetscCallMPI(MPI_Comm_rank(comm, &sys->rank));
   PetscCallMPI(MPI_Comm_size(comm, &sys->size));
   PetscCall(PetscStrncpy(partition, sys->size > 1 ? "metis" : "natural", sizeof(partition)));
-  PetscCall(MSimSystemReadPhysics(sys, partition, sizeof(partition)));
-  sys->nv         = S.nv;
-  sys->scene_name = S.name;
+  PetscCall(MSimSystemReadPhysics(sys, partition, sizeof(partition), &view_partition));
+  sys->nv           = S.nv;
+  sys->scene_name   = S.name;
+  sys->cell_size     = S.cell_size;
+  sys->ncell_global  = S.cell_size ? (PetscInt)(S.cells.size() / S.cell_size) : 0;
+  sys->nspring_total = (PetscInt)S.si.size();
   sys->diameter   = S.diameter;
   for (int c = 0; c < 3; c++) sys->fix_velocity[c] = scene->fix_velocity[c];
 
@@ -227,8 +232,17 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
       idx.resize(nfree);
       for (PetscInt f = 0; f < nfree; f++) idx[f] = gnum[f];
       sys->fixed_flag = S.fixed;
-      sys->out_si     = S.si;
-      sys->out_sj     = S.sj;
+      if (S.cell_size) {
+        sys->out_cell_size = S.cell_size;
+        sys->out_cells     = S.cells;
+      } else {
+        sys->out_cell_size = 2;
+        sys->out_cells.resize(2 * S.si.size());
+        for (size_t q = 0; q < S.si.size(); q++) {
+          sys->out_cells[2 * q]     = S.si[q];
+          sys->out_cells[2 * q + 1] = S.sj[q];
+        }
+      }
     }
     IS from, to;
     PetscCall(VecCreateSeq(PETSC_COMM_SELF, sys->rank == 0 ? 3 * nfree : 0, &sys->gathered));
@@ -237,6 +251,17 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     PetscCall(VecScatterCreate(sys->X0, from, sys->gathered, to, &sys->gather));
     PetscCall(ISDestroy(&from));
     PetscCall(ISDestroy(&to));
+  }
+  if (view_partition) {
+    /* springs between free vertices of different ranks: the edge cut the partitioner minimizes */
+    PetscInt cut = 0, between_free = 0;
+    for (PetscInt s = 0; s < ns; s++) {
+      const PetscInt a = freeid[S.si[s]], b = freeid[S.sj[s]];
+      if (a < 0 || b < 0) continue;
+      between_free++;
+      if (part[a] != part[b]) cut++;
+    }
+    PetscCall(MSimSystemViewPartition(sys, partition, cut, between_free));
   }
   PetscCall(PetscLogEventEnd(MSIM_Setup, 0, 0, 0, 0));
   *out = sys;

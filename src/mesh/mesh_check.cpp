@@ -1,0 +1,92 @@
+/* Validation of a mesh before it becomes springs, and the geometry it needs. Thresholds are
+   relative to the cell's own size, so they hold at any unit: an edge is of zero length below 1e-12
+   of the mesh's bounding-box diagonal, a tet of zero volume below 1e-12 of its longest edge cubed,
+   a triangle of zero area below 1e-12 of its longest edge squared. */
+#include <msim/mesh.h>
+#include <algorithm>
+#include <cmath>
+
+PetscReal MSimTetVolume(const PetscReal *a, const PetscReal *b, const PetscReal *c, const PetscReal *d)
+{
+  const PetscReal u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, w[3] = {d[0] - a[0], d[1] - a[1], d[2] - a[2]};
+  return (u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0]) + u[2] * (v[0] * w[1] - v[1] * w[0])) / 6.0;
+}
+
+PetscReal MSimTriangleArea(const PetscReal *a, const PetscReal *b, const PetscReal *c)
+{
+  const PetscReal u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  const PetscReal n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  return 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+}
+
+static PetscReal Dist(const PetscReal *a, const PetscReal *b)
+{
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+void MSimMeshScale(MSimMesh *m, PetscReal s)
+{
+  for (PetscReal &x : m->x) x *= s;
+}
+
+/* "FILE line L: the tet" or "FILE: tet N (counting from 1)" */
+static std::string WhereCell(const MSimMesh *m, PetscInt c)
+{
+  char buf[64];
+  if (m->cline.size() > (size_t)c && m->cline[c] > 0) {
+    snprintf(buf, sizeof(buf), " line %lld: the %s", (long long)m->cline[c], m->cell_name);
+    return m->file + buf;
+  }
+  snprintf(buf, sizeof(buf), ": %s %lld (counting from 1)", m->cell_name, (long long)c + 1);
+  return m->file + buf;
+}
+
+static std::string WhereVertex(const MSimMesh *m, PetscInt v)
+{
+  char               buf[64];
+  const std::string &f = m->vertex_file.empty() ? m->file : m->vertex_file;
+  if (m->vline.size() > (size_t)v && m->vline[v] > 0) snprintf(buf, sizeof(buf), " line %lld: vertex %lld", (long long)m->vline[v], (long long)v);
+  else snprintf(buf, sizeof(buf), ": vertex %lld (counting from 0)", (long long)v);
+  return f + buf;
+}
+
+PetscErrorCode MSimMeshCheck(const MSimMesh *m)
+{
+  const int         k = m->nper;
+  std::vector<char> used(m->nv, 0);
+  PetscReal         lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL};
+
+  PetscFunctionBeginUser;
+  PetscCheck(m->nv > 0 && m->ncell > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no %ss", m->file.c_str(), m->cell_name);
+  for (PetscInt v = 0; v < m->nv; v++)
+    for (int c = 0; c < 3; c++) {
+      PetscCheck(std::isfinite(m->x[3 * v + c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: coordinate %g is not finite", WhereVertex(m, v).c_str(), (double)m->x[3 * v + c]);
+      lo[c] = std::min(lo[c], m->x[3 * v + c]);
+      hi[c] = std::max(hi[c], m->x[3 * v + c]);
+    }
+  const PetscReal diam = Dist(lo, hi);
+  for (PetscInt c = 0; c < m->ncell; c++) {
+    const PetscInt *id = &m->cell[(size_t)k * c];
+    PetscReal       lmax = 0;
+    for (int a = 0; a < k; a++) {
+      PetscCheck(id[a] >= 0 && id[a] < m->nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s names vertex %lld, outside [0, %lld]", WhereCell(m, c).c_str(), (long long)id[a], (long long)m->nv - 1);
+      used[id[a]] = 1;
+      for (int b = 0; b < a; b++) {
+        PetscCheck(id[a] != id[b], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s uses vertex %lld twice", WhereCell(m, c).c_str(), (long long)id[a]);
+        const PetscReal l = Dist(&m->x[3 * id[a]], &m->x[3 * id[b]]);
+        PetscCheck(l > 1e-12 * diam, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has an edge of zero length: vertices %lld and %lld are at the same place (a spring of zero length)", WhereCell(m, c).c_str(), (long long)id[b], (long long)id[a]);
+        lmax = std::max(lmax, l);
+      }
+    }
+    if (k == 4) {
+      const PetscReal vol = MSimTetVolume(&m->x[3 * id[0]], &m->x[3 * id[1]], &m->x[3 * id[2]], &m->x[3 * id[3]]);
+      PetscCheck(std::abs(vol) > 1e-12 * lmax * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero volume (%g): its four vertices lie in one plane", WhereCell(m, c).c_str(), (double)vol);
+      PetscCheck(vol > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s is inverted: negative volume %g (a tet a b c d needs det(b-a, c-a, d-a) > 0)", WhereCell(m, c).c_str(), (double)vol);
+    } else {
+      const PetscReal area = MSimTriangleArea(&m->x[3 * id[0]], &m->x[3 * id[1]], &m->x[3 * id[2]]);
+      PetscCheck(area > 1e-12 * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero area (%g): its three vertices lie on one line", WhereCell(m, c).c_str(), (double)area);
+    }
+  }
+  for (PetscInt v = 0; v < m->nv; v++) PetscCheck(used[v], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s belongs to no %s (it would have no mass)", WhereVertex(m, v).c_str(), m->cell_name);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,127 @@
+#include "text_file.h"
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <sys/stat.h>
+
+PetscErrorCode MSimTextFile::Load(const char file[])
+{
+  FILE       *fp;
+  struct stat st;
+
+  PetscFunctionBeginUser;
+  name = file;
+  fp   = fopen(file, "rb");
+  PetscCheck(fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s: cannot open (%s)", file, strerror(errno));
+  if (fstat(fileno(fp), &st) != 0 || !S_ISREG(st.st_mode)) {
+    fclose(fp);
+    SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_READ, "%s: not a regular file", file);
+  }
+  data.resize((size_t)st.st_size);
+  size_t got = data.empty() ? 0 : fread(&data[0], 1, data.size(), fp);
+  fclose(fp);
+  PetscCheck(got == data.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_READ, "%s: read %zu of %zu bytes", file, got, data.size());
+  pos  = 0;
+  line = 0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static inline bool IsSpace(char c)
+{
+  return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
+}
+
+bool MSimTextFile::NextLine(char comment)
+{
+  const char *base = data.data();
+  const size_t end = data.size();
+  while (pos < end) {
+    const char *eol = (const char *)memchr(base + pos, '\n', end - pos);
+    size_t      stop = eol ? (size_t)(eol - base) : end;
+    size_t      q    = pos;
+    line++;
+    tok.clear();
+    while (q < stop) {
+      while (q < stop && IsSpace(base[q])) q++;
+      if (q >= stop || (comment && base[q] == comment)) break;
+      size_t s = q;
+      while (q < stop && !IsSpace(base[q]) && !(comment && base[q] == comment)) q++;
+      tok.push_back({base + s, q - s});
+    }
+    pos = eol ? stop + 1 : end;
+    if (!tok.empty()) return true;
+  }
+  tok.clear();
+  return false;
+}
+
+std::string MSimTextFile::Show(size_t k) const
+{
+  std::string s;
+  if (k >= tok.size()) return "(nothing)";
+  for (size_t i = 0; i < tok[k].n && s.size() < 32; i++) {
+    unsigned char c = (unsigned char)tok[k].p[i];
+    if (c >= 32 && c < 127) s += (char)c;
+    else {
+      char hex[8];
+      snprintf(hex, sizeof(hex), "\\x%02X", c);
+      s += hex;
+    }
+  }
+  if (tok[k].n > 32) s += "...";
+  return s;
+}
+
+bool MSimTextFile::Is(size_t k, const char word[]) const
+{
+  return k < tok.size() && strlen(word) == tok[k].n && !strncasecmp(tok[k].p, word, tok[k].n);
+}
+
+PetscErrorCode MSimTextFile::NeedTokens(size_t lo, size_t hi, const char what[]) const
+{
+  PetscFunctionBeginUser;
+  if (lo == hi) PetscCheck(tok.size() == lo, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s needs %zu values, found %zu", MSIM_AT(*this), what, lo, tok.size());
+  else PetscCheck(tok.size() >= lo && tok.size() <= hi, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s needs %zu to %zu values, found %zu", MSIM_AT(*this), what, lo, hi, tok.size());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTextFile::Int(size_t k, const char what[], int64_t *v) const
+{
+  PetscFunctionBeginUser;
+  PetscCheck(k < tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(*this), what);
+  const char *p = tok[k].p, *e = tok[k].p + tok[k].n;
+  if (p < e && *p == '+') p++;
+  auto r = std::from_chars(p, e, *v);
+  PetscCheck(r.ec != std::errc::result_out_of_range, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is too large", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCheck(r.ec == std::errc() && r.ptr == e, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not an integer", MSIM_AT(*this), what, Show(k).c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTextFile::Real(size_t k, const char what[], PetscReal *v) const
+{
+  PetscFunctionBeginUser;
+  PetscCheck(k < tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(*this), what);
+  const char *p = tok[k].p, *e = tok[k].p + tok[k].n;
+  if (p < e && *p == '+') p++;
+  auto r = std::from_chars(p, e, *v);
+  PetscCheck(r.ec != std::errc::result_out_of_range, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is out of the range of a double", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCheck(r.ec == std::errc() && r.ptr == e, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not a number", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCheck(std::isfinite(*v), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is not finite", MSIM_AT(*this), what, Show(k).c_str());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTextFile::Count(size_t k, const char what[], size_t min_bytes, PetscInt *n) const
+{
+  int64_t v;
+
+  PetscFunctionBeginUser;
+  PetscCall(Int(k, what, &v));
+  PetscCheck(v >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %lld is negative", MSIM_AT(*this), what, (long long)v);
+  /* a count is checked against the bytes left before anything is allocated for it: a corrupt
+     header must not ask for gigabytes */
+  PetscCheck((uint64_t)v <= Remaining() / min_bytes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %lld is more than the rest of the file can hold (%zu bytes)", MSIM_AT(*this), what, (long long)v, Remaining());
+  PetscCheck(v <= PETSC_MAX_INT / 12, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %lld is too large for this build's %d-bit indices", MSIM_AT(*this), what, (long long)v, (int)(8 * sizeof(PetscInt)));
+  *n = (PetscInt)v;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,48 @@
+/* A triangle surface as a shell or a cloth: springs on the unique edges (family "edge") and, with
+   -msim_springs edge,bending, one across every edge two triangles share, joining the vertices
+   opposite it. Masses by area. The file is read on rank 0. */
+#include <msim/scene.h>
+
+PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set);
+
+static PetscErrorCode ReadSurface(const char file[], PetscReal scale, PetscReal kedge, PetscReal kbend, MSimSceneData *s)
+{
+  MSimMesh m;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimMeshReadFile(file, 3, &m));
+  MSimMeshScale(&m, scale);
+  PetscCall(MSimMeshCheck(&m));
+  PetscCall(MSimSceneFromSurface(&m, kedge, kbend, s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
+{
+  char      file[PETSC_MAX_PATH_LEN] = "", springs[64] = "edge";
+  PetscReal scale = 1, kedge = 1000, kbend = 1000;
+  PetscBool set, bending = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, NULL, "msim mesh scene (a surface: springs on triangle edges)", NULL);
+  PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set));
+  PetscCall(PetscOptionsString("-msim_springs", "Spring families of a surface: edge, or edge,bending", NULL, springs, springs, sizeof(springs), NULL));
+  PetscCall(MSimSceneGetStiffness("edge", &kedge));
+  PetscCall(MSimSceneGetStiffness("bending", &kbend));
+  PetscCall(PetscOptionsReal("-msim_stiffness_edge", "Stiffness of the springs on a surface's edges, N/m", NULL, kedge, &kedge, NULL));
+  PetscCall(PetscOptionsReal("-msim_stiffness_bending", "Stiffness of bending springs, N/m", NULL, kbend, &kbend, NULL));
+  PetscOptionsEnd();
+  if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
+  {
+    PetscBool edge_only, both;
+    PetscCall(PetscStrcmp(springs, "edge", &edge_only));
+    PetscCall(PetscStrcmp(springs, "edge,bending", &both));
+    PetscCheck(edge_only || both, comm, PETSC_ERR_ARG_WRONG, "-msim_springs %s: a surface has the families edge and edge,bending", springs);
+    bending = both;
+  }
+  PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene mesh needs -msim_mesh_file F (a surface .off/.obj/.stl, or a Gmsh .msh of triangles)");
+  PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
+  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadSurface(file, scale, kedge, bending ? kbend : 0.0, s); }));
+  PetscCall(MSimSceneDataBcast(comm, s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,54 @@
+/* Tetrahedral solid from a file: a closed surface (.off, .obj, .stl) tetrahedralized by TetGen, a
+   TetGen .node/.ele pair, or a Gmsh .msh. Read and meshed on rank 0; springs on the unique tet
+   edges. */
+#include <msim/scene.h>
+
+/* -msim_mesh_file and -msim_mesh_scale, shared with the surface scene */
+PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsString("-msim_mesh_file", "Mesh file: .off .obj .stl (surfaces), TetGen .node/.ele, Gmsh .msh", NULL, file, file, len, set));
+  PetscCall(PetscOptionsReal("-msim_mesh_scale", "Multiply the mesh's coordinates by this (e.g. 0.001 for a file in mm), before TetGen", NULL, *scale, scale, NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode ReadTets(const char file[], const char switches[], PetscReal scale, PetscReal k, PetscReal young, MSimSceneData *s)
+{
+  MSimMesh m;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimMeshReadFile(file, 4, &m));
+  MSimMeshScale(&m, scale);
+  if (m.nper == 3) {
+    MSimMesh tets;
+    PetscCall(MSimMeshCheck(&m));
+    PetscCall(MSimMeshCheckClosed(&m));
+    PetscCall(MSimMeshTetrahedralize(&m, switches, &tets));
+    m = std::move(tets);
+  }
+  PetscCall(MSimMeshCheck(&m));
+  PetscCall(MSimSceneFromTets(&m, k, young, s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
+{
+  char      file[PETSC_MAX_PATH_LEN] = "", switches[256] = "pq1.414Y";
+  PetscReal scale = 1, young = 0, k = 1000;
+  PetscBool set;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(comm, NULL, "msim tet scene (a solid: springs on tet edges)", NULL);
+  PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set));
+  PetscCall(PetscOptionsString("-msim_tetgen_switches", "TetGen switches for a surface (p: keep the surface, q1.414: radius-edge ratio bound, Y: no new vertices on the surface, a0.1: tet volume bound)", NULL, switches, switches, sizeof(switches), NULL));
+  PetscCall(PetscOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
+  PetscOptionsEnd();
+  if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, or Gmsh .msh)");
+  PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
+  PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
+  PetscCall(MSimSceneGetStiffness(NULL, &k));
+  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, switches, scale, k, young, s); }));
+  PetscCall(MSimSceneDataBcast(comm, s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
