@@ -60,7 +60,7 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m)
   PetscCheck(m->nv > 0 && m->ncell > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no %ss", m->file.c_str(), m->cell_name);
   for (PetscInt v = 0; v < m->nv; v++)
     for (int c = 0; c < 3; c++) {
-      PetscCheck(std::isfinite(m->x[3 * v + c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: coordinate %g is not finite", WhereVertex(m, v).c_str(), (double)m->x[3 * v + c]);
+      PetscCheck(std::isfinite(m->x[3 * v + c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: a coordinate is not finite", WhereVertex(m, v).c_str());
       lo[c] = std::min(lo[c], m->x[3 * v + c]);
       hi[c] = std::max(hi[c], m->x[3 * v + c]);
     }
@@ -80,11 +80,11 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m)
     }
     if (k == 4) {
       const PetscReal vol = MSimTetVolume(&m->x[3 * id[0]], &m->x[3 * id[1]], &m->x[3 * id[2]], &m->x[3 * id[3]]);
-      PetscCheck(std::abs(vol) > 1e-12 * lmax * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero volume (%g): its four vertices lie in one plane", WhereCell(m, c).c_str(), (double)vol);
-      PetscCheck(vol > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s is inverted: negative volume %g (a tet a b c d needs det(b-a, c-a, d-a) > 0)", WhereCell(m, c).c_str(), (double)vol);
+      PetscCheck(std::abs(vol) > 1e-12 * lmax * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero volume (%.3e): its four vertices lie in one plane", WhereCell(m, c).c_str(), (double)vol);
+      PetscCheck(vol > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s is inverted: negative volume %.6e (a tet a b c d needs det(b-a, c-a, d-a) > 0)", WhereCell(m, c).c_str(), (double)vol);
     } else {
       const PetscReal area = MSimTriangleArea(&m->x[3 * id[0]], &m->x[3 * id[1]], &m->x[3 * id[2]]);
-      PetscCheck(area > 1e-12 * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero area (%g): its three vertices lie on one line", WhereCell(m, c).c_str(), (double)area);
+      PetscCheck(area > 1e-12 * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero area (%.3e): its three vertices lie on one line", WhereCell(m, c).c_str(), (double)area);
     }
   }
   for (PetscInt v = 0; v < m->nv; v++) PetscCheck(used[v], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s belongs to no %s (it would have no mass)", WhereVertex(m, v).c_str(), m->cell_name);

@@ -34,26 +34,30 @@ PetscErrorCode MSimMeshReadOFF(const char file[], MSimMesh *m)
     PetscCheck(h.n >= 3 && !strncmp(h.p + h.n - 3, "OFF", 3), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": not an OFF file (it must start with OFF, found '%s')", MSIM_AT(tf), tf.Show(0).c_str());
   }
   if (tf.tok.size() == 1) { /* counts on a line of their own, as usual */
-    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends before the counts line (nv nf ne)", file);
+    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends before the counts line (nv nf ne)", MSIM_AT(tf));
     first = 0;
   }
   PetscCheck(tf.tok.size() == first + 3, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the counts line needs 3 values (vertices faces edges), found %zu", MSIM_AT(tf), tf.tok.size() - first);
-  PetscCall(tf.Count(first, "vertex count", 6, &nv));
-  PetscCall(tf.Count(first + 1, "face count", 8, &nf));
+  PetscCall(tf.Count(first, "vertex count", &nv));
+  PetscCall(tf.Count(first + 1, "face count", &nf));
   PetscCheck(nv > 0 && nf > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": no %s (%" PetscInt_FMT " vertices, %" PetscInt_FMT " faces)", MSIM_AT(tf), nv ? "faces" : "vertices", nv, nf);
-  m->nv = nv;
-  m->x.resize(3 * nv);
-  m->vline.resize(nv);
+  m->x.reserve(3 * tf.Reserve(nv, 6));
+  m->vline.reserve(tf.Reserve(nv, 6));
   for (PetscInt v = 0; v < nv; v++) {
-    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends after %" PetscInt_FMT " of %" PetscInt_FMT " vertices (truncated, or the counts are wrong)", file, v, nv);
+    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends after %" PetscInt_FMT " of %" PetscInt_FMT " vertices (truncated, or the counts are wrong)", MSIM_AT(tf), v, nv);
     PetscCheck(tf.tok.size() >= 3, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": vertex %" PetscInt_FMT " needs 3 coordinates, found %zu", MSIM_AT(tf), v, tf.tok.size());
-    for (int c = 0; c < 3; c++) PetscCall(tf.Real(c, "coordinate", &m->x[3 * v + c]));
-    m->vline[v] = tf.line;
+    for (int c = 0; c < 3; c++) {
+      PetscReal xc;
+      PetscCall(tf.Real(c, "coordinate", &xc));
+      m->x.push_back(xc);
+    }
+    m->vline.push_back(tf.line);
   }
-  m->cell.reserve(3 * nf);
+  m->nv = nv;
+  m->cell.reserve(3 * tf.Reserve(nf, 8));
   for (PetscInt f = 0; f < nf; f++) {
     int64_t n, id;
-    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends after %" PetscInt_FMT " of %" PetscInt_FMT " faces (truncated, or the counts are wrong)", file, f, nf);
+    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends after %" PetscInt_FMT " of %" PetscInt_FMT " faces (truncated, or the counts are wrong)", MSIM_AT(tf), f, nf);
     PetscCall(tf.Int(0, "corner count", &n));
     PetscCheck(n >= 3, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": face %" PetscInt_FMT " has %lld corners (a face needs at least 3)", MSIM_AT(tf), f, (long long)n);
     PetscCheck((size_t)n + 1 <= tf.tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": face %" PetscInt_FMT " announces %lld corners but lists %zu", MSIM_AT(tf), f, (long long)n, tf.tok.size() - 1);

@@ -55,7 +55,7 @@ static PetscErrorCode ReadBinary(const MSimTextFile &tf, uint32_t n, MSimMesh *m
       PetscReal p[3];
       memcpy(q, rec + 12 * (k + 1), sizeof(q));
       for (int c = 0; c < 3; c++) {
-        PetscCheck(std::isfinite(q[c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: facet %u (binary): coordinate %g is not finite", tf.name.c_str(), f, (double)q[c]);
+        PetscCheck(std::isfinite(q[c]), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: facet %u (binary, counting from 0): a coordinate is %s", tf.name.c_str(), f, std::isnan(q[c]) ? "NaN" : "infinite");
         p[c] = q[c];
       }
       m->cell[3 * (size_t)f + k] = w.Add(m, p, 0);
@@ -67,7 +67,7 @@ static PetscErrorCode ReadBinary(const MSimTextFile &tf, uint32_t n, MSimMesh *m
 static PetscErrorCode Expect(MSimTextFile &tf, const char *word, const char *word2, size_t ntok, const char *what)
 {
   PetscFunctionBeginUser;
-  PetscCheck(tf.NextLine(0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends inside a facet, expected '%s' (truncated?)", tf.name.c_str(), what);
+  PetscCheck(tf.NextLine(0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends inside a facet, expected '%s' (truncated?)", MSIM_AT(tf), what);
   PetscCheck(tf.Is(0, word) && (!word2 || tf.Is(1, word2)) && (!ntok || tf.tok.size() == ntok), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": expected '%s', found '%s'", MSIM_AT(tf), what, tf.Show(0).c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -100,7 +100,7 @@ static PetscErrorCode ReadASCII(MSimTextFile &tf, uint32_t n, MSimMesh *m)
     PetscCall(Expect(tf, "endfacet", NULL, 1, "endfacet"));
     m->cline.push_back(line);
   }
-  PetscCheck(ended, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends without 'endsolid' (truncated?)", tf.name.c_str());
+  PetscCheck(ended, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends without 'endsolid' (truncated?)", MSIM_AT(tf));
   PetscCheck(!tf.NextLine(0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": text after 'endsolid' (one solid per file)", MSIM_AT(tf));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -30,7 +30,7 @@ static PetscErrorCode ReadNodes(const char file[], MSimMesh *m, int64_t *base)
   PetscCall(tf.Load(file));
   PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
   PetscCall(tf.NeedTokens(2, 4, "the header (points, dimension, attributes, boundary markers)"));
-  PetscCall(tf.Count(0, "point count", 8, &nv));
+  PetscCall(tf.Count(0, "point count", &nv));
   PetscCall(tf.Int(1, "dimension", &dim));
   nattr = nmark = 0;
   if (tf.tok.size() > 2) PetscCall(tf.Int(2, "attribute count", &nattr));
@@ -39,12 +39,11 @@ static PetscErrorCode ReadNodes(const char file[], MSimMesh *m, int64_t *base)
   PetscCheck(nattr >= 0 && nattr <= 1000, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": attribute count %lld is not in [0, 1000]", MSIM_AT(tf), (long long)nattr);
   PetscCheck(nmark == 0 || nmark == 1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the boundary marker flag is %lld (0 or 1)", MSIM_AT(tf), (long long)nmark);
   PetscCheck(nv > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": no points", MSIM_AT(tf));
-  m->nv = nv;
-  m->x.resize(3 * nv);
-  m->vline.resize(nv);
+  m->x.reserve(3 * tf.Reserve(nv, 8));
+  m->vline.reserve(tf.Reserve(nv, 8));
   const size_t ntok = 4 + (size_t)nattr + (size_t)nmark;
   for (PetscInt v = 0; v < nv; v++) {
-    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends after %" PetscInt_FMT " of %" PetscInt_FMT " points (truncated, or the count is wrong)", file, v, nv);
+    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends after %" PetscInt_FMT " of %" PetscInt_FMT " points (truncated, or the count is wrong)", MSIM_AT(tf), v, nv);
     PetscCall(tf.NeedTokens(ntok, ntok, "a point (id, x, y, z, attributes, marker as the header says)"));
     PetscCall(tf.Int(0, "point id", &id));
     if (v == 0) {
@@ -52,13 +51,18 @@ static PetscErrorCode ReadNodes(const char file[], MSimMesh *m, int64_t *base)
       *base = id;
     }
     PetscCheck(id == v + *base, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": point id %lld out of sequence (expected %lld)", MSIM_AT(tf), (long long)id, (long long)(v + *base));
-    for (int c = 0; c < 3; c++) PetscCall(tf.Real(1 + c, "coordinate", &m->x[3 * v + c]));
+    for (int c = 0; c < 3; c++) {
+      PetscReal xc;
+      PetscCall(tf.Real(1 + c, "coordinate", &xc));
+      m->x.push_back(xc);
+    }
     for (size_t k = 4; k < ntok; k++) {
       PetscReal a;
       PetscCall(tf.Real(k, k < 4 + (size_t)nattr ? "attribute" : "boundary marker", &a));
     }
-    m->vline[v] = tf.line;
+    m->vline.push_back(tf.line);
   }
+  m->nv = nv;
   PetscCheck(!tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": more lines than the %" PetscInt_FMT " points the header announces", MSIM_AT(tf), nv);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -73,18 +77,17 @@ static PetscErrorCode ReadElements(const char file[], int64_t base, MSimMesh *m)
   PetscCall(tf.Load(file));
   PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
   PetscCall(tf.NeedTokens(2, 3, "the header (tets, nodes per tet, attributes)"));
-  PetscCall(tf.Count(0, "tet count", 10, &nt));
+  PetscCall(tf.Count(0, "tet count", &nt));
   PetscCall(tf.Int(1, "nodes per tet", &nper));
   if (tf.tok.size() > 2) PetscCall(tf.Int(2, "attribute count", &nattr));
   PetscCheck(nper == 4, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %lld nodes per tet (msim reads linear tets, 4 nodes)", MSIM_AT(tf), (long long)nper);
   PetscCheck(nattr >= 0 && nattr <= 1000, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": attribute count %lld is not in [0, 1000]", MSIM_AT(tf), (long long)nattr);
   PetscCheck(nt > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": no tets", MSIM_AT(tf));
-  m->ncell = nt;
-  m->cell.resize(4 * (size_t)nt);
-  m->cline.resize(nt);
+  m->cell.reserve(4 * tf.Reserve(nt, 10));
+  m->cline.reserve(tf.Reserve(nt, 10));
   const size_t ntok = 5 + (size_t)nattr;
   for (PetscInt t = 0; t < nt; t++) {
-    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: ends after %" PetscInt_FMT " of %" PetscInt_FMT " tets (truncated, or the count is wrong)", file, t, nt);
+    PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends after %" PetscInt_FMT " of %" PetscInt_FMT " tets (truncated, or the count is wrong)", MSIM_AT(tf), t, nt);
     PetscCall(tf.NeedTokens(ntok, ntok, "a tet (id, 4 point ids, attributes as the header says)"));
     PetscCall(tf.Int(0, "tet id", &id));
     PetscCheck(id == t + base, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": tet id %lld out of sequence (expected %lld: ids start where the .node file's do)", MSIM_AT(tf), (long long)id, (long long)(t + base));
@@ -92,14 +95,15 @@ static PetscErrorCode ReadElements(const char file[], int64_t base, MSimMesh *m)
       int64_t v;
       PetscCall(tf.Int(1 + k, "point id", &v));
       PetscCheck(v >= base && v < m->nv + base, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": tet %lld names point %lld, outside [%lld, %lld]", MSIM_AT(tf), (long long)id, (long long)v, (long long)base, (long long)(m->nv - 1 + base));
-      m->cell[4 * (size_t)t + k] = (PetscInt)(v - base);
+      m->cell.push_back((PetscInt)(v - base));
     }
     for (size_t k = 5; k < ntok; k++) {
       PetscReal a;
       PetscCall(tf.Real(k, "attribute", &a));
     }
-    m->cline[t] = tf.line;
+    m->cline.push_back(tf.line);
   }
+  m->ncell = nt;
   PetscCheck(!tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": more lines than the %" PetscInt_FMT " tets the header announces", MSIM_AT(tf), nt);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

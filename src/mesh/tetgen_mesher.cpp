@@ -2,6 +2,8 @@
    default): a binary linked with TetGen is AGPL-3+ as a whole, one without it is BSD-2-Clause, and
    then every input but a surface to tetrahedralize still works. */
 #include <msim/mesh.h>
+#include <csetjmp>
+#include <csignal>
 #include <cstring>
 #include <new>
 #ifdef MSIM_WITH_TETGEN
@@ -31,6 +33,43 @@ static const char *TetGenReason(int code)
   default: return "an unknown error";
   }
 }
+
+/* TetGen 1.5 does not always throw: on some faulty surfaces it fails an assertion (abort) or reads
+   out of bounds. A crash inside it becomes an error: the signal jumps back to the call, and msim
+   exits with one line (TetGen's state is abandoned, not reused). */
+static sigjmp_buf tetgen_crash;
+static void       TetGenCrashed(int sig)
+{
+  siglongjmp(tetgen_crash, sig);
+}
+
+/* tetrahedralize() with TetGen's failures as a code: its thrown int, 1 for out of memory, or
+   100 + the signal it crashed with */
+static int TetGenRun(const char *switches, tetgenio *in, tetgenio *out)
+{
+  const int        sigs[] = {SIGSEGV, SIGABRT, SIGFPE, SIGBUS, SIGILL};
+  struct sigaction sa, old[5];
+  volatile int     code = 0;
+  std::string      sw(switches);
+
+  memset(&sa, 0, sizeof(sa));
+  sa.sa_handler = TetGenCrashed;
+  sigemptyset(&sa.sa_mask);
+  for (int k = 0; k < 5; k++) sigaction(sigs[k], &sa, &old[k]);
+  int sig = sigsetjmp(tetgen_crash, 1);
+  if (sig) code = 100 + sig;
+  else {
+    try {
+      tetrahedralize(&sw[0], in, out);
+    } catch (int c) {
+      code = c;
+    } catch (const std::bad_alloc &) {
+      code = 1;
+    }
+  }
+  for (int k = 0; k < 5; k++) sigaction(sigs[k], &old[k], NULL);
+  return code;
+}
 #endif
 
 PetscErrorCode MSimMeshTetrahedralize(const MSimMesh *surf, const char switches[], MSimMesh *tets)
@@ -41,7 +80,7 @@ PetscErrorCode MSimMeshTetrahedralize(const MSimMesh *surf, const char switches[
 #else
   tetgenio    in, out;
   std::string sw(switches);
-  int         code = 0;
+  int         code;
 
   PetscCheck(sw.find('r') == std::string::npos, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "-msim_tetgen_switches %s: msim gives TetGen a surface, not tets to refine (drop r)", switches);
   PetscCheck(sw.find("o2") == std::string::npos, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "-msim_tetgen_switches %s: o2 makes quadratic tets; msim's springs join the 4 corners of linear tets", switches);
@@ -64,17 +103,21 @@ PetscErrorCode MSimMeshTetrahedralize(const MSimMesh *surf, const char switches[
     fa.polygonlist[0].vertexlist       = new int[3];
     for (int k = 0; k < 3; k++) fa.polygonlist[0].vertexlist[k] = (int)surf->cell[3 * (size_t)f + k];
   }
-  try {
-    tetrahedralize(&sw[0], &in, &out);
-  } catch (int c) {
-    code = c;
-  } catch (const std::bad_alloc &) {
-    code = 1;
+  {
+    /* TetGen's own check for a surface that intersects itself (switch d) first: meshing such a
+       surface can crash TetGen instead of failing */
+    tetgenio check;
+    code = TetGenRun("pdzQ", &in, &check);
+    PetscCheck(code < 100, PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen crashed (signal %d) checking the surface for self-intersections", surf->file.c_str(), code - 100);
+    PetscCheck(!code, PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen's check of the surface failed: %s", surf->file.c_str(), TetGenReason(code));
+    PetscCheck(check.numberoftrifaces == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: the surface intersects itself: TetGen finds %d intersecting triangles, e.g. the one of vertices %d %d %d (a solid needs a closed surface that does not cross itself)", surf->file.c_str(), check.numberoftrifaces, check.trifacelist[0], check.trifacelist[1], check.trifacelist[2]);
   }
+  code = TetGenRun(sw.c_str(), &in, &out);
+  PetscCheck(code < 100, PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen crashed (signal %d) with -msim_tetgen_switches %s", surf->file.c_str(), code - 100, switches);
   PetscCheck(!code, PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen failed (-msim_tetgen_switches %s): %s", surf->file.c_str(), switches, TetGenReason(code));
   PetscCheck(out.numberoftetrahedra > 0, PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen made no tets (-msim_tetgen_switches %s; p keeps the surface)", surf->file.c_str(), switches);
   PetscCheck(out.numberofcorners == 4, PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen made %d-node tets; msim needs 4", surf->file.c_str(), out.numberofcorners);
-  tets->file      = surf->file + " (tetrahedralized by TetGen)";
+  tets->file      = surf->file + ", tetrahedralized by TetGen -" + switches;
   tets->nper      = 4;
   tets->cell_name = "tet";
   tets->nv        = out.numberofpoints;

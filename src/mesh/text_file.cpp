@@ -111,16 +111,13 @@ PetscErrorCode MSimTextFile::Real(size_t k, const char what[], PetscReal *v) con
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimTextFile::Count(size_t k, const char what[], size_t min_bytes, PetscInt *n) const
+PetscErrorCode MSimTextFile::Count(size_t k, const char what[], PetscInt *n) const
 {
   int64_t v;
 
   PetscFunctionBeginUser;
   PetscCall(Int(k, what, &v));
   PetscCheck(v >= 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %lld is negative", MSIM_AT(*this), what, (long long)v);
-  /* a count is checked against the bytes left before anything is allocated for it: a corrupt
-     header must not ask for gigabytes */
-  PetscCheck((uint64_t)v <= Remaining() / min_bytes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %lld is more than the rest of the file can hold (%zu bytes)", MSIM_AT(*this), what, (long long)v, Remaining());
   PetscCheck(v <= PETSC_MAX_INT / 12, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %lld is too large for this build's %d-bit indices", MSIM_AT(*this), what, (long long)v, (int)(8 * sizeof(PetscInt)));
   *n = (PetscInt)v;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -5,6 +5,7 @@
    them. Every check is a PETSc error on PETSC_COMM_SELF. */
 #pragma once
 #include <msim/sys.h>
+#include <algorithm>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -28,11 +29,15 @@ public:
   /* The bytes not yet read (to bound counts by what the file can hold). */
   size_t Remaining() const { return data.size() - pos; }
 
-  /* Token k of the current line as an integer, a finite real, or a count in [0, max] that the
-     rest of the file can hold at min_bytes per record; `what` names it in the message. */
+  /* Token k of the current line as an integer, a finite real, or a count of records (>= 0, and
+     small enough for this build's indices); `what` names it in the message. */
   PetscErrorCode Int(size_t k, const char what[], int64_t *v) const;
   PetscErrorCode Real(size_t k, const char what[], PetscReal *v) const;
-  PetscErrorCode Count(size_t k, const char what[], size_t min_bytes, PetscInt *n) const;
+  PetscErrorCode Count(size_t k, const char what[], PetscInt *n) const;
+  /* What to reserve for n records of at least min_bytes each: no more than the rest of the file
+     can hold, so a corrupt count never allocates gigabytes (the reader then finds the file short
+     and says so). */
+  size_t Reserve(PetscInt n, size_t min_bytes) const { return std::min((size_t)n, Remaining() / min_bytes + 1); }
   /* Token k printed safely (control bytes as \xNN, at most 32 characters). */
   std::string Show(size_t k) const;
   bool        Is(size_t k, const char word[]) const; /* case-insensitive */

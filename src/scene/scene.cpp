@@ -66,13 +66,38 @@ PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* -msim_scene_view: what a user checks after loading a mesh */
+static PetscErrorCode MSimSceneView(MPI_Comm comm, const MSimSceneData *s)
+{
+  PetscReal mass = 0, kmin = PETSC_MAX_REAL, kmax = 0, lmin = PETSC_MAX_REAL, lmax = 0;
+  PetscInt  nfix = 0;
+
+  PetscFunctionBeginUser;
+  for (PetscInt v = 0; v < s->nv; v++) {
+    mass += s->mass[v];
+    nfix += s->fixed[v] ? 1 : 0;
+  }
+  for (size_t q = 0; q < s->sk.size(); q++) {
+    kmin = std::min(kmin, s->sk[q]);
+    kmax = std::max(kmax, s->sk[q]);
+    lmin = std::min(lmin, s->sL[q]);
+    lmax = std::max(lmax, s->sL[q]);
+  }
+  PetscCall(PetscPrintf(comm, "scene %s%s%s%s: %" PetscInt_FMT " vertices (%" PetscInt_FMT " fixed), ", s->name.c_str(), s->source.empty() ? "" : " (", s->source.c_str(), s->source.empty() ? "" : ")", s->nv, nfix));
+  if (s->cell_size) PetscCall(PetscPrintf(comm, "%zu %s, ", s->cells.size() / s->cell_size, s->cell_size == 4 ? "tets" : "triangles"));
+  PetscCall(PetscPrintf(comm, "%zu springs\n", s->si.size()));
+  if (s->cell_size) PetscCall(PetscPrintf(comm, "  %s %.15g m^%d\n", s->cell_size == 4 ? "volume" : "area", (double)s->measure, s->cell_size == 4 ? 3 : 2));
+  PetscCall(PetscPrintf(comm, "  mass %.15g kg; stiffness %.6g to %.6g N/m; rest length %.6g to %.6g m; diameter %.6g m\n", (double)mass, (double)kmin, (double)kmax, (double)lmin, (double)lmax, (double)s->diameter));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
 {
   MSimScene          sc;
   char               type[64] = "cloth";
   MSimSceneGenerator gen;
   PetscReal          mass = 1.0, density = 0, k = 1000.0;
-  PetscBool          mass_set, density_set;
+  PetscBool          mass_set, density_set, view = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscCall(MSimSceneRegisterAll());
@@ -88,6 +113,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsVec3("-msim_fix_velocity", "Velocity of the fixed vertices (moving handles), m/s", sc->fix_velocity, NULL));
   PetscCall(PetscOptionsReal("-msim_prestretch", "Initial positions = prestretch * rest positions", NULL, sc->prestretch, &sc->prestretch, NULL));
   PetscCall(PetscOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
+  PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
   PetscOptionsEnd();
   PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
@@ -144,6 +170,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
     sc->data.share.clear();
     sc->data.share.shrink_to_fit();
   }
+  if (view) PetscCall(MSimSceneView(comm, &sc->data));
   *scene = sc;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
