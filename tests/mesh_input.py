@@ -11,7 +11,10 @@ mass derived here, independently of msim:
   on the same file (.node, .ele, .edge), twice the same; its tets' volume is the volume its
   surface encloses (divergence theorem, sum over triangles of a . (b x c) / 6); masses add up to
   -msim_mass, or to -msim_density times the volume;
-- a surface's edges and bending springs on a regular sheet.
+- a surface's edges and bending springs on a regular sheet;
+- partitions (-msim_partition_view) of the bunny: the owned vertices of all ranks add up to the
+  free ones at 2 and 3 ranks, and METIS cuts at 2 parts far fewer springs (under a quarter) than
+  contiguous blocks of TetGen's vertex order.
 Usage: mesh_input.py path/to/msim corpus|valid [--no-tetgen]"""
 import os
 import re
@@ -190,6 +193,29 @@ def test_bunny(tmp):
         check(counts == [nv, nt, ne], f"bunny: msim {nv} vertices, {nt} tets, {ne} springs; tetgen -{sw}e: {counts}")
 
 
+def partition_view(args, np):
+    r = run(args + ["-msim_partition_view", "-msim_steps", "1", "-msim_spectrum_check", "0"], np)
+    if r.returncode:
+        return None
+    free = int(re.search(r"\((\d+) free", r.stdout).group(1))
+    cut = int(re.search(r"edge cut: (\d+) springs", r.stdout).group(1))
+    owned = [int(m.group(1)) for m in re.finditer(r"^\s+\d+\s+(\d+)\s+\d+\s+\d+\s+\d+$", r.stdout, re.M)]
+    return free, cut, owned
+
+
+def test_partition():
+    if not TETGEN:
+        return
+    bunny = ["-msim_scene", "tet", "-msim_mesh_file", os.path.join(ROOT, "examples", "meshes", "bunny.off"), "-msim_fix_plane", "y_max", "-msim_fix_plane_tol", "1"]
+    for np in (2, 3):
+        got = partition_view(bunny, np)
+        check(got is not None and len(got[2]) == np and sum(got[2]) == got[0] and min(got[2]) > 0,
+              f"bunny at {np} ranks: owned vertices {got and got[2]} must add up to the free ones ({got and got[0]})")
+    metis, natural = partition_view(bunny + ["-msim_partition", "metis"], 2), partition_view(bunny + ["-msim_partition", "natural"], 2)
+    print(f"bunny at 2 ranks: edge cut METIS {metis and metis[1]}, natural {natural and natural[1]}")
+    check(metis is not None and natural is not None and 4 * metis[1] < natural[1], f"bunny: METIS's edge cut {metis and metis[1]} is not under a quarter of natural order's {natural and natural[1]}")
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         if "corpus" in sys.argv:
@@ -197,6 +223,7 @@ def main():
         if "valid" in sys.argv:
             test_valid()
             test_bunny(tmp)
+            test_partition()
     print(f"{passed} passed, {failed} failed")
     sys.exit(1 if failed else 0)
 
