@@ -50,6 +50,9 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m);
 PetscErrorCode MSimMeshCheckClosed(const MSimMesh *m);
 /* Multiplies every coordinate by s. */
 void MSimMeshScale(MSimMesh *m, PetscReal s);
+/* Appends a polygon of n corners (from file line `line`) as triangles: a fan from its first
+   corner, which is exact for the convex faces of OFF and OBJ files. */
+void MSimMeshAddPolygon(MSimMesh *m, const PetscInt *ids, PetscInt n, PetscInt line);
 
 /* TetGen (rank 0): tetrahedralize the closed surface `surf` with the given switches (msim adds
    "z" for 0-based output and "Q" for quiet unless "V" is given). Fails with a message that names

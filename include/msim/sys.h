@@ -10,6 +10,8 @@
 extern PetscClassId  MSIM_CLASSID;
 extern PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual,
   MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
+/* rank 0's mesh work: parsing a file, validating it, finding its unique edges, TetGen */
+extern PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
 
 /* Registers log events, the integrator and scene types and msim's SNES type "pd".
    Installs an error handler that prints the first error message as one line on rank 0. */

@@ -60,6 +60,8 @@ def draw(ax, grid, c, r, title, view, up, max_lines=20000):
     ax.set_ylim(c[1] - r, c[1] + r)
     ax.set_zlim(c[2] - r, c[2] + r)
     ax.set_box_aspect((1, 1, 1))
+    ax.locator_params(nbins=4)
+    ax.tick_params(labelsize=7)
     ax.view_init(elev=view[0], azim=view[1])
     names = "xyz"
     ax.set_xlabel(f"{names[UP[up][0]]} (m)")

@@ -24,6 +24,16 @@ static PetscReal Dist(const PetscReal *a, const PetscReal *b)
   return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
 }
 
+void MSimMeshAddPolygon(MSimMesh *m, const PetscInt *ids, PetscInt n, PetscInt line)
+{
+  for (PetscInt k = 1; k + 1 < n; k++) {
+    m->cell.push_back(ids[0]);
+    m->cell.push_back(ids[k]);
+    m->cell.push_back(ids[k + 1]);
+    m->cline.push_back(line);
+  }
+}
+
 void MSimMeshScale(MSimMesh *m, PetscReal s)
 {
   for (PetscReal &x : m->x) x *= s;
@@ -57,6 +67,7 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m)
   PetscReal         lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL};
 
   PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_MeshCheck, 0, 0, 0, 0));
   PetscCheck(m->nv > 0 && m->ncell > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no %ss", m->file.c_str(), m->cell_name);
   for (PetscInt v = 0; v < m->nv; v++)
     for (int c = 0; c < 3; c++) {
@@ -88,5 +99,6 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m)
     }
   }
   for (PetscInt v = 0; v < m->nv; v++) PetscCheck(used[v], PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s belongs to no %s (it would have no mass)", WhereVertex(m, v).c_str(), m->cell_name);
+  PetscCall(PetscLogEventEnd(MSIM_MeshCheck, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -62,6 +62,7 @@ PetscErrorCode MSimMeshEdges(const MSimMesh *m, std::vector<PetscInt> &ei, std::
   Buckets b;
 
   PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_MeshEdges, 0, 0, 0, 0));
   BuildBuckets(m, b);
   ei.clear();
   ej.clear();
@@ -84,6 +85,7 @@ PetscErrorCode MSimMeshEdges(const MSimMesh *m, std::vector<PetscInt> &ei, std::
       }
       q = r;
     }
+  PetscCall(PetscLogEventEnd(MSIM_MeshEdges, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -10,6 +10,7 @@ PetscErrorCode MSimMeshReadFile(const char file[], int want, MSimMesh *m)
   size_t      dot = f.find_last_of('.'), slash = f.find_last_of('/');
 
   PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_MeshRead, 0, 0, 0, 0));
   if (dot != std::string::npos && (slash == std::string::npos || dot > slash))
     for (char c : f.substr(dot + 1)) ext += (char)tolower((unsigned char)c);
   if (ext == "off") PetscCall(MSimMeshReadOFF(file, m));
@@ -21,5 +22,6 @@ PetscErrorCode MSimMeshReadFile(const char file[], int want, MSimMesh *m)
     PetscCall(MSimMeshReadTetGen(file, m));
   } else SETERRQ(PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "%s: unknown mesh format '%s' (msim reads surfaces .off .obj .stl, TetGen .node/.ele and Gmsh .msh)", file, ext.c_str());
   PetscCheck(!(want == 3 && m->nper == 4), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "%s holds tets; -msim_scene mesh needs a surface (use -msim_scene tet for a solid)", file);
+  PetscCall(PetscLogEventEnd(MSIM_MeshRead, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -47,12 +47,7 @@ PetscErrorCode MSimMeshReadOBJ(const char file[], MSimMesh *m)
         PetscCheck(id != 0 && v >= 0 && v < nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": face corner %lld names no vertex read so far (%" PetscInt_FMT " vertices; ids are 1-based, or negative counting back)", MSIM_AT(tf), (long long)id, nv);
         ids.push_back((PetscInt)v);
       }
-      for (size_t k = 1; k + 1 < ids.size(); k++) {
-        m->cell.push_back(ids[0]);
-        m->cell.push_back(ids[k]);
-        m->cell.push_back(ids[k + 1]);
-        m->cline.push_back(tf.line);
-      }
+      MSimMeshAddPolygon(m, ids.data(), (PetscInt)ids.size(), tf.line);
     } else {
       bool known = false;
       for (const char *s : kSkipped) known = known || tf.Is(0, s);

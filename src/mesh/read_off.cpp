@@ -5,17 +5,6 @@
 #include "text_file.h"
 #include <cstring>
 
-/* The corners of one polygon as triangles: a fan from its first corner. */
-static void AddPolygon(MSimMesh *m, const PetscInt *ids, PetscInt n, PetscInt line)
-{
-  for (PetscInt k = 1; k + 1 < n; k++) {
-    m->cell.push_back(ids[0]);
-    m->cell.push_back(ids[k]);
-    m->cell.push_back(ids[k + 1]);
-    m->cline.push_back(line);
-  }
-}
-
 PetscErrorCode MSimMeshReadOFF(const char file[], MSimMesh *m)
 {
   MSimTextFile          tf;
@@ -67,7 +56,7 @@ PetscErrorCode MSimMeshReadOFF(const char file[], MSimMesh *m)
       PetscCheck(id >= 0 && id < nv, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": face %" PetscInt_FMT " names vertex %lld, outside [0, %" PetscInt_FMT "]", MSIM_AT(tf), f, (long long)id, nv - 1);
       ids[k] = (PetscInt)id;
     }
-    AddPolygon(m, ids.data(), (PetscInt)n, tf.line);
+    MSimMeshAddPolygon(m, ids.data(), (PetscInt)n, tf.line);
   }
   PetscCheck(!tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": more lines than the %" PetscInt_FMT " vertices and %" PetscInt_FMT " faces the header announces", MSIM_AT(tf), nv, nf);
   m->ncell = (PetscInt)m->cline.size();

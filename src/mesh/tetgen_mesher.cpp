@@ -75,6 +75,7 @@ static int TetGenRun(const char *switches, tetgenio *in, tetgenio *out)
 PetscErrorCode MSimMeshTetrahedralize(const MSimMesh *surf, const char switches[], MSimMesh *tets)
 {
   PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_TetGen, 0, 0, 0, 0));
 #ifndef MSIM_WITH_TETGEN
   SETERRQ(PETSC_COMM_SELF, PETSC_ERR_SUP, "%s is a surface and this msim was built without TetGen (cmake -DMSIM_WITH_TETGEN=ON): give the tets as TetGen .node/.ele or Gmsh .msh", surf->file.c_str());
 #else
@@ -127,5 +128,6 @@ PetscErrorCode MSimMeshTetrahedralize(const MSimMesh *surf, const char switches[
   tets->vline.assign(tets->nv, 0);
   tets->cline.assign(tets->ncell, 0);
 #endif
+  PetscCall(PetscLogEventEnd(MSIM_TetGen, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -86,15 +86,25 @@ PetscErrorCode MSimTextFile::NeedTokens(size_t lo, size_t hi, const char what[])
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Token k as a T by std::from_chars (a leading '+' allowed): 0 if it is one, 1 if it is not a
+   number, 2 if it is out of T's range */
+template <typename T>
+static int ParseToken(const MSimToken &t, T *v)
+{
+  const char *p = t.p, *e = t.p + t.n;
+  if (p < e && *p == '+') p++;
+  auto r = std::from_chars(p, e, *v);
+  if (r.ec == std::errc::result_out_of_range) return 2;
+  return r.ec == std::errc() && r.ptr == e ? 0 : 1;
+}
+
 PetscErrorCode MSimTextFile::Int(size_t k, const char what[], int64_t *v) const
 {
   PetscFunctionBeginUser;
   PetscCheck(k < tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(*this), what);
-  const char *p = tok[k].p, *e = tok[k].p + tok[k].n;
-  if (p < e && *p == '+') p++;
-  auto r = std::from_chars(p, e, *v);
-  PetscCheck(r.ec != std::errc::result_out_of_range, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is too large", MSIM_AT(*this), what, Show(k).c_str());
-  PetscCheck(r.ec == std::errc() && r.ptr == e, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not an integer", MSIM_AT(*this), what, Show(k).c_str());
+  const int bad = ParseToken(tok[k], v);
+  PetscCheck(bad != 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is too large", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCheck(!bad, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not an integer", MSIM_AT(*this), what, Show(k).c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -102,11 +112,9 @@ PetscErrorCode MSimTextFile::Real(size_t k, const char what[], PetscReal *v) con
 {
   PetscFunctionBeginUser;
   PetscCheck(k < tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(*this), what);
-  const char *p = tok[k].p, *e = tok[k].p + tok[k].n;
-  if (p < e && *p == '+') p++;
-  auto r = std::from_chars(p, e, *v);
-  PetscCheck(r.ec != std::errc::result_out_of_range, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is out of the range of a double", MSIM_AT(*this), what, Show(k).c_str());
-  PetscCheck(r.ec == std::errc() && r.ptr == e, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not a number", MSIM_AT(*this), what, Show(k).c_str());
+  const int bad = ParseToken(tok[k], v);
+  PetscCheck(bad != 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is out of the range of a double", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCheck(!bad, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not a number", MSIM_AT(*this), what, Show(k).c_str());
   PetscCheck(std::isfinite(*v), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is not finite", MSIM_AT(*this), what, Show(k).c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }

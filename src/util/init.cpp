@@ -9,6 +9,7 @@
 
 PetscClassId  MSIM_CLASSID;
 PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
+PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
 
 /* OpenBLAS's threads fight the MPI ranks for the cores and make PETSc's small BLAS-1 calls slow
    (a 30k-entry VecAXPY took 1.5 ms with two threads on two cores): one thread per rank unless
@@ -43,6 +44,10 @@ PetscErrorCode MSimInitialize(void)
   PetscCall(PetscLogEventRegister("MSimPDGlobal", MSIM_CLASSID, &MSIM_PDGlobal));
   PetscCall(PetscLogEventRegister("MSimSpectrum", MSIM_CLASSID, &MSIM_Spectrum));
   PetscCall(PetscLogEventRegister("MSimLLTFactor", MSIM_CLASSID, &MSIM_LLTFactor));
+  PetscCall(PetscLogEventRegister("MSimMeshRead", MSIM_CLASSID, &MSIM_MeshRead));
+  PetscCall(PetscLogEventRegister("MSimMeshCheck", MSIM_CLASSID, &MSIM_MeshCheck));
+  PetscCall(PetscLogEventRegister("MSimMeshEdges", MSIM_CLASSID, &MSIM_MeshEdges));
+  PetscCall(PetscLogEventRegister("MSimTetGen", MSIM_CLASSID, &MSIM_TetGen));
   PetscCall(MSimSceneRegisterAll());
   PetscCall(MSimIntegratorRegisterAll());
   PetscCall(MSimSolversRegisterAll());
