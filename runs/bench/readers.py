@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """How fast rank 0 reads a tet mesh: Kuhn boxes of about 10^5, 10^6 and 10^7 tets written as TetGen
-.node/.ele and as Gmsh 2.2 ASCII, read by msim on one rank. Times from -log_view: MSimMeshRead
+.node/.ele and as Gmsh 2.2 ASCII (and, where the gmsh program is installed, converted by it to
+Gmsh 4.1 binary), read by msim on one rank. Times from -log_view: MSimMeshRead
 (parsing the file; for .msh, PETSc's DMPlex reader), MSimMeshCheck (every tet's volume and
 edges), MSimMeshEdges (the unique edges), and the whole MSimSetup (the system built from the
 springs, on one rank), with the file size and msim's max RSS. Each row is the best of 2 runs.
@@ -10,6 +11,7 @@ Writes runs/bench/readers.csv."""
 import csv
 import os
 import re
+import shutil
 import subprocess
 import sys
 
@@ -94,12 +96,17 @@ def main():
     for n in sizes:
         stem = make(n)
         ntet = 6 * n ** 3
-        for fmt, path in (("tetgen", stem + ".ele"), ("gmsh 2.2", stem + ".msh")):
+        formats = [("tetgen", stem + ".ele"), ("gmsh 2.2", stem + ".msh")]
+        if shutil.which("gmsh"):
+            if not os.path.exists(stem + "_bin.msh"):
+                subprocess.run(["gmsh", "-0", stem + ".msh", "-format", "msh41", "-bin", "-save", "-o", stem + "_bin.msh"], check=True, capture_output=True)
+            formats.append(("gmsh 4.1 bin", stem + "_bin.msh"))
+        for fmt, path in formats:
             size = os.path.getsize(path) + (os.path.getsize(stem + ".node") if fmt == "tetgen" else 0)
             m = measure(path)
             rows.append(dict(format=fmt, cubes=n, tets=ntet, vertices=(n + 1) ** 3, file_mb=round(size / 2**20, 1), read_s=m["read"], check_s=m["check"], edges_s=m["edges"],
                              setup_s=m["setup"], wall_s=m["wall"], max_rss_mb=round(m["rss_mb"]), read_mtets_per_s=round(ntet / m["read"] / 1e6, 2)))
-            print(f"{fmt:9s} {ntet:>10,} tets ({size / 2**20:7.1f} MB): read {m['read']:.3f} s ({ntet / m['read'] / 1e6:.2f} M tets/s), check {m['check']:.3f} s, "
+            print(f"{fmt:12s} {ntet:>10,} tets ({size / 2**20:7.1f} MB): read {m['read']:.3f} s ({ntet / m['read'] / 1e6:.2f} M tets/s), check {m['check']:.3f} s, "
                   f"edges {m['edges']:.3f} s, whole setup {m['setup']:.2f} s, wall {m['wall']:.1f} s, max RSS {m['rss_mb']:.0f} MB", flush=True)
     with open(os.path.join(HERE, "readers.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
