@@ -77,3 +77,6 @@ PetscErrorCode MSimMeshVertexMeasure(const MSimMesh *m, std::vector<PetscReal> &
    all ranks of comm with fn's first message, so it prints once (and out-of-memory is an error, not
    a crash). */
 PetscErrorCode MSimCallOnRankZero(MPI_Comm comm, const std::function<PetscErrorCode(void)> &fn);
+/* Collective: if ok is false on any rank, one error on comm with the message of the lowest such
+   rank (printed once). */
+PetscErrorCode MSimCollectiveCheck(MPI_Comm comm, PetscBool ok, const std::string &message);

@@ -1,34 +1,47 @@
-/* Scene layer: the spring graph in input vertex order, the same on every rank: generators are
-   deterministic and run on every rank; a mesh file is read (and tetrahedralized) on rank 0 alone
-   and the graph broadcast. MSimSystemCreate distributes it and the caller frees it, so only the
-   setup phase holds the whole graph on each rank. */
+/* Scene layer: the spring graph, distributed from the start. A generator makes, on each rank, some
+   vertices (input id and rest position; every vertex on one rank), some springs (each on one
+   rank) and some cells (a mesh's tets or triangles); a file is read on rank 0 alone, which holds
+   it transiently. MSimSceneCreateFromOptions then moves every vertex to its *directory* rank (a
+   block layout of input ids, msim/exchange.h), refines a tet mesh (-msim_refine), makes a mesh's
+   springs from its cells' unique edges, and sets fixed vertices and masses there. No rank holds
+   more than its part (but rank 0 holding a file it read). MSimSystemCreate partitions it. */
 #pragma once
 #include <msim/sys.h>
 #include <msim/mesh.h>
+#include <msim/exchange.h>
 #include <vector>
 #include <string>
 
 enum MSimSpringFamily { MSIM_STRUCTURAL = 0, MSIM_SHEAR = 1, MSIM_BENDING = 2, MSIM_EDGE = 3 };
 
 typedef struct {
-  PetscInt                  nv;      /* vertices */
-  std::vector<PetscReal>    x0;      /* 3 nv positions of the rest state */
-  std::vector<PetscReal>    mass;    /* nv lumped masses */
-  std::vector<PetscInt>     si, sj;  /* spring endpoints (input ids) */
-  std::vector<PetscReal>    sk, sL;  /* stiffness and rest length */
-  std::vector<char>         fixed;   /* nv flags */
-  std::vector<PetscInt>     corners, edge; /* what -msim_fix corners|edge means (grids and chains) */
-  std::string               name;    /* scene type, for messages */
-  PetscReal                 diameter; /* bounding-box diagonal of the rest state */
-  /* meshes: the cells (tets, or the triangles of a surface) in input vertex ids, which output
-     draws; each vertex's share of their volume or area, by which masses are lumped (empty: equal
-     masses); the total volume or area */
-  int                       cell_size = 0; /* 4 tets, 3 triangles, 0 none */
-  std::vector<PetscInt>     cells;
-  std::vector<PetscReal>    share;
-  PetscReal                 measure = 0;
-  std::string               source;  /* where a mesh came from, for views */
-  PetscBool                 options_only = PETSC_FALSE; /* -help: read the options, build nothing */
+  /* made by the generator on this rank */
+  PetscInt               nv = 0;       /* vertices of the whole scene (every rank knows it) */
+  std::vector<PetscInt>  vid;          /* vertices made here: input ids ... */
+  std::vector<PetscReal> vx;           /* ... and rest positions, 3 each */
+  std::vector<PetscInt>  si, sj;       /* springs held here, input ids (each spring on one rank) */
+  std::vector<PetscReal> sk, sL;       /* stiffness and rest length */
+  int                    cell_size = 0; /* 4 tets, 3 triangles, 0 none */
+  std::vector<PetscInt>  cells;        /* cells held here, input ids */
+  /* a mesh's springs come from its cells' edges: stiffness k_cell each, or with young > 0
+     E V_e / L_e^2 (V_e: the volume of the tets around edge e); with k_bend > 0 a bending spring
+     across every edge two triangles share */
+  PetscReal              k_cell = 0, young = 0, k_bend = 0;
+  std::vector<PetscInt>  corners, edge; /* what -msim_fix corners|edge means (grids and chains) */
+  std::string            name;         /* scene type, for messages */
+  std::string            source;       /* where a mesh came from, for views */
+  PetscBool              options_only = PETSC_FALSE; /* -help: read the options, build nothing */
+
+  /* the directory, after MSimSceneCreateFromOptions: this rank's block of input ids */
+  MSimBlockLayout        dir;
+  std::vector<PetscReal> x0;           /* 3 per block vertex: rest positions */
+  std::vector<PetscReal> mass;         /* lumped masses */
+  std::vector<char>      fixed;        /* fixed flags */
+  std::vector<PetscReal> share;        /* each block vertex's share of the cells' volume or area */
+  /* global figures */
+  PetscReal              diameter = 0; /* bounding-box diagonal of the rest state */
+  PetscReal              measure = 0;  /* total volume or area of the cells */
+  PetscInt               nspring = 0, ncell = 0;
 } MSimSceneData;
 
 typedef struct _n_MSimScene *MSimScene;
@@ -57,13 +70,16 @@ PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k);
 /* Fixed vertices from -msim_fix, -msim_fix_list, -msim_fix_plane, -msim_fix_box. */
 PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s);
 
-/* Meshes to scenes (mesh_scene.cpp): springs on the unique edges of tets, stiffness k each or,
-   with young > 0, E (sum of the volumes of the tets around the edge) / L^2; of triangles, with
-   bending springs across each edge two triangles share when kbend > 0. Masses by volume or area. */
-PetscErrorCode MSimSceneFromTets(const MSimMesh *mesh, PetscReal k, PetscReal young, MSimSceneData *s);
-PetscErrorCode MSimSceneFromSurface(const MSimMesh *mesh, PetscReal kedge, PetscReal kbend, MSimSceneData *s);
-/* Rank 0's scene to every rank. */
-PetscErrorCode MSimSceneDataBcast(MPI_Comm comm, MSimSceneData *s);
+/* A mesh read on this rank becomes this rank's vertices and cells (the file's ids). */
+void MSimSceneTakeMesh(MSimMesh *mesh, MSimSceneData *s);
+
+/* The distributed steps (distribute.cpp, refine.cpp). Collective. */
+PetscErrorCode MSimSceneToDirectory(MPI_Comm comm, MSimSceneData *s);   /* vertices to their directory rank */
+PetscErrorCode MSimSceneSpreadCells(MPI_Comm comm, MSimSceneData *s);   /* cells to the directory rank of their first vertex */
+PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s);        /* one regular refinement of the tets (1 into 8) */
+PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s);   /* a mesh's springs and measure shares from its cells */
+/* The rest positions of any vertices, from the directory. */
+PetscErrorCode MSimSceneFetchPositions(MPI_Comm comm, const MSimSceneData *s, const std::vector<PetscInt> &ids, std::vector<PetscReal> &x);
 
 /* Generators */
 PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm, MSimSceneData *);
@@ -71,3 +87,6 @@ PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Chain(MPI_Comm, MSimSceneData *);
 PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm, MSimSceneData *);
 PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm, MSimSceneData *);
 PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Box(MPI_Comm, MSimSceneData *);
+
+/* -msim_mesh_file and -msim_mesh_scale, shared by the tet and the surface scenes */
+PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set);

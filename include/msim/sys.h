@@ -12,6 +12,9 @@ extern PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacob
   MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
 /* rank 0's mesh work: parsing a file, validating it, finding its unique edges, TetGen */
 extern PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
+/* -log_view stages: reading a file (rank 0), partitioning, moving the scene between ranks,
+   refining, building the system and the solvers, time stepping */
+extern PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, MSIM_StageRefine, MSIM_StageSetup, MSIM_StageStep;
 
 /* Registers log events, the integrator and scene types and msim's SNES type "pd".
    Installs an error handler that prints the first error message as one line on rank 0. */

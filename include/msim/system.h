@@ -9,6 +9,7 @@
 #include <msim/scene.h>
 #include <msim/spring_sweep.h>
 #include <msim/ghost_exchange.h>
+#include <msim/exchange.h>
 #include <vector>
 
 /* Owned springs. Endpoints are local vertex slots: [0, nown) owned (also the rows of the rank's
@@ -47,11 +48,13 @@ struct _n_MSimSystem {
   PetscMPIInt rank, size;
   PetscInt    nv;                   /* input vertices, fixed included */
   PetscInt    nfree, nown, rstart;  /* free vertices: global, owned, first owned (blocks) */
-  PetscInt    nghost, nfix, nloc;   /* nloc = nown + nghost + nfix local slots */
-  PetscInt    nspring_global;
+  PetscInt    nghost, nfix, nloc;   /* local slots: nloc = nown + nghost + nfix, nfix the fixed
+                                       vertices this rank's springs touch */
+  PetscInt    nfix_global;          /* fixed vertices of the scene */
+  PetscInt    nspring_global;       /* springs with a free end */
   MSimSprings springs;              /* owned springs */
   std::vector<PetscInt>   local_to_global; /* global block of each owned/ghost slot */
-  std::vector<PetscReal>  b0;       /* 3 nfix fixed positions at t = 0 */
+  std::vector<PetscReal>  b0;       /* 3 nfix: the local fixed slots' positions at t = 0 */
   PetscReal   fix_velocity[3];
   PetscReal   gravity[3], wind[3], drag, damping;
   PetscReal   total_mass, diameter;
@@ -64,16 +67,23 @@ struct _n_MSimSystem {
   MSimGhostExchange xghosts;        /* the hot loops' forward exchange of ghost positions (ranks > 1) */
   MSimGhostExchange vghosts;        /* the same for velocities (spring damping only) */
   Vec         X0, V0;               /* initial state */
-  /* rank 0 only: what output needs in input vertex order: the cells drawn (a mesh's tets or
-     triangles, otherwise the springs as lines) */
-  std::vector<char>     fixed_flag; /* nv */
+  /* Output in input vertex order ("natural" order): a Vec of 3 nv entries in the scene's directory
+     layout (rank r holds the input ids of its block), filled from the free Vecs by a scatter and
+     with b(t) at the fixed vertices of each block. Output, spectra and -msim_view_final go
+     through it; nothing is gathered whole unless a serial .vtu series asks for it. */
+  MSimBlockLayout       dir;
+  Vec                   natural;       /* 3 nv, block size 3 */
+  VecScatter            to_natural;    /* free global -> natural */
+  std::vector<PetscInt> nat_fixed;     /* the fixed vertices of this rank's block (local index) ... */
+  std::vector<PetscReal> nat_b0;       /* ... and their positions at t = 0 */
+  std::vector<char>     nat_fixed_flag; /* every vertex of the block */
+  /* the cells drawn (a mesh's tets or triangles held here, otherwise the springs held here as
+     lines), input ids */
   int                   out_cell_size; /* vertices per cell: 4, 3 or 2 */
   std::vector<PetscInt> out_cells;
   PetscInt              ncell_global;  /* a mesh's tets or triangles (0 for grids and chains) */
   int                   cell_size;     /* 4 tets, 3 triangles, 0 none */
   PetscInt              nspring_total; /* every spring of the scene, those between fixed vertices too */
-  Vec                   gathered;   /* 3 nfree on rank 0, 0 elsewhere */
-  VecScatter            gather;     /* global -> rank 0 in input order */
   std::string           scene_name;
 };
 
@@ -114,11 +124,15 @@ PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, 
 /* Sum of spring energies only (for the incremental potential). */
 PetscErrorCode MSimSystemSpringEnergy(MSimSystem sys, PetscReal t, Vec X, PetscReal *E);
 
-/* Positions of all nv vertices in input order, on rank 0 (array of 3 nv; NULL elsewhere).
-   Collective. */
+/* Positions of all nv vertices in input order into sys->natural (b(t) at fixed vertices), or a
+   displacement-like Vec (zero at fixed vertices). Collective. */
+PetscErrorCode MSimSystemNaturalPositions(MSimSystem sys, PetscReal t, Vec X);
+PetscErrorCode MSimSystemNaturalVector(MSimSystem sys, Vec X);
+/* The same gathered whole on rank 0 (3 nv; empty elsewhere), for small outputs. Collective. */
 PetscErrorCode MSimSystemGatherPositions(MSimSystem sys, PetscReal t, Vec X, std::vector<PetscReal> &all);
-/* The same for a displacement-like Vec (fixed vertices get zero). */
 PetscErrorCode MSimSystemGatherVector(MSimSystem sys, Vec X, std::vector<PetscReal> &all);
+/* Every vertex's fixed flag and the cells drawn, on rank 0 (empty elsewhere), for small outputs. */
+PetscErrorCode MSimSystemGatherTopology(MSimSystem sys, std::vector<char> &fixed, std::vector<PetscInt> &cells);
 
 /* Matrix over free vertices, block size 3, AIJ (works with every factorization and PC), with the
    spring graph's nonzero pattern preallocated once. */

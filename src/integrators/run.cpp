@@ -79,7 +79,9 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimOutputCreate(sys, &out));
   PetscCall(MSimMonitorWanted(&mon, &want_mon));
   integ->want_phi = want_mon;
+  PetscCall(PetscLogStagePush(MSIM_StageSetup));
   PetscCall(MSimIntegratorSetUp(integ));
+  PetscCall(PetscLogStagePop());
   PetscCall(MSimGuard(sys, integ, X, info));
   /* all input is valid from here on: create the output directory */
   PetscCall(MSimOutputSetUp(out));
@@ -100,6 +102,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(VecCopy(X, Xgood));
   PetscCall(VecCopy(V, Vgood));
 
+  PetscCall(PetscLogStagePush(MSIM_StageStep));
   for (PetscInt n = 1; n <= integ->steps; n++) {
     const PetscReal t0 = (n - 1) * integ->dt, t = n * integ->dt;
     PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
@@ -124,6 +127,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(MSimOutputDestroy(&out));
       PetscCall(VecDestroy(&Xgood));
       PetscCall(VecDestroy(&Vgood));
+      PetscCall(PetscLogStagePop());
       SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? "the nonlinear solver failed" : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
     }
     if (check) {
@@ -135,6 +139,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
     if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X));
   }
+  PetscCall(PetscLogStagePop());
   info->steps_done = integ->steps;
   info->t          = integ->steps * integ->dt;
   if (integ->saddle_steps)

@@ -76,26 +76,18 @@ PetscErrorCode MSimViewFinal(MSimSystem sys, PetscReal t, Vec X)
   PetscViewer            viewer;
   PetscViewerFormat      format;
   PetscBool              set;
-  std::vector<PetscReal> all;
   Vec                    P;
 
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsGetViewer(sys->comm, NULL, NULL, "-msim_view_final", &viewer, &format, &set));
   if (!set) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MSimSystemGatherPositions(sys, t, X, all));
-  /* every entry on rank 0: the printed vector is the same whatever the rank count */
-  PetscCall(VecCreateMPI(sys->comm, sys->rank == 0 ? 3 * sys->nv : 0, 3 * sys->nv, &P));
-  PetscCall(PetscObjectSetName((PetscObject)P, "positions"));
-  if (sys->rank == 0) {
-    PetscScalar *p;
-    PetscCall(VecGetArray(P, &p));
-    for (PetscInt i = 0; i < 3 * sys->nv; i++) p[i] = all[i];
-    PetscCall(VecRestoreArray(P, &p));
-  }
+  /* in input order, distributed by the scene's directory blocks: any size, any viewer (ASCII
+     prints through rank 0 block by block; binary and HDF5 write in parallel) */
+  PetscCall(MSimSystemNaturalPositions(sys, t, X));
+  P = sys->natural;
   PetscCall(PetscViewerPushFormat(viewer, format));
   PetscCall(VecView(P, viewer));
   PetscCall(PetscViewerPopFormat(viewer));
-  PetscCall(VecDestroy(&P));
   PetscCall(PetscViewerDestroy(&viewer));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -8,10 +8,12 @@
 #include <unistd.h>
 
 struct _n_MSimOutput {
-  MSimSystem  sys;
-  char        dir[PETSC_MAX_PATH_LEN];
-  PetscInt    every;
-  std::string pvd_entries;
+  MSimSystem            sys;
+  char                  dir[PETSC_MAX_PATH_LEN];
+  PetscInt              every;
+  std::string           pvd_entries;
+  std::vector<char>     fixed; /* rank 0: every vertex's flag and the cells drawn, in input ids */
+  std::vector<PetscInt> cells;
 };
 
 PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
@@ -62,6 +64,8 @@ PetscErrorCode MSimOutputSetUp(MSimOutput out)
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimMakeDirectory(out->sys->comm, out->dir, "-msim_output"));
+  /* a serial series: rank 0 writes every frame whole, so it holds the topology */
+  PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -82,7 +86,7 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char file[], Pets
   PetscCall(MSimSystemGatherPositions(sys, t, X, all));
   if (sys->rank == 0) {
     PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s", out->dir, file));
-    PetscCall(MSimWriteVTU(path, sys->nv, all.data(), (PetscInt)(sys->out_cells.size() / sys->out_cell_size), sys->out_cell_size, sys->out_cells.data(), sys->fixed_flag.data(), NULL, NULL));
+    PetscCall(MSimWriteVTU(path, sys->nv, all.data(), (PetscInt)(out->cells.size() / sys->out_cell_size), sys->out_cell_size, out->cells.data(), out->fixed.data(), NULL, NULL));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -10,7 +10,7 @@ PetscErrorCode MSimSystemViewPartition(MSimSystem sys, const char partition[], P
 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Gather(mine, 4, MPIU_INT, all.data(), 4, MPIU_INT, 0, sys->comm));
-  PetscCall(PetscPrintf(sys->comm, "partition (%s, %d rank%s): %" PetscInt_FMT " vertices (%" PetscInt_FMT " free, %" PetscInt_FMT " fixed), ", partition, sys->size, sys->size > 1 ? "s" : "", sys->nv, sys->nfree, sys->nfix));
+  PetscCall(PetscPrintf(sys->comm, "partition (%s, %d rank%s): %" PetscInt_FMT " vertices (%" PetscInt_FMT " free, %" PetscInt_FMT " fixed), ", partition, sys->size, sys->size > 1 ? "s" : "", sys->nv, sys->nfree, sys->nfix_global));
   if (sys->ncell_global) PetscCall(PetscPrintf(sys->comm, "%" PetscInt_FMT " %s, ", sys->ncell_global, sys->cell_size == 4 ? "tets" : "triangles"));
   PetscCall(PetscPrintf(sys->comm, "%" PetscInt_FMT " springs (%" PetscInt_FMT " with a free end)\n", sys->nspring_total, sys->nspring_global));
   PetscCall(PetscPrintf(sys->comm, "  edge cut: %" PetscInt_FMT " springs (%.2f%% of the %" PetscInt_FMT " between free vertices)\n", cut, between_free ? 100.0 * cut / between_free : 0.0, between_free));

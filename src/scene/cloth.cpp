@@ -1,14 +1,16 @@
 /* Cloth grid: N x N vertices in the z = 0 plane, vertex (i, j) has id j N + i. Spring families as
    DESIGN.md defines them; -msim_fix corners holds the two corners of the edge j = N - 1, edge holds
-   that whole edge, so under gravity (-z) the cloth swings down like a curtain. */
+   that whole edge, so under gravity (-z) the cloth swings down like a curtain. Each rank makes the
+   vertices of its block of ids and the springs that start at them. */
 #include <msim/scene.h>
 
 PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm comm, MSimSceneData *s)
 {
-  PetscInt  N = 20;
-  PetscReal size = 1.0, kst, ksh, kbe;
-  char      springs[256] = "structural,shear,bending";
-  PetscBool structural = PETSC_FALSE, shear = PETSC_FALSE, bending = PETSC_FALSE;
+  PetscInt    N = 20;
+  PetscReal   size = 1.0, kst, ksh, kbe;
+  char        springs[256] = "structural,shear,bending";
+  PetscBool   structural = PETSC_FALSE, shear = PETSC_FALSE, bending = PETSC_FALSE;
+  PetscMPIInt rank, nranks;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim cloth scene", NULL);
@@ -23,7 +25,9 @@ PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm comm, MSimSceneData *s)
   PetscCall(PetscOptionsReal("-msim_stiffness_shear", "Stiffness of shear springs, N/m", NULL, ksh, &ksh, NULL));
   PetscCall(PetscOptionsReal("-msim_stiffness_bending", "Stiffness of bending springs, N/m", NULL, kbe, &kbe, NULL));
   PetscOptionsEnd();
+  if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(N >= 2, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_cloth_n must be >= 2 (got %" PetscInt_FMT ")", N);
+  PetscCheck(N <= 20000, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_cloth_n %" PetscInt_FMT " is too large for this build's %d-bit indices (at most 20000)", N, (int)(8 * sizeof(PetscInt)));
   PetscCheck(size > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_cloth_size must be > 0 m (got %g)", (double)size);
   {
     char *tok, *save = NULL;
@@ -38,35 +42,40 @@ PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm comm, MSimSceneData *s)
       bending    = (PetscBool)(bending || c);
     }
   }
-
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &nranks));
   const PetscReal dx = size / (N - 1);
-  s->nv              = N * N;
-  s->x0.resize(3 * s->nv);
-  for (PetscInt j = 0; j < N; j++)
-    for (PetscInt i = 0; i < N; i++) {
-      s->x0[3 * (j * N + i) + 0] = i * dx;
-      s->x0[3 * (j * N + i) + 1] = j * dx;
-      s->x0[3 * (j * N + i) + 2] = 0.0;
+  MSimBlockLayout block;
+  block.Set(N * N, nranks);
+  const PetscInt first = block.Start(rank), last = first + block.Count(rank);
+  s->nv = N * N;
+  for (PetscInt v = first; v < last; v++) {
+    s->vid.push_back(v);
+    s->vx.insert(s->vx.end(), {(v % N) * dx, (v / N) * dx, 0.0});
+  }
+  auto id  = [N](PetscInt i, PetscInt j) { return j * N + i; };
+  auto add = [&](PetscInt a, PetscInt b, PetscReal k, PetscReal L) {
+    s->si.push_back(a);
+    s->sj.push_back(b);
+    s->sk.push_back(k);
+    s->sL.push_back(L);
+  };
+  /* the springs of cell (i, j) start at vertex (i, j) */
+  for (PetscInt v = first; v < last; v++) {
+    const PetscInt i = v % N, j = v / N;
+    if (structural) {
+      if (i + 1 < N) add(id(i, j), id(i + 1, j), kst, dx);
+      if (j + 1 < N) add(id(i, j), id(i, j + 1), kst, dx);
     }
-  auto id = [N](PetscInt i, PetscInt j) { return j * N + i; };
-  if (structural)
-    for (PetscInt j = 0; j < N; j++)
-      for (PetscInt i = 0; i < N; i++) {
-        if (i + 1 < N) MSimSceneAddSpring(s, id(i, j), id(i + 1, j), kst);
-        if (j + 1 < N) MSimSceneAddSpring(s, id(i, j), id(i, j + 1), kst);
-      }
-  if (shear)
-    for (PetscInt j = 0; j + 1 < N; j++)
-      for (PetscInt i = 0; i + 1 < N; i++) {
-        MSimSceneAddSpring(s, id(i, j), id(i + 1, j + 1), ksh);
-        MSimSceneAddSpring(s, id(i + 1, j), id(i, j + 1), ksh);
-      }
-  if (bending)
-    for (PetscInt j = 0; j < N; j++)
-      for (PetscInt i = 0; i < N; i++) {
-        if (i + 2 < N) MSimSceneAddSpring(s, id(i, j), id(i + 2, j), kbe);
-        if (j + 2 < N) MSimSceneAddSpring(s, id(i, j), id(i, j + 2), kbe);
-      }
+    if (shear && i + 1 < N && j + 1 < N) {
+      add(id(i, j), id(i + 1, j + 1), ksh, PETSC_SQRT2 * dx);
+      add(id(i + 1, j), id(i, j + 1), ksh, PETSC_SQRT2 * dx);
+    }
+    if (bending) {
+      if (i + 2 < N) add(id(i, j), id(i + 2, j), kbe, 2 * dx);
+      if (j + 2 < N) add(id(i, j), id(i, j + 2), kbe, 2 * dx);
+    }
+  }
   s->corners = {id(0, N - 1), id(N - 1, N - 1)};
   for (PetscInt i = 0; i < N; i++) s->edge.push_back(id(i, N - 1));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -1,4 +1,5 @@
-/* Scene registry and the options every scene shares: stiffness, mass (fixed vertices: fix.cpp). */
+/* Scene registry, the options every scene shares (stiffness, mass; fixed vertices: fix.cpp), and the
+   order of the distributed steps after a generator ran. */
 #include <msim/scene.h>
 #include <cmath>
 #include <algorithm>
@@ -35,15 +36,6 @@ PetscErrorCode MSimSceneFinalizePackage(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void MSimSceneAddSpring(MSimSceneData *s, PetscInt i, PetscInt j, PetscReal k)
-{
-  const PetscReal *a = &s->x0[3 * i], *b = &s->x0[3 * j];
-  s->si.push_back(i);
-  s->sj.push_back(j);
-  s->sk.push_back(k);
-  s->sL.push_back(std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2])));
-}
-
 /* -msim_stiffness k, overridden per family by -msim_stiffness_<family>. Read inside the caller's
    options block so -help lists them with the scene. */
 PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k)
@@ -69,25 +61,29 @@ PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k)
 /* -msim_scene_view: what a user checks after loading a mesh */
 static PetscErrorCode MSimSceneView(MPI_Comm comm, const MSimSceneData *s)
 {
-  PetscReal mass = 0, kmin = PETSC_MAX_REAL, kmax = 0, lmin = PETSC_MAX_REAL, lmax = 0;
+  PetscReal sum[2] = {0, 0}, lo[2] = {PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[2] = {0, 0};
   PetscInt  nfix = 0;
 
   PetscFunctionBeginUser;
-  for (PetscInt v = 0; v < s->nv; v++) {
-    mass += s->mass[v];
+  for (size_t v = 0; v < s->mass.size(); v++) {
+    sum[0] += s->mass[v];
     nfix += s->fixed[v] ? 1 : 0;
   }
   for (size_t q = 0; q < s->sk.size(); q++) {
-    kmin = std::min(kmin, s->sk[q]);
-    kmax = std::max(kmax, s->sk[q]);
-    lmin = std::min(lmin, s->sL[q]);
-    lmax = std::max(lmax, s->sL[q]);
+    lo[0] = std::min(lo[0], s->sk[q]);
+    hi[0] = std::max(hi[0], s->sk[q]);
+    lo[1] = std::min(lo[1], s->sL[q]);
+    hi[1] = std::max(hi[1], s->sL[q]);
   }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, sum, 1, MPIU_REAL, MPIU_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &nfix, 1, MPIU_INT, MPI_SUM, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, lo, 2, MPIU_REAL, MPIU_MIN, comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, hi, 2, MPIU_REAL, MPIU_MAX, comm));
   PetscCall(PetscPrintf(comm, "scene %s%s%s%s: %" PetscInt_FMT " vertices (%" PetscInt_FMT " fixed), ", s->name.c_str(), s->source.empty() ? "" : " (", s->source.c_str(), s->source.empty() ? "" : ")", s->nv, nfix));
-  if (s->cell_size) PetscCall(PetscPrintf(comm, "%zu %s, ", s->cells.size() / s->cell_size, s->cell_size == 4 ? "tets" : "triangles"));
-  PetscCall(PetscPrintf(comm, "%zu springs\n", s->si.size()));
+  if (s->cell_size) PetscCall(PetscPrintf(comm, "%" PetscInt_FMT " %s, ", s->ncell, s->cell_size == 4 ? "tets" : "triangles"));
+  PetscCall(PetscPrintf(comm, "%" PetscInt_FMT " springs\n", s->nspring));
   if (s->cell_size) PetscCall(PetscPrintf(comm, "  %s %.15g m^%d\n", s->cell_size == 4 ? "volume" : "area", (double)s->measure, s->cell_size == 4 ? 3 : 2));
-  PetscCall(PetscPrintf(comm, "  mass %.15g kg; stiffness %.6g to %.6g N/m; rest length %.6g to %.6g m; diameter %.6g m\n", (double)mass, (double)kmin, (double)kmax, (double)lmin, (double)lmax, (double)s->diameter));
+  PetscCall(PetscPrintf(comm, "  mass %.15g kg; stiffness %.6g to %.6g N/m; rest length %.6g to %.6g m; diameter %.6g m\n", (double)sum[0], (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)s->diameter));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -97,7 +93,8 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   char               type[64] = "cloth";
   MSimSceneGenerator gen;
   PetscReal          mass = 1.0, density = 0, k = 1000.0;
-  PetscBool          mass_set, density_set, view = PETSC_FALSE;
+  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set;
+  PetscInt           refine = 0;
 
   PetscFunctionBeginUser;
   PetscCall(MSimSceneRegisterAll());
@@ -114,7 +111,9 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscOptionsReal("-msim_prestretch", "Initial positions = prestretch * rest positions", NULL, sc->prestretch, &sc->prestretch, NULL));
   PetscCall(PetscOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
   PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
+  PetscCall(PetscOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
   PetscOptionsEnd();
+  PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
   PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
   PetscCheck(!density_set || density > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_density must be > 0 (got %g)", (double)density);
@@ -147,29 +146,55 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
       PetscCall(PetscFree(names));
     }
   }
-  {
-    PetscReal lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {PETSC_MIN_REAL, PETSC_MIN_REAL, PETSC_MIN_REAL};
-    for (PetscInt v = 0; v < sc->data.nv; v++)
-      for (int c = 0; c < 3; c++) {
-        lo[c] = std::min(lo[c], sc->data.x0[3 * v + c]);
-        hi[c] = std::max(hi[c], sc->data.x0[3 * v + c]);
-      }
-    sc->data.diameter = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  MSimSceneData &S = sc->data;
+  PetscCheck(!refine_set || S.cell_size == 4, comm, PETSC_ERR_ARG_WRONG, "-msim_refine refines tets: use it with -msim_scene tet or box, not %s", type);
+
+  /* the distributed steps: vertices to their directory, cells spread, refined, springs from the
+     cells' edges */
+  PetscCall(PetscLogStagePush(MSIM_StageDistribute));
+  PetscCall(MSimSceneToDirectory(comm, &S));
+  if (S.cell_size) PetscCall(MSimSceneSpreadCells(comm, &S));
+  PetscCall(PetscLogStagePop());
+  if (refine) {
+    PetscCall(PetscLogStagePush(MSIM_StageRefine));
+    for (PetscInt r = 0; r < refine; r++) PetscCall(MSimSceneRefine(comm, &S));
+    PetscCall(PetscLogStagePop());
   }
-  PetscCall(MSimSceneSelectFixed(comm, &sc->data));
+  PetscCall(PetscLogStagePush(MSIM_StageDistribute));
+  if (S.cell_size) PetscCall(MSimSceneCellSprings(comm, &S));
+  {
+    PetscInt n[2] = {(PetscInt)S.si.size(), S.cell_size ? (PetscInt)(S.cells.size() / S.cell_size) : 0};
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, n, 2, MPIU_INT, MPI_SUM, comm));
+    S.nspring = n[0];
+    S.ncell   = n[1];
+  }
+  {
+    PetscReal lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL};
+    for (size_t v = 0; v < S.x0.size() / 3; v++)
+      for (int c = 0; c < 3; c++) {
+        lo[c] = std::min(lo[c], S.x0[3 * v + c]);
+        hi[c] = std::max(hi[c], S.x0[3 * v + c]);
+      }
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, lo, 3, MPIU_REAL, MPIU_MIN, comm));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, hi, 3, MPIU_REAL, MPIU_MAX, comm));
+    S.diameter = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) + (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  }
+  PetscCall(MSimSceneSelectFixed(comm, &S));
 
   /* Masses: on grids and chains equal, on meshes each vertex's share of the volume or area
      (fixed vertices included, so the total is the stated one) */
-  if (sc->data.share.empty()) {
-    PetscCheck(!density_set, comm, PETSC_ERR_ARG_WRONG, "-msim_density needs a mesh (-msim_scene tet, box or mesh); a %s takes its total -msim_mass", sc->data.name.c_str());
-    sc->data.mass.assign(sc->data.nv, mass / sc->data.nv);
+  const size_t nblock = S.x0.size() / 3;
+  if (!S.cell_size) {
+    PetscCheck(!density_set, comm, PETSC_ERR_ARG_WRONG, "-msim_density needs a mesh (-msim_scene tet, box or mesh); a %s takes its total -msim_mass", S.name.c_str());
+    S.mass.assign(nblock, mass / S.nv);
   } else {
-    const PetscReal f = density_set ? density : mass / sc->data.measure;
-    sc->data.mass.resize(sc->data.nv);
-    for (PetscInt v = 0; v < sc->data.nv; v++) sc->data.mass[v] = f * sc->data.share[v];
-    sc->data.share.clear();
-    sc->data.share.shrink_to_fit();
+    const PetscReal f = density_set ? density : mass / S.measure;
+    S.mass.resize(nblock);
+    for (size_t v = 0; v < nblock; v++) S.mass[v] = f * S.share[v];
+    S.share.clear();
+    S.share.shrink_to_fit();
   }
+  PetscCall(PetscLogStagePop());
   if (view) PetscCall(MSimSceneView(comm, &sc->data));
   *scene = sc;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -3,9 +3,9 @@
    opposite it. Masses by area. The file is read on rank 0. */
 #include <msim/scene.h>
 
-PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set);
+PetscErrorCode MSimSceneShareHeader(MPI_Comm comm, MSimSceneData *s);
 
-static PetscErrorCode ReadSurface(const char file[], PetscReal scale, PetscReal kedge, PetscReal kbend, MSimSceneData *s)
+static PetscErrorCode ReadSurface(const char file[], PetscReal scale, MSimSceneData *s)
 {
   MSimMesh m;
 
@@ -13,7 +13,7 @@ static PetscErrorCode ReadSurface(const char file[], PetscReal scale, PetscReal 
   PetscCall(MSimMeshReadFile(file, 3, &m));
   MSimMeshScale(&m, scale);
   PetscCall(MSimMeshCheck(&m));
-  PetscCall(MSimSceneFromSurface(&m, kedge, kbend, s));
+  MSimSceneTakeMesh(&m, s);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -42,7 +42,11 @@ PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
   }
   PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene mesh needs -msim_mesh_file F (a surface .off/.obj/.stl, or a Gmsh .msh of triangles)");
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
-  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadSurface(file, scale, kedge, bending ? kbend : 0.0, s); }));
-  PetscCall(MSimSceneDataBcast(comm, s));
+  s->k_cell = kedge;
+  s->k_bend = bending ? kbend : 0.0;
+  PetscCall(PetscLogStagePush(MSIM_StageRead));
+  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadSurface(file, scale, s); }));
+  PetscCall(PetscLogStagePop());
+  PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,9 +1,8 @@
 /* Tetrahedral solid from a file: a closed surface (.off, .obj, .stl) tetrahedralized by TetGen, a
-   TetGen .node/.ele pair, or a Gmsh .msh. Read and meshed on rank 0; springs on the unique tet
-   edges. */
+   TetGen .node/.ele pair, or a Gmsh .msh. Read, checked and meshed on rank 0, which holds the
+   vertices and tets until the scene spreads them; springs come from the unique tet edges. */
 #include <msim/scene.h>
 
-/* -msim_mesh_file and -msim_mesh_scale, shared with the surface scene */
 PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set)
 {
   PetscFunctionBeginUser;
@@ -12,7 +11,33 @@ PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, ch
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode ReadTets(const char file[], const char switches[], PetscReal scale, PetscReal k, PetscReal young, MSimSceneData *s)
+void MSimSceneTakeMesh(MSimMesh *m, MSimSceneData *s)
+{
+  s->nv = m->nv;
+  s->vid.resize(m->nv);
+  for (PetscInt v = 0; v < m->nv; v++) s->vid[v] = v;
+  s->vx.swap(m->x);
+  s->cell_size = m->nper;
+  s->cells.swap(m->cell);
+  s->source = m->file;
+  *m        = MSimMesh();
+}
+
+/* Rank 0's nv and source, for every rank */
+PetscErrorCode MSimSceneShareHeader(MPI_Comm comm, MSimSceneData *s)
+{
+  int len = (int)s->source.size();
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Bcast(&s->nv, 1, MPIU_INT, 0, comm));
+  PetscCallMPI(MPI_Bcast(&s->cell_size, 1, MPI_INT, 0, comm));
+  PetscCallMPI(MPI_Bcast(&len, 1, MPI_INT, 0, comm));
+  s->source.resize(len);
+  PetscCallMPI(MPI_Bcast(&s->source[0], len, MPI_CHAR, 0, comm));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode ReadTets(const char file[], const char switches[], PetscReal scale, MSimSceneData *s)
 {
   MSimMesh m;
 
@@ -27,7 +52,7 @@ static PetscErrorCode ReadTets(const char file[], const char switches[], PetscRe
     m = std::move(tets);
   }
   PetscCall(MSimMeshCheck(&m));
-  PetscCall(MSimSceneFromTets(&m, k, young, s));
+  MSimSceneTakeMesh(&m, s);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -48,7 +73,11 @@ PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
   PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
   PetscCall(MSimSceneGetStiffness(NULL, &k));
-  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, switches, scale, k, young, s); }));
-  PetscCall(MSimSceneDataBcast(comm, s));
+  s->k_cell = k;
+  s->young  = young;
+  PetscCall(PetscLogStagePush(MSIM_StageRead));
+  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, switches, scale, s); }));
+  PetscCall(PetscLogStagePop());
+  PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -117,14 +117,17 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
     for (PetscInt k = 0; k < nlow; k++) PetscCall(PetscPrintf(sys->comm, "    mode %" PetscInt_FMT ": lambda %.10g, f = %.8g Hz\n", k, (double)(PetscAbsReal(low[k]) < 1e-10 * lambda[0] ? 0.0 : low[k]), (double)(PetscAbsReal(low[k]) < 1e-10 * lambda[0] ? 0.0 : PetscSqrtReal(PetscMax(low[k], 0.0)) / (2 * PETSC_PI))));
     if (dir[0]) {
       std::vector<PetscReal> pos, disp;
+      std::vector<char>      fixed;
+      std::vector<PetscInt>  cells;
       PetscCall(MSimMakeDirectory(sys->comm, dir, "-msim_spectrum_modes"));
+      PetscCall(MSimSystemGatherTopology(sys, fixed, cells));
       PetscCall(MSimSystemGatherPositions(sys, 0.0, X, pos));
       for (PetscInt k = 0; k < nlow; k++) {
         char path[PETSC_MAX_PATH_LEN];
         PetscCall(MSimSystemGatherVector(sys, modes[k], disp));
         if (sys->rank == 0) {
           PetscCall(PetscSNPrintf(path, sizeof(path), "%s/mode_%03" PetscInt_FMT ".vtu", dir, k));
-          PetscCall(MSimWriteVTU(path, sys->nv, pos.data(), (PetscInt)(sys->out_cells.size() / sys->out_cell_size), sys->out_cell_size, sys->out_cells.data(), sys->fixed_flag.data(), "mode", disp.data()));
+          PetscCall(MSimWriteVTU(path, sys->nv, pos.data(), (PetscInt)(cells.size() / sys->out_cell_size), sys->out_cell_size, cells.data(), fixed.data(), "mode", disp.data()));
         }
         PetscCall(VecDestroy(&modes[k]));
       }

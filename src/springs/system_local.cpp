@@ -121,37 +121,95 @@ PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode MSimSystemGather(MSimSystem sys, PetscReal t, PetscBool positions, Vec X, std::vector<PetscReal> &all)
+static PetscErrorCode MSimSystemNatural(MSimSystem sys, PetscReal t, PetscBool positions, Vec X)
+{
+  PetscScalar *n;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterBegin(sys->to_natural, X, sys->natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(sys->to_natural, X, sys->natural, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArray(sys->natural, &n));
+  for (size_t f = 0; f < sys->nat_fixed.size(); f++)
+    for (int c = 0; c < 3; c++) n[3 * sys->nat_fixed[f] + c] = positions ? sys->nat_b0[3 * f + c] + t * sys->fix_velocity[c] : 0.0;
+  PetscCall(VecRestoreArray(sys->natural, &n));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemNaturalPositions(MSimSystem sys, PetscReal t, Vec X)
 {
   PetscFunctionBeginUser;
-  PetscCall(VecScatterBegin(sys->gather, X, sys->gathered, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(sys->gather, X, sys->gathered, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(MSimSystemNatural(sys, t, PETSC_TRUE, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemNaturalVector(MSimSystem sys, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemNatural(sys, 0, PETSC_FALSE, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the natural Vec whole on rank 0 */
+static PetscErrorCode MSimSystemNaturalToZero(MSimSystem sys, std::vector<PetscReal> &all)
+{
+  VecScatter         scatter;
+  Vec                whole;
+  const PetscScalar *w;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterCreateToZero(sys->natural, &scatter, &whole));
+  PetscCall(VecScatterBegin(scatter, sys->natural, whole, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(scatter, sys->natural, whole, INSERT_VALUES, SCATTER_FORWARD));
+  all.clear();
   if (sys->rank == 0) {
-    const PetscScalar     *g;
-    std::vector<PetscReal> b(3 * sys->nfix);
-    if (positions) PetscCall(MSimSystemBoundary(sys, t, b.data()));
-    PetscCall(VecGetArrayRead(sys->gathered, &g));
-    all.resize(3 * sys->nv);
-    PetscInt nf = 0, nx = 0;
-    for (PetscInt v = 0; v < sys->nv; v++) {
-      const PetscReal *src = sys->fixed_flag[v] ? &b[3 * nx++] : &g[3 * nf++];
-      for (int c = 0; c < 3; c++) all[3 * v + c] = src[c];
-    }
-    PetscCall(VecRestoreArrayRead(sys->gathered, &g));
+    PetscCall(VecGetArrayRead(whole, &w));
+    all.assign(w, w + 3 * sys->nv);
+    PetscCall(VecRestoreArrayRead(whole, &w));
   }
+  PetscCall(VecScatterDestroy(&scatter));
+  PetscCall(VecDestroy(&whole));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSystemGatherPositions(MSimSystem sys, PetscReal t, Vec X, std::vector<PetscReal> &all)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemGather(sys, t, PETSC_TRUE, X, all));
+  PetscCall(MSimSystemNaturalPositions(sys, t, X));
+  PetscCall(MSimSystemNaturalToZero(sys, all));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSystemGatherVector(MSimSystem sys, Vec X, std::vector<PetscReal> &all)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemGather(sys, 0, PETSC_FALSE, X, all));
+  PetscCall(MSimSystemNaturalVector(sys, X));
+  PetscCall(MSimSystemNaturalToZero(sys, all));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+template <typename T>
+static PetscErrorCode GatherToZero(MSimSystem sys, const std::vector<T> &mine, std::vector<T> &all)
+{
+  int                      n = (int)mine.size();
+  std::vector<int>         counts(sys->size), displ(sys->size + 1, 0);
+  MPI_Datatype             type;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Gather(&n, 1, MPI_INT, counts.data(), 1, MPI_INT, 0, sys->comm));
+  for (PetscMPIInt r = 0; r < sys->size; r++) displ[r + 1] = displ[r] + counts[r];
+  all.resize(sys->rank == 0 ? displ[sys->size] : 0);
+  PetscCallMPI(MPI_Type_contiguous((int)sizeof(T), MPI_BYTE, &type));
+  PetscCallMPI(MPI_Type_commit(&type));
+  PetscCallMPI(MPI_Gatherv(mine.data(), n, type, all.data(), counts.data(), displ.data(), type, 0, sys->comm));
+  PetscCallMPI(MPI_Type_free(&type));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGatherTopology(MSimSystem sys, std::vector<char> &fixed, std::vector<PetscInt> &cells)
+{
+  PetscFunctionBeginUser;
+  /* blocks ascend with the rank: gathered in rank order they are in input order */
+  PetscCall(GatherToZero(sys, sys->nat_fixed_flag, fixed));
+  PetscCall(GatherToZero(sys, sys->out_cells, cells));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

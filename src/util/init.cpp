@@ -10,6 +10,7 @@
 PetscClassId  MSIM_CLASSID;
 PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
 PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
+PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, MSIM_StageRefine, MSIM_StageSetup, MSIM_StageStep;
 
 /* OpenBLAS's threads fight the MPI ranks for the cores and make PETSc's small BLAS-1 calls slow
    (a 30k-entry VecAXPY took 1.5 ms with two threads on two cores): one thread per rank unless
@@ -48,6 +49,13 @@ PetscErrorCode MSimInitialize(void)
   PetscCall(PetscLogEventRegister("MSimMeshCheck", MSIM_CLASSID, &MSIM_MeshCheck));
   PetscCall(PetscLogEventRegister("MSimMeshEdges", MSIM_CLASSID, &MSIM_MeshEdges));
   PetscCall(PetscLogEventRegister("MSimTetGen", MSIM_CLASSID, &MSIM_TetGen));
+  /* -log_view's stages: where setup goes at scale, apart from stepping */
+  PetscCall(PetscLogStageRegister("Read", &MSIM_StageRead));
+  PetscCall(PetscLogStageRegister("Partition", &MSIM_StagePartition));
+  PetscCall(PetscLogStageRegister("Distribution", &MSIM_StageDistribute));
+  PetscCall(PetscLogStageRegister("Refinement", &MSIM_StageRefine));
+  PetscCall(PetscLogStageRegister("Setup", &MSIM_StageSetup));
+  PetscCall(PetscLogStageRegister("Stepping", &MSIM_StageStep));
   PetscCall(MSimSceneRegisterAll());
   PetscCall(MSimIntegratorRegisterAll());
   PetscCall(MSimSolversRegisterAll());

@@ -53,3 +53,24 @@ PetscErrorCode MSimCallOnRankZero(MPI_Comm comm, const std::function<PetscErrorC
   PetscCallMPI(MPI_Bcast(&message[0], len, MPI_CHAR, 0, comm));
   SETERRQ(comm, (PetscErrorCode)code, "%s", message.c_str());
 }
+
+PetscErrorCode MSimCollectiveCheck(MPI_Comm comm, PetscBool ok, const std::string &message)
+{
+  PetscMPIInt rank, size, first;
+  int         len;
+  std::string text;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  const PetscMPIInt mine = ok ? size : rank;
+  PetscCallMPI(MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm));
+  if (first == size) PetscFunctionReturn(PETSC_SUCCESS);
+  /* the lowest rank that failed says why, once */
+  if (rank == first) text = message;
+  len = (int)text.size();
+  PetscCallMPI(MPI_Bcast(&len, 1, MPI_INT, first, comm));
+  text.resize(len);
+  PetscCallMPI(MPI_Bcast(&text[0], len, MPI_CHAR, first, comm));
+  SETERRQ(comm, PETSC_ERR_ARG_WRONG, "%s", text.c_str());
+}

@@ -29,22 +29,26 @@ static PetscErrorCode TestBoxGeometry(void)
   PetscCall(PetscOptionsClear(NULL));
   PetscCall(PetscOptionsInsertString(NULL, kScenes[0][1]));
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
-  const MSimSceneData &s = scene->data;
+  const MSimSceneData  &s = scene->data;
+  std::vector<PetscReal> x;
+  /* each rank's tets, with their corners' positions from the directory */
+  PetscCall(MSimSceneFetchPositions(PETSC_COMM_WORLD, &s, s.cells, x));
   for (size_t t = 0; t < s.cells.size() / 4; t++) {
-    const PetscInt *c = &s.cells[4 * t];
-    PetscReal       v = MSimTetVolume(&s.x0[3 * c[0]], &s.x0[3 * c[1]], &s.x0[3 * c[2]], &s.x0[3 * c[3]]);
+    PetscReal v = MSimTetVolume(&x[12 * t], &x[12 * t + 3], &x[12 * t + 6], &x[12 * t + 9]);
     vol += v;
     vmin = PetscMin(vmin, v);
   }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &vol, 1, MPIU_REAL, MPIU_SUM, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &vmin, 1, MPIU_REAL, MPIU_MIN, PETSC_COMM_WORLD));
   const PetscInt edges = nx * (ny + 1) * (nz + 1) + (nx + 1) * ny * (nz + 1) + (nx + 1) * (ny + 1) * nz /* axes */
                        + nx * ny * (nz + 1) + (nx + 1) * ny * nz + nx * (ny + 1) * nz /* one diagonal per face */
                        + nx * ny * nz;                                                 /* one body diagonal per cube */
   CHECK(s.nv == (nx + 1) * (ny + 1) * (nz + 1), "box vertices %" PetscInt_FMT, s.nv);
-  CHECK(s.cells.size() == (size_t)(4 * 6 * nx * ny * nz), "box tets %zu", s.cells.size() / 4);
-  CHECK((PetscInt)s.si.size() == edges, "box springs %zu, want %" PetscInt_FMT, s.si.size(), edges);
+  CHECK(s.ncell == 6 * nx * ny * nz, "box tets %" PetscInt_FMT, s.ncell);
+  CHECK(s.nspring == edges, "box springs %" PetscInt_FMT ", want %" PetscInt_FMT, s.nspring, edges);
   CHECK(vmin > 0, "every box tet has positive volume (least %g)", (double)vmin);
   CHECK(PetscAbsReal(vol - 6.0) < 1e-13, "box tets add up to %.15g, not 6", (double)vol);
-  NOTE("box 3 x 4 x 5: %" PetscInt_FMT " vertices, %zu tets, %zu springs, volume %.15g\n", s.nv, s.cells.size() / 4, s.si.size(), (double)vol);
+  NOTE("box 3 x 4 x 5: %" PetscInt_FMT " vertices, %" PetscInt_FMT " tets, %" PetscInt_FMT " springs, volume %.15g\n", s.nv, s.ncell, s.nspring, (double)vol);
   PetscCall(MSimSceneDestroy(&scene));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -64,11 +68,14 @@ static PetscErrorCode TestOwnership(int which)
   PetscCall(VecSet(ones, 1.0));
   PetscCall(VecSum(ones, &sum));
   PetscCall(MSimSystemGatherVector(s.sys, ones, all));
+  std::vector<char>     fixed;
+  std::vector<PetscInt> cells;
+  PetscCall(MSimSystemGatherTopology(s.sys, fixed, cells));
   if (s.sys->rank == 0) {
     PetscInt bad = 0, nfree = 0;
     for (PetscInt v = 0; v < s.sys->nv; v++) {
-      const PetscReal want = s.sys->fixed_flag[v] ? 0.0 : 1.0;
-      nfree += s.sys->fixed_flag[v] ? 0 : 1;
+      const PetscReal want = fixed[v] ? 0.0 : 1.0;
+      nfree += fixed[v] ? 0 : 1;
       for (int c = 0; c < 3; c++) bad += all[3 * v + c] != want;
     }
     CHECK(bad == 0 && nfree == s.sys->nfree, "%s: %" PetscInt_FMT " gathered entries not 1 at free (0 at fixed) vertices", kScenes[which][0], bad);

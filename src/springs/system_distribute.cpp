@@ -1,0 +1,209 @@
+/* From the scene's directory to each rank's part: free numbering in input order, the graph of free
+   vertices (each row where its vertex has its directory), the partition, the owned vertices moved
+   to their ranks and numbered there (by rank, input order within a rank), and every spring sent
+   to the owner of its first free end, with a copy (a halo spring) to the owner of the other end
+   where that differs. All exchanges are personalized all-to-alls of what each rank holds. */
+#include "system_distribute.h"
+#include <msim/partition.h>
+#include <algorithm>
+
+namespace {
+struct Adjacency {
+  PetscInt row, col; /* free numbers */
+};
+struct Migrant {
+  PetscInt  vid;
+  PetscReal x[3], mass;
+};
+struct Numbered {
+  PetscInt vid, gnum;
+};
+/* what the directory tells about a vertex once it is partitioned */
+struct VertexInfo {
+  PetscMPIInt owner; /* -1: fixed */
+  PetscInt    gnum;
+  PetscReal   x[3];
+};
+} // namespace
+
+/* The unique ids of the springs' ends */
+static void SpringEnds(const MSimSceneData &S, std::vector<PetscInt> &ids)
+{
+  ids = S.si;
+  ids.insert(ids.end(), S.sj.begin(), S.sj.end());
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+}
+
+static inline size_t Find(const std::vector<PetscInt> &ids, PetscInt v)
+{
+  return (size_t)(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin());
+}
+
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], MSimLocalPart &L)
+{
+  PetscMPIInt           rank, size;
+  std::vector<PetscInt> ends, fid, xadj, adjncy;
+  std::vector<PetscMPIInt> part, dest;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  const PetscInt start = S.dir.Start(rank), count = S.dir.Count(rank);
+
+  /* free numbers: the free vertices in input order, block by block */
+  PetscInt nfl = 0, fstart = 0;
+  fid.assign(count, -1);
+  for (PetscInt v = 0; v < count; v++)
+    if (!S.fixed[v]) fid[v] = nfl++;
+  PetscCallMPI(MPI_Exscan(&nfl, &fstart, 1, MPIU_INT, MPI_SUM, comm));
+  if (rank == 0) fstart = 0;
+  for (PetscInt &f : fid)
+    if (f >= 0) f += fstart;
+  PetscCallMPI(MPI_Allreduce(&nfl, &L.nfree, 1, MPIU_INT, MPI_SUM, comm));
+  PetscCheck(L.nfree > 0, comm, PETSC_ERR_ARG_WRONG, "every vertex of the %s scene is fixed: nothing to simulate", S.name.c_str());
+  {
+    PetscInt nfix = count - nfl;
+    PetscCallMPI(MPI_Allreduce(&nfix, &L.nfix_global, 1, MPIU_INT, MPI_SUM, comm));
+  }
+
+  /* the graph: each spring between free vertices is a row entry of both, sent where the row is */
+  PetscCall(PetscLogStagePush(MSIM_StagePartition));
+  SpringEnds(S, ends);
+  {
+    std::vector<PetscInt>  efid;
+    std::vector<Adjacency> send, got;
+    PetscCall(MSimFetch(comm, S.dir, fid, ends, efid));
+    for (size_t s = 0; s < S.si.size(); s++) {
+      const PetscInt a = efid[Find(ends, S.si[s])], b = efid[Find(ends, S.sj[s])];
+      if (a < 0 || b < 0) continue;
+      send.push_back({a, b});
+      dest.push_back(S.dir.Owner(S.si[s]));
+      send.push_back({b, a});
+      dest.push_back(S.dir.Owner(S.sj[s]));
+    }
+    PetscCall(MSimExchange(comm, dest, send, got));
+    send.clear();
+    send.shrink_to_fit();
+    std::sort(got.begin(), got.end(), [](const Adjacency &u, const Adjacency &v) { return u.row < v.row || (u.row == v.row && u.col < v.col); });
+    got.erase(std::unique(got.begin(), got.end(), [](const Adjacency &u, const Adjacency &v) { return u.row == v.row && u.col == v.col; }), got.end());
+    xadj.assign(nfl + 1, 0);
+    adjncy.resize(got.size());
+    for (size_t q = 0; q < got.size(); q++) {
+      xadj[got[q].row - fstart + 1]++;
+      adjncy[q] = got[q].col;
+    }
+    for (PetscInt k = 0; k < nfl; k++) xadj[k + 1] += xadj[k];
+  }
+  PetscCall(MSimPartition(comm, partition, L.nfree, fstart, nfl, xadj, adjncy, part));
+  xadj.clear();
+  xadj.shrink_to_fit();
+  adjncy.clear();
+  adjncy.shrink_to_fit();
+  PetscCall(PetscLogStagePop());
+
+  /* the free vertices to their owners, numbered there in input order */
+  PetscCall(PetscLogStagePush(MSIM_StageDistribute));
+  {
+    std::vector<Migrant> send, got;
+    dest.clear();
+    for (PetscInt v = 0, k = 0; v < count; v++) {
+      if (S.fixed[v]) continue;
+      send.push_back({start + v, {S.x0[3 * v], S.x0[3 * v + 1], S.x0[3 * v + 2]}, S.mass[v]});
+      dest.push_back(part[k++]);
+    }
+    PetscCall(MSimExchange(comm, dest, send, got));
+    std::sort(got.begin(), got.end(), [](const Migrant &u, const Migrant &v) { return u.vid < v.vid; });
+    L.nown = (PetscInt)got.size();
+    L.own_vid.resize(L.nown);
+    L.own_x0.resize(3 * (size_t)L.nown);
+    L.own_mass.resize(L.nown);
+    for (PetscInt k = 0; k < L.nown; k++) {
+      L.own_vid[k] = got[k].vid;
+      for (int c = 0; c < 3; c++) L.own_x0[3 * k + c] = got[k].x[c];
+      L.own_mass[k] = got[k].mass;
+    }
+  }
+  PetscCall(MSimCollectiveCheck(comm, (PetscBool)(L.nown > 0), "rank " + std::to_string(rank) + " owns no vertex: " + std::to_string(L.nfree) + " free vertices on " + std::to_string(size) + " ranks; use fewer ranks"));
+  L.rstart = 0;
+  PetscCallMPI(MPI_Exscan(&L.nown, &L.rstart, 1, MPIU_INT, MPI_SUM, comm));
+  if (rank == 0) L.rstart = 0;
+  L.ranges.resize(size + 1);
+  L.ranges[0] = 0;
+  PetscCallMPI(MPI_Allgather(&L.nown, 1, MPIU_INT, L.ranges.data() + 1, 1, MPIU_INT, comm));
+  for (PetscMPIInt r = 0; r < size; r++) L.ranges[r + 1] += L.ranges[r];
+
+  /* the directory learns each vertex's owner and global number */
+  std::vector<VertexInfo> table(count);
+  {
+    std::vector<Numbered> send(L.nown), got;
+    dest.resize(L.nown);
+    for (PetscInt k = 0; k < L.nown; k++) {
+      send[k] = {L.own_vid[k], L.rstart + k};
+      dest[k] = S.dir.Owner(L.own_vid[k]);
+    }
+    PetscCall(MSimExchange(comm, dest, send, got));
+    std::vector<PetscMPIInt> from;
+    for (PetscInt v = 0; v < count; v++) {
+      table[v].owner = -1;
+      table[v].gnum  = -1;
+      for (int c = 0; c < 3; c++) table[v].x[c] = S.x0[3 * v + c];
+    }
+    L.dir_gnum.assign(count, -1);
+    for (const Numbered &n : got) {
+      table[n.vid - start].gnum = n.gnum;
+      L.dir_gnum[n.vid - start] = n.gnum;
+    }
+    /* the owner from the global number: ranks own ascending blocks */
+    for (PetscInt v = 0; v < count; v++)
+      if (table[v].gnum >= 0) table[v].owner = (PetscMPIInt)(std::upper_bound(L.ranges.begin(), L.ranges.end(), table[v].gnum) - L.ranges.begin() - 1);
+  }
+
+  /* every spring to the owner of its first free end; a halo copy to the owner of the other */
+  {
+    std::vector<VertexInfo>   info;
+    std::vector<MSimRoutedSpring> send, got;
+    PetscInt                  counts[3] = {0, 0, 0}; /* springs with a free end, between free vertices, cut */
+    PetscCall(MSimFetch(comm, S.dir, table, ends, info));
+    dest.clear();
+    for (size_t s = 0; s < S.si.size(); s++) {
+      const VertexInfo &a = info[Find(ends, S.si[s])], &b = info[Find(ends, S.sj[s])];
+      if (a.owner < 0 && b.owner < 0) continue; /* both ends fixed: no effect on the motion */
+      MSimRoutedSpring r;
+      r.va = S.si[s];
+      r.vb = S.sj[s];
+      r.ga = a.gnum;
+      r.gb = b.gnum;
+      r.k  = S.sk[s];
+      r.L  = S.sL[s];
+      for (int c = 0; c < 3; c++) {
+        r.xa[c] = a.x[c];
+        r.xb[c] = b.x[c];
+      }
+      r.halo = 0;
+      const PetscMPIInt o = a.owner >= 0 ? a.owner : b.owner;
+      send.push_back(r);
+      dest.push_back(o);
+      counts[0]++;
+      if (a.owner >= 0 && b.owner >= 0) {
+        counts[1]++;
+        if (a.owner != b.owner) {
+          counts[2]++;
+          r.halo = 1;
+          send.push_back(r);
+          dest.push_back(b.owner);
+        }
+      }
+    }
+    PetscCall(MSimExchange(comm, dest, send, got));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPIU_INT, MPI_SUM, comm));
+    L.nspring_moving = counts[0];
+    L.between_free   = counts[1];
+    L.cut            = counts[2];
+    /* an order that does not depend on the rank count: by input ids */
+    std::sort(got.begin(), got.end(), [](const MSimRoutedSpring &u, const MSimRoutedSpring &v) { return u.va < v.va || (u.va == v.va && u.vb < v.vb); });
+    for (const MSimRoutedSpring &r : got) (r.halo ? L.halo : L.owned).push_back(r);
+  }
+  PetscCall(PetscLogStagePop());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,23 @@
+/* What MSimSystemDistribute leaves on each rank for MSimSystemCreate to build on. */
+#pragma once
+#include <msim/system.h>
+
+/* A spring as its owner (or, halo, the owner of its other end) receives it: ends by global free
+   number (-1: fixed) and input id, and the rest positions of its ends (used for fixed ones). */
+struct MSimRoutedSpring {
+  PetscInt  va, vb, ga, gb;
+  PetscReal k, L, xa[3], xb[3];
+  PetscInt  halo;
+};
+
+struct MSimLocalPart {
+  PetscInt               nfree = 0, nfix_global = 0, nown = 0, rstart = 0;
+  std::vector<PetscInt>  ranges;            /* size + 1: rank r owns global free numbers [ranges[r], ranges[r+1]) */
+  std::vector<PetscInt>  own_vid;           /* owned vertices by global number: input ids, ... */
+  std::vector<PetscReal> own_x0, own_mass;  /* ... rest positions (3 each) and masses */
+  std::vector<MSimRoutedSpring> owned, halo;
+  std::vector<PetscInt>  dir_gnum;          /* the directory block's global numbers (-1: fixed) */
+  PetscInt               nspring_moving = 0, between_free = 0, cut = 0;
+};
+
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], MSimLocalPart &L);
