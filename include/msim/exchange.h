@@ -43,6 +43,11 @@ PetscErrorCode MSimExchange(MPI_Comm comm, const std::vector<PetscMPIInt> &dest,
 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_size(comm, &size));
+  if (size == 1) { /* one rank: everything stays, one copy */
+    recv.assign(send.begin(), send.end());
+    if (src) src->assign(recv.size(), 0);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   scount.assign(size, 0);
   rcount.assign(size, 0);
   sdispl.assign(size + 1, 0);
@@ -117,4 +122,31 @@ PetscErrorCode MSimFetch(MPI_Comm comm, const MSimBlockLayout &layout, const std
     },
     out));
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The distinct ids of a list (ascending) and each entry's index among them. Where the ids span a
+   range not much wider than the list (the common case: a rank's cells name vertices near its
+   block) a marker array over that range replaces sorting and binary search. */
+inline void MSimCompactIds(const std::vector<PetscInt> &list, std::vector<PetscInt> &unique, std::vector<PetscInt> &index)
+{
+  unique.clear();
+  index.resize(list.size());
+  if (list.empty()) return;
+  const auto     mm = std::minmax_element(list.begin(), list.end());
+  const PetscInt lo = *mm.first, span = *mm.second - lo + 1;
+  if ((size_t)span <= 4 * list.size() + 1024) {
+    std::vector<PetscInt> at(span, -1);
+    for (PetscInt v : list) at[v - lo] = 0;
+    for (PetscInt k = 0; k < span; k++)
+      if (at[k] == 0) {
+        at[k] = (PetscInt)unique.size();
+        unique.push_back(lo + k);
+      }
+    for (size_t q = 0; q < list.size(); q++) index[q] = at[list[q] - lo];
+  } else {
+    unique = list;
+    std::sort(unique.begin(), unique.end());
+    unique.erase(std::unique(unique.begin(), unique.end()), unique.end());
+    for (size_t q = 0; q < list.size(); q++) index[q] = (PetscInt)(std::lower_bound(unique.begin(), unique.end(), list[q]) - unique.begin());
+  }
 }

@@ -29,6 +29,9 @@ void MSimInitializeBegin(void);
 /* mpi_defaults.cpp: MPI transport settings msim prefers, set before MPI_Init where the user has not
    set them (Open MPI's eager limit for shared memory, which the ghost exchange's messages exceed) */
 void MSimSetMPIDefaults(void);
+/* malloc_defaults.cpp: glibc malloc tunables msim prefers (huge pages, no trimming), applied by
+   running itself once more with GLIBC_TUNABLES where the user has not set it; call first in main */
+void MSimSetMallocDefaults(int argc, char **argv);
 int  MSimInitializeEnd(PetscErrorCode ierr);
 /* Options set but never read (a misspelled name does nothing otherwise): one warning line each on
    stderr, unless -options_left asked PETSc to list them. */

@@ -58,6 +58,7 @@ int main(int argc, char **argv)
 {
   PetscErrorCode ierr;
 
+  MSimSetMallocDefaults(argc, argv);
   MSimSetMPIDefaults();
   MSimInitializeBegin();
   if (MSimInitializeEnd(SlepcInitialize(&argc, &argv, NULL, help))) return 1;

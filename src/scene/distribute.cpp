@@ -1,7 +1,7 @@
 /* The scene's distributed steps: vertices to their directory rank, cells spread by their first
    vertex, a mesh's springs from the unique edges of its cells, found where the lower vertex of the
    edge has its directory (so every edge is seen by one rank, whichever ranks hold its cells). */
-#include <msim/scene.h>
+#include "local_edges.h"
 #include <cmath>
 
 namespace {
@@ -12,11 +12,12 @@ struct VertexRecord {
 struct CellRecord {
   PetscInt v[4];
 };
-/* one edge of one cell, sent to the directory of its lower vertex a */
+/* one unique edge of one rank's cells, sent to the directory of its lower vertex a */
 struct EdgeRecord {
   PetscInt  a, b;
-  PetscInt  opposite; /* triangles: the cell's third vertex (bending springs) */
-  PetscReal measure;  /* the cell's volume or area */
+  PetscInt  count;       /* cells around it on the sending rank */
+  PetscInt  opposite[2]; /* triangles: the third vertex of the first two of them (bending springs) */
+  PetscReal measure;     /* their volume or area */
   PetscReal length;
 };
 struct ShareRecord {
@@ -104,25 +105,13 @@ PetscErrorCode MSimSceneSpreadCells(MPI_Comm comm, MSimSceneData *s)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Unique ids of the vertices the held cells name, and the cells rewritten as indices into them. */
-static void CellVertices(const MSimSceneData *s, std::vector<PetscInt> &ids, std::vector<PetscInt> &local)
-{
-  ids = s->cells;
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  local.resize(s->cells.size());
-  for (size_t q = 0; q < s->cells.size(); q++) local[q] = (PetscInt)(std::lower_bound(ids.begin(), ids.end(), s->cells[q]) - ids.begin());
-}
-
 PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
 {
-  static const int         tet_edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}}, tri_edges[3][2] = {{0, 1}, {0, 2}, {1, 2}};
-  const int                k = s->cell_size, ne = k == 4 ? 6 : 3;
-  const int(*E)[2]         = k == 4 ? tet_edges : tri_edges;
+  const int                k  = s->cell_size;
   const size_t             nc = s->cells.size() / k;
   PetscMPIInt              rank;
-  std::vector<PetscInt>    ids, local;
-  std::vector<PetscReal>   x;
+  MSimLocalEdges           E;
+  std::vector<PetscReal>   x, meas(nc), share;
   std::vector<PetscMPIInt> dest;
   std::vector<EdgeRecord>  edges, got;
   std::vector<ShareRecord> shares, gotshares;
@@ -130,58 +119,78 @@ PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
-  CellVertices(s, ids, local);
-  PetscCall(MSimSceneFetchPositions(comm, s, ids, x));
-  edges.reserve(ne * nc);
-  dest.reserve(ne * nc);
-  shares.reserve(k * nc);
+  PetscCall(MSimLocalEdgesBuild(s, E));
+  PetscCall(MSimSceneFetchPositions(comm, s, E.ids, x));
+  share.assign(E.ids.size(), 0.0);
   for (size_t c = 0; c < nc; c++) {
-    const PetscInt *l = &local[k * c], *g = &s->cells[k * c];
-    const PetscReal m = k == 4 ? MSimTetVolume(&x[3 * l[0]], &x[3 * l[1]], &x[3 * l[2]], &x[3 * l[3]]) : MSimTriangleArea(&x[3 * l[0]], &x[3 * l[1]], &x[3 * l[2]]);
-    measure += m;
-    for (int e = 0; e < ne; e++) {
-      const int  p = E[e][0], q = E[e][1];
-      EdgeRecord r;
-      r.a        = std::min(g[p], g[q]);
-      r.b        = std::max(g[p], g[q]);
-      r.opposite = k == 3 ? g[3 - p - q] : -1;
-      r.measure  = m;
-      r.length   = std::sqrt((x[3 * l[p]] - x[3 * l[q]]) * (x[3 * l[p]] - x[3 * l[q]]) + (x[3 * l[p] + 1] - x[3 * l[q] + 1]) * (x[3 * l[p] + 1] - x[3 * l[q] + 1]) + (x[3 * l[p] + 2] - x[3 * l[q] + 2]) * (x[3 * l[p] + 2] - x[3 * l[q] + 2]));
-      edges.push_back(r);
-      dest.push_back(s->dir.Owner(r.a));
-    }
-    for (int q = 0; q < k; q++) shares.push_back({g[q], m / k});
+    const PetscInt *l = &E.local[k * c];
+    meas[c] = k == 4 ? MSimTetVolume(&x[3 * l[0]], &x[3 * l[1]], &x[3 * l[2]], &x[3 * l[3]]) : MSimTriangleArea(&x[3 * l[0]], &x[3 * l[1]], &x[3 * l[2]]);
+    measure += meas[c];
+    for (int q = 0; q < k; q++) share[l[q]] += meas[c] / k;
   }
   PetscCallMPI(MPI_Allreduce(&measure, &s->measure, 1, MPIU_REAL, MPIU_SUM, comm));
-  PetscCall(MSimExchange(comm, dest, edges, got));
-  edges.clear();
-  edges.shrink_to_fit();
   /* the measure shares, summed where the vertex has its directory */
-  dest.resize(shares.size());
-  for (size_t q = 0; q < shares.size(); q++) dest[q] = s->dir.Owner(shares[q].id);
+  shares.resize(E.ids.size());
+  dest.resize(E.ids.size());
+  for (size_t v = 0; v < E.ids.size(); v++) {
+    shares[v] = {E.ids[v], share[v]};
+    dest[v]   = s->dir.Owner(E.ids[v]);
+  }
   PetscCall(MSimExchange(comm, dest, shares, gotshares));
   const PetscInt start = s->dir.Start(rank);
   s->share.assign(s->dir.Count(rank), 0.0);
   for (const ShareRecord &r : gotshares) s->share[r.id - start] += r.share;
+  /* one record per unique edge of this rank's cells */
+  const size_t ne = E.a.size();
+  edges.resize(ne);
+  dest.resize(ne);
+  for (size_t e = 0; e < ne; e++) {
+    const PetscReal *p = &x[3 * E.a[e]], *q = &x[3 * E.b[e]];
+    EdgeRecord      &r = edges[e];
+    r.a                = E.ids[E.a[e]];
+    r.b                = E.ids[E.b[e]];
+    r.count            = E.ptr[e + 1] - E.ptr[e];
+    r.measure          = 0;
+    r.opposite[0] = r.opposite[1] = -1;
+    for (PetscInt q2 = E.ptr[e]; q2 < E.ptr[e + 1]; q2++) {
+      const PetscInt c = E.cells[q2];
+      r.measure += meas[c];
+      if (k == 3 && q2 - E.ptr[e] < 2) {
+        const PetscInt *g = &s->cells[3 * c];
+        r.opposite[q2 - E.ptr[e]] = g[0] != r.a && g[0] != r.b ? g[0] : g[1] != r.a && g[1] != r.b ? g[1] : g[2];
+      }
+    }
+    r.length = std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+    dest[e]  = s->dir.Owner(r.a);
+  }
+  E = MSimLocalEdges();
+  PetscCall(MSimExchange(comm, dest, edges, got));
+  edges.clear();
+  edges.shrink_to_fit();
   /* one spring per edge; Young's modulus: k = E V_e / L^2. Under any uniform strain eps the
      springs then store sum_e k_e (eps L_e)^2 / 2 = E eps^2 sum_e V_e / 2 = 3 E eps^2 V (each tet
      has 6 edges): the strain energy of an isotropic solid of modulus E and Poisson ratio 1/4 (the
      ratio of a lattice of central springs) dilated by eps. */
-  std::sort(got.begin(), got.end(), [](const EdgeRecord &u, const EdgeRecord &v) { return u.a < v.a || (u.a == v.a && (u.b < v.b || (u.b == v.b && u.opposite < v.opposite))); });
+  std::sort(got.begin(), got.end(), [](const EdgeRecord &u, const EdgeRecord &v) { return u.a < v.a || (u.a == v.a && u.b < v.b); });
   std::vector<PairRecord>  bend;
   std::vector<PetscMPIInt> bdest;
   for (size_t q = 0; q < got.size();) {
-    size_t    r  = q;
+    size_t    r      = q;
     PetscReal around = 0;
-    while (r < got.size() && got[r].a == got[q].a && got[r].b == got[q].b) around += got[r++].measure;
+    PetscInt  cells = 0, opp[2] = {-1, -1}, nopp = 0;
+    for (; r < got.size() && got[r].a == got[q].a && got[r].b == got[q].b; r++) {
+      around += got[r].measure;
+      cells += got[r].count;
+      for (int o = 0; o < 2; o++)
+        if (got[r].opposite[o] >= 0 && nopp < 2) opp[nopp++] = got[r].opposite[o];
+    }
     s->si.push_back(got[q].a);
     s->sj.push_back(got[q].b);
     s->sL.push_back(got[q].length);
     s->sk.push_back(s->young > 0 ? s->young * around / (got[q].length * got[q].length) : s->k_cell);
-    if (s->k_bend > 0 && r - q == 2) {
-      const PetscInt c = std::min(got[q].opposite, got[q + 1].opposite), d = std::max(got[q].opposite, got[q + 1].opposite);
-      bend.push_back({c, d});
-      bdest.push_back(s->dir.Owner(c));
+    if (s->k_bend > 0 && cells == 2) {
+      bend.push_back({std::min(opp[0], opp[1]), std::max(opp[0], opp[1])});
+      bdest.push_back(s->dir.Owner(bend.back().a));
     }
     q = r;
   }

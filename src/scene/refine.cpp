@@ -5,7 +5,7 @@
    edges in the order of (a, b). Edges are numbered where a has its directory (one rank sees each
    edge; the blocks ascend with a), so outputs, fixed lists and final positions of a refined mesh
    are the same at any rank count. Old vertices keep their ids. */
-#include <msim/scene.h>
+#include "local_edges.h"
 #include <array>
 #include <cmath>
 
@@ -27,35 +27,33 @@ PetscReal Dist2(const PetscReal *p, const PetscReal *q)
 
 PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s)
 {
-  static const int         E[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  const size_t             nt      = s->cells.size() / 4;
-  PetscMPIInt              rank, size;
-  std::vector<PetscInt>    ids, mids;
-  std::vector<PetscReal>   x;
-  std::vector<PetscMPIInt> dest(6 * nt);
-  std::vector<EdgeQuestion> questions(6 * nt);
-  std::vector<MidVertex>   made;
-  PetscInt                 nedge = 0, offset = 0, total = 0;
+  static const int          E[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  const size_t              nt      = s->cells.size() / 4;
+  PetscMPIInt               rank, size;
+  MSimLocalEdges            LE;
+  std::vector<PetscInt>     mids;
+  std::vector<PetscReal>    x;
+  std::vector<PetscMPIInt>  dest;
+  std::vector<EdgeQuestion> questions;
+  std::vector<MidVertex>    made;
+  PetscInt                  nedge = 0, offset = 0, total = 0;
 
   PetscFunctionBeginUser;
   PetscCheck(s->cell_size == 4, comm, PETSC_ERR_ARG_WRONG, "-msim_refine refines tets: use it with -msim_scene tet or box");
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
-  ids = s->cells;
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  PetscCall(MSimSceneFetchPositions(comm, s, ids, x));
-  auto pos = [&](PetscInt id) { return &x[3 * (size_t)(std::lower_bound(ids.begin(), ids.end(), id) - ids.begin())]; };
-  for (size_t t = 0; t < nt; t++)
-    for (int e = 0; e < 6; e++) {
-      const PetscInt  p = s->cells[4 * t + E[e][0]], q = s->cells[4 * t + E[e][1]];
-      const PetscReal *xp = pos(p), *xq = pos(q);
-      EdgeQuestion    &r = questions[6 * t + e];
-      r.a = std::min(p, q);
-      r.b = std::max(p, q);
-      for (int c = 0; c < 3; c++) r.mid[c] = 0.5 * (xp[c] + xq[c]);
-      dest[6 * t + e] = s->dir.Owner(r.a);
-    }
+  PetscCall(MSimLocalEdgesBuild(s, LE));
+  PetscCall(MSimSceneFetchPositions(comm, s, LE.ids, x));
+  /* one question per unique edge of this rank's tets */
+  questions.resize(LE.a.size());
+  dest.resize(LE.a.size());
+  for (size_t e = 0; e < LE.a.size(); e++) {
+    EdgeQuestion &r = questions[e];
+    r.a             = LE.ids[LE.a[e]];
+    r.b             = LE.ids[LE.b[e]];
+    for (int c = 0; c < 3; c++) r.mid[c] = 0.5 * (x[3 * LE.a[e] + c] + x[3 * LE.b[e] + c]);
+    dest[e] = s->dir.Owner(r.a);
+  }
   /* the directory of a numbers its unique edges; their ids follow the global order of (a, b) */
   PetscCall(MSimAsk(
     comm, dest, questions,
@@ -84,12 +82,14 @@ PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s)
   std::vector<PetscInt> children;
   children.reserve(32 * nt);
   for (size_t t = 0; t < nt; t++) {
-    const PetscInt *v = &s->cells[4 * t], *m = &mids[6 * t];
-    /* m: 01 02 03 12 13 23 */
+    const PetscInt *v = &s->cells[4 * t], *lv = &LE.local[4 * t];
+    PetscInt        m[6]; /* 01 02 03 12 13 23 */
     std::array<PetscReal, 18> mx;
-    for (int e = 0; e < 6; e++)
-      for (int c = 0; c < 3; c++) mx[3 * e + c] = 0.5 * (pos(v[E[e][0]])[c] + pos(v[E[e][1]])[c]);
-    auto X = [&](PetscInt id, int e) -> const PetscReal * { return e >= 0 ? &mx[3 * e] : pos(id); };
+    for (int e = 0; e < 6; e++) {
+      m[e] = mids[LE.cell_edge[6 * t + e]];
+      for (int c = 0; c < 3; c++) mx[3 * e + c] = 0.5 * (x[3 * lv[E[e][0]] + c] + x[3 * lv[E[e][1]] + c]);
+    }
+    auto X = [&](int vi, int e) -> const PetscReal * { return e >= 0 ? &mx[3 * e] : &x[3 * lv[vi]]; };
     /* corners, then the octahedron around the shortest of its diagonals 01-23, 02-13, 03-12, each
        with the ring of the other four midpoints in order around it */
     const PetscReal d[3]     = {Dist2(&mx[0], &mx[15]), Dist2(&mx[3], &mx[12]), Dist2(&mx[6], &mx[9])};
@@ -112,7 +112,7 @@ PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s)
       for (int q = 0; q < 4; q++) {
         const int vi = tets[c][q][0], mi = tets[c][q][1];
         id[q]        = vi >= 0 ? v[vi] : m[mi];
-        p[q]         = vi >= 0 ? X(v[vi], -1) : X(-1, mi);
+        p[q]         = vi >= 0 ? X(vi, -1) : X(-1, mi);
       }
       if (MSimTetVolume(p[0], p[1], p[2], p[3]) < 0) std::swap(id[1], id[2]);
       children.insert(children.end(), id, id + 4);
@@ -121,6 +121,7 @@ PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s)
   s->cells.swap(children);
   children.clear();
   children.shrink_to_fit();
+  LE = MSimLocalEdges();
 
   /* the vertices under the grown layout: the old ones keep their ids, the new ones follow */
   {

@@ -64,19 +64,16 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
 
   /* local slots: owned [0, nown), ghosts (the other free ends of owned and halo springs, by
      global number), then the fixed ends of owned springs (by input id) */
-  std::vector<PetscInt> ghosts, fixed;
-  auto                  is_owned = [&](PetscInt g) { return g >= sys->rstart && g < sys->rstart + sys->nown; };
+  std::vector<PetscInt>        ghosts;
+  const std::vector<PetscInt> &fixed    = L.fixed_vid;
+  auto                         is_owned = [&](PetscInt g) { return g >= sys->rstart && g < sys->rstart + sys->nown; };
   for (const auto *list : {&L.owned, &L.halo})
     for (const MSimRoutedSpring &r : *list) {
       if (r.ga >= 0 && !is_owned(r.ga)) ghosts.push_back(r.ga);
       if (r.gb >= 0 && !is_owned(r.gb)) ghosts.push_back(r.gb);
-      if (r.ga < 0) fixed.push_back(r.va);
-      if (r.gb < 0) fixed.push_back(r.vb);
     }
   std::sort(ghosts.begin(), ghosts.end());
   ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
-  std::sort(fixed.begin(), fixed.end());
-  fixed.erase(std::unique(fixed.begin(), fixed.end()), fixed.end());
   sys->nghost = (PetscInt)ghosts.size();
   sys->nfix   = (PetscInt)fixed.size();
   sys->nloc   = sys->nown + sys->nghost + sys->nfix;
@@ -89,12 +86,7 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     return sys->nown + (PetscInt)(std::lower_bound(ghosts.begin(), ghosts.end(), g) - ghosts.begin());
   };
   sys->b0.resize(3 * sys->nfix);
-  for (const MSimRoutedSpring &r : L.owned) {
-    if (r.ga < 0)
-      for (int c = 0; c < 3; c++) sys->b0[3 * (slot(r.ga, r.va) - sys->nown - sys->nghost) + c] = scene->prestretch * r.xa[c];
-    if (r.gb < 0)
-      for (int c = 0; c < 3; c++) sys->b0[3 * (slot(r.gb, r.vb) - sys->nown - sys->nghost) + c] = scene->prestretch * r.xb[c];
-  }
+  for (PetscInt f = 0; f < 3 * sys->nfix; f++) sys->b0[f] = scene->prestretch * L.fixed_x0[f];
   {
     /* owned-owned springs into slices (those of vertices past the last full slice into the
        arrays), then the springs with a ghost or fixed end; by input ids otherwise */

@@ -22,28 +22,25 @@ struct Numbered {
 struct VertexInfo {
   PetscMPIInt owner; /* -1: fixed */
   PetscInt    gnum;
-  PetscReal   x[3];
+};
+struct Position {
+  PetscReal x[3];
 };
 } // namespace
 
-/* The unique ids of the springs' ends */
-static void SpringEnds(const MSimSceneData &S, std::vector<PetscInt> &ids)
+/* The distinct ends of the springs held here, and each spring's two ends as indices into them
+   (spring s: ends[at[s]] and ends[at[ns + s]]) */
+static void SpringEnds(const MSimSceneData &S, std::vector<PetscInt> &ends, std::vector<PetscInt> &at)
 {
-  ids = S.si;
-  ids.insert(ids.end(), S.sj.begin(), S.sj.end());
-  std::sort(ids.begin(), ids.end());
-  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-}
-
-static inline size_t Find(const std::vector<PetscInt> &ids, PetscInt v)
-{
-  return (size_t)(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin());
+  std::vector<PetscInt> both(S.si);
+  both.insert(both.end(), S.sj.begin(), S.sj.end());
+  MSimCompactIds(both, ends, at);
 }
 
 PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], MSimLocalPart &L)
 {
   PetscMPIInt           rank, size;
-  std::vector<PetscInt> ends, fid, xadj, adjncy;
+  std::vector<PetscInt> ends, at, fid, xadj, adjncy;
   std::vector<PetscMPIInt> part, dest;
 
   PetscFunctionBeginUser;
@@ -67,15 +64,20 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     PetscCallMPI(MPI_Allreduce(&nfix, &L.nfix_global, 1, MPIU_INT, MPI_SUM, comm));
   }
 
-  /* the graph: each spring between free vertices is a row entry of both, sent where the row is */
+  /* the graph: each spring between free vertices is a row entry of both, sent where the row is
+     (natural blocks and one rank need none) */
   PetscCall(PetscLogStagePush(MSIM_StagePartition));
-  SpringEnds(S, ends);
-  {
+  SpringEnds(S, ends, at);
+  const size_t ns = S.si.size();
+  PetscBool natural;
+  PetscCall(PetscStrcmp(partition, "natural", &natural));
+  xadj.assign(nfl + 1, 0);
+  if (!natural && size > 1) {
     std::vector<PetscInt>  efid;
     std::vector<Adjacency> send, got;
     PetscCall(MSimFetch(comm, S.dir, fid, ends, efid));
     for (size_t s = 0; s < S.si.size(); s++) {
-      const PetscInt a = efid[Find(ends, S.si[s])], b = efid[Find(ends, S.sj[s])];
+      const PetscInt a = efid[at[s]], b = efid[at[ns + s]];
       if (a < 0 || b < 0) continue;
       send.push_back({a, b});
       dest.push_back(S.dir.Owner(S.si[s]));
@@ -87,7 +89,6 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     send.shrink_to_fit();
     std::sort(got.begin(), got.end(), [](const Adjacency &u, const Adjacency &v) { return u.row < v.row || (u.row == v.row && u.col < v.col); });
     got.erase(std::unique(got.begin(), got.end(), [](const Adjacency &u, const Adjacency &v) { return u.row == v.row && u.col == v.col; }), got.end());
-    xadj.assign(nfl + 1, 0);
     adjncy.resize(got.size());
     for (size_t q = 0; q < got.size(); q++) {
       xadj[got[q].row - fstart + 1]++;
@@ -147,7 +148,6 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     for (PetscInt v = 0; v < count; v++) {
       table[v].owner = -1;
       table[v].gnum  = -1;
-      for (int c = 0; c < 3; c++) table[v].x[c] = S.x0[3 * v + c];
     }
     L.dir_gnum.assign(count, -1);
     for (const Numbered &n : got) {
@@ -167,19 +167,15 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     PetscCall(MSimFetch(comm, S.dir, table, ends, info));
     dest.clear();
     for (size_t s = 0; s < S.si.size(); s++) {
-      const VertexInfo &a = info[Find(ends, S.si[s])], &b = info[Find(ends, S.sj[s])];
+      const VertexInfo &a = info[at[s]], &b = info[at[ns + s]];
       if (a.owner < 0 && b.owner < 0) continue; /* both ends fixed: no effect on the motion */
       MSimRoutedSpring r;
       r.va = S.si[s];
       r.vb = S.sj[s];
       r.ga = a.gnum;
       r.gb = b.gnum;
-      r.k  = S.sk[s];
-      r.L  = S.sL[s];
-      for (int c = 0; c < 3; c++) {
-        r.xa[c] = a.x[c];
-        r.xb[c] = b.x[c];
-      }
+      r.k    = S.sk[s];
+      r.L    = S.sL[s];
       r.halo = 0;
       const PetscMPIInt o = a.owner >= 0 ? a.owner : b.owner;
       send.push_back(r);
@@ -201,8 +197,30 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     L.between_free   = counts[1];
     L.cut            = counts[2];
     /* an order that does not depend on the rank count: by input ids */
+    send.clear();
+    send.shrink_to_fit();
     std::sort(got.begin(), got.end(), [](const MSimRoutedSpring &u, const MSimRoutedSpring &v) { return u.va < v.va || (u.va == v.va && u.vb < v.vb); });
+    size_t nhalo = 0;
+    for (const MSimRoutedSpring &r : got) nhalo += r.halo ? 1 : 0;
+    L.owned.reserve(got.size() - nhalo);
+    L.halo.reserve(nhalo);
     for (const MSimRoutedSpring &r : got) (r.halo ? L.halo : L.owned).push_back(r);
+  }
+  /* the rest positions of the fixed ends of owned springs, from the directory */
+  {
+    std::vector<Position> table(count), got;
+    for (PetscInt v = 0; v < count; v++)
+      for (int c = 0; c < 3; c++) table[v].x[c] = S.x0[3 * v + c];
+    for (const MSimRoutedSpring &r : L.owned) {
+      if (r.ga < 0) L.fixed_vid.push_back(r.va);
+      if (r.gb < 0) L.fixed_vid.push_back(r.vb);
+    }
+    std::sort(L.fixed_vid.begin(), L.fixed_vid.end());
+    L.fixed_vid.erase(std::unique(L.fixed_vid.begin(), L.fixed_vid.end()), L.fixed_vid.end());
+    PetscCall(MSimFetch(comm, S.dir, table, L.fixed_vid, got));
+    L.fixed_x0.resize(3 * got.size());
+    for (size_t f = 0; f < got.size(); f++)
+      for (int c = 0; c < 3; c++) L.fixed_x0[3 * f + c] = got[f].x[c];
   }
   PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);

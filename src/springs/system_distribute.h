@@ -3,10 +3,10 @@
 #include <msim/system.h>
 
 /* A spring as its owner (or, halo, the owner of its other end) receives it: ends by global free
-   number (-1: fixed) and input id, and the rest positions of its ends (used for fixed ones). */
+   number (-1: fixed) and input id. */
 struct MSimRoutedSpring {
   PetscInt  va, vb, ga, gb;
-  PetscReal k, L, xa[3], xb[3];
+  PetscReal k, L;
   PetscInt  halo;
 };
 
@@ -17,6 +17,8 @@ struct MSimLocalPart {
   std::vector<PetscReal> own_x0, own_mass;  /* ... rest positions (3 each) and masses */
   std::vector<MSimRoutedSpring> owned, halo;
   std::vector<PetscInt>  dir_gnum;          /* the directory block's global numbers (-1: fixed) */
+  std::vector<PetscInt>  fixed_vid;         /* the fixed ends of owned springs, ascending input ids ... */
+  std::vector<PetscReal> fixed_x0;          /* ... and their rest positions */
   PetscInt               nspring_moving = 0, between_free = 0, cut = 0;
 };
 
