@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Render an msim ParaView series (.pvd) to PNG pictures and an animated GIF with matplotlib.
-Usage: /usr/bin/python3 runs/tools/render.py out/cloth/series.pvd [--png out/cloth/cloth.png]
+Usage: /usr/bin/python3 runs/tools/render.py out/cloth/series.pvd (or .xdmf) [--png out/cloth/cloth.png]
        [--gif out/cloth/cloth.gif] [--frames 50] [--view elev,azim] [--up y]
 The PNG shows four moments of the run side by side; the GIF plays the whole series. Springs are
 drawn as lines, a surface's triangles and a solid's boundary (the faces of one tet only) shaded."""
@@ -17,7 +17,7 @@ from matplotlib.animation import FuncAnimation, PillowWriter  # noqa: E402
 from mpl_toolkits.mplot3d.art3d import Line3DCollection, Poly3DCollection  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from vtu import boundary_faces, read_pvd, read_vtu  # noqa: E402
+from vtu import boundary_faces, read_series  # noqa: E402
 
 UP = {"x": [1, 2, 0], "y": [2, 0, 1], "z": [0, 1, 2]}  # axes drawn as matplotlib's x, y, z
 BASE = np.array([0.45, 0.62, 0.85])  # the surface colour, lit by LIGHT (in plot coordinates)
@@ -34,7 +34,7 @@ def shade(tri, two_sided):
 
 
 def bounds(frames, up):
-    pts = np.concatenate([read_vtu(f)["points"][:, UP[up]] for _, f in frames[:: max(1, len(frames) // 20)] + [frames[-1]]])
+    pts = np.concatenate([load()["points"][:, UP[up]] for _, load in frames[:: max(1, len(frames) // 20)] + [frames[-1]]])
     lo, hi = pts.min(axis=0), pts.max(axis=0)
     c, r = (lo + hi) / 2, (hi - lo).max() / 2 * 1.05 + 1e-9
     return c, r
@@ -80,7 +80,7 @@ def main():
     p.add_argument("--up", default="z", choices="xyz", help="the axis drawn upward")
     a = p.parse_args()
     view = [float(v) for v in a.view.split(",")]
-    frames = read_pvd(a.pvd)
+    frames = read_series(a.pvd)
     if not frames:
         sys.exit(f"{a.pvd}: no frames")
     base = os.path.splitext(a.pvd)[0]
@@ -92,7 +92,7 @@ def main():
     fig = plt.figure(figsize=(4 * len(picks), 4.2))
     for k, i in enumerate(picks):
         ax = fig.add_subplot(1, len(picks), k + 1, projection="3d")
-        draw(ax, read_vtu(frames[i][1]), c, r, f"t = {frames[i][0]:.3f} s", view, a.up)
+        draw(ax, frames[i][1](), c, r, f"t = {frames[i][0]:.3f} s", view, a.up)
     fig.tight_layout()
     fig.savefig(png + ".tmp.png", dpi=110)
     os.replace(png + ".tmp.png", png)
@@ -104,7 +104,7 @@ def main():
     ax = fig.add_subplot(projection="3d")
 
     def update(k):
-        draw(ax, read_vtu(chosen[k][1]), c, r, f"t = {chosen[k][0]:.3f} s", view, a.up)
+        draw(ax, chosen[k][1](), c, r, f"t = {chosen[k][0]:.3f} s", view, a.up)
 
     anim = FuncAnimation(fig, update, frames=len(chosen))
     anim.save(gif + ".tmp.gif", writer=PillowWriter(fps=12), dpi=80)

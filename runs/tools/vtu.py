@@ -1,4 +1,5 @@
-"""Reader for the .vtu files msim writes (raw appended binary, UInt64 headers) and .pvd series."""
+"""Readers for msim's series: .vtu files (raw appended binary, UInt64 headers) listed by a .pvd, and
+the parallel HDF5 frames listed by series.xdmf (h5py, Debian's python3-h5py)."""
 import re
 import struct
 import xml.etree.ElementTree as ET
@@ -46,3 +47,38 @@ def read_pvd(path):
     root = ET.parse(path).getroot()
     base = os.path.dirname(path)
     return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+
+
+def read_xdmf(path):
+    """Returns [(time, loader)] of an msim series.xdmf: loader() reads that frame's grid, a dict as
+    read_vtu's (points, connectivity, fixed), from the HDF5 files the XDMF names."""
+    import os
+    import h5py
+    base = os.path.dirname(path)
+    cache = {}
+
+    def dataset(item):
+        file, name = item.strip().split(":")
+        if file.startswith("frame_") or (file, name) not in cache:
+            with h5py.File(os.path.join(base, file), "r") as f:
+                data = f[name][:]
+            if file.startswith("frame_"):
+                return data
+            cache[(file, name)] = data
+        return cache[(file, name)]
+
+    out = []
+    for g in ET.parse(path).getroot().iter("Grid"):
+        if g.get("GridType") != "Uniform":
+            continue
+        items = {tag: g.find(tag).find("DataItem").text for tag in ("Topology", "Geometry", "Attribute")}
+        out.append((float(g.find("Time").get("Value")),
+                    lambda items=items: {"connectivity": dataset(items["Topology"]), "points": dataset(items["Geometry"]), "fixed": dataset(items["Attribute"]).reshape(-1)}))
+    return out
+
+
+def read_series(path):
+    """[(time, loader)] of a .pvd or .xdmf series; loader() returns the frame's grid"""
+    if path.endswith(".xdmf"):
+        return read_xdmf(path)
+    return [(t, lambda f=f: read_vtu(f)) for t, f in read_pvd(path)]

@@ -1,6 +1,8 @@
-/* ParaView series: DIR/frame_NNNNNN.vtu every k steps and DIR/series.pvd, rewritten whole after
-   each frame so the collection always lists exactly the frames on disk. */
-#include <msim/output.h>
+/* ParaView series every k steps, in one of two forms: DIR/frame_NNNNNN.vtu and DIR/series.pvd,
+   written by rank 0 from positions gathered whole (small runs), or the parallel HDF5 + XDMF series
+   of hdf5_series.cpp that every rank writes its part of (any size). The collection is rewritten
+   whole after each frame so that it always lists exactly the frames on disk. */
+#include "hdf5_series.h"
 #include <string>
 #include <vector>
 #include <cerrno>
@@ -12,27 +14,33 @@ struct _n_MSimOutput {
   char                  dir[PETSC_MAX_PATH_LEN];
   PetscInt              every;
   std::string           pvd_entries;
-  std::vector<char>     fixed; /* rank 0: every vertex's flag and the cells drawn, in input ids */
+  PetscBool             hdf5;
+  MSimHDF5Series        h5;
+  std::vector<char>     fixed; /* .vtu: on rank 0, every vertex's flag and the cells drawn, in input ids */
   std::vector<PetscInt> cells;
 };
 
 PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
 {
-  char      dir[PETSC_MAX_PATH_LEN] = "";
-  PetscInt  every                   = 50;
-  PetscBool set;
+  char        dir[PETSC_MAX_PATH_LEN] = "";
+  PetscInt    every                   = 50, format;
+  PetscBool   set;
+  const char *formats[] = {"auto", "vtu", "hdf5"};
 
   PetscFunctionBeginUser;
   *out = NULL;
   PetscOptionsBegin(sys->comm, NULL, "msim output", NULL);
   PetscCall(PetscOptionsString("-msim_output", "Directory for the ParaView series (.vtu frames + series.pvd)", NULL, dir, dir, sizeof(dir), &set));
   PetscCall(PetscOptionsInt("-msim_output_every", "Write a frame every k steps", NULL, every, &every, NULL));
+  format = 0;
+  PetscCall(PetscOptionsEList("-msim_output_format", "Series format: vtu (rank 0 writes .vtu + .pvd), hdf5 (all ranks write HDF5 + XDMF), auto (vtu up to 10^6 vertices)", NULL, formats, 3, formats[0], &format, NULL));
   PetscOptionsEnd();
   PetscCheck(every >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_output_every must be >= 1 (got %" PetscInt_FMT ")", every);
   if (!set || !dir[0]) PetscFunctionReturn(PETSC_SUCCESS);
   *out = new _n_MSimOutput();
   (*out)->sys   = sys;
   (*out)->every = every;
+  (*out)->hdf5  = (PetscBool)(format == 2 || (format == 0 && sys->nv > 1000000));
   PetscCall(PetscStrncpy((*out)->dir, dir, sizeof((*out)->dir)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -65,7 +73,8 @@ PetscErrorCode MSimOutputSetUp(MSimOutput out)
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimMakeDirectory(out->sys->comm, out->dir, "-msim_output"));
   /* a serial series: rank 0 writes every frame whole, so it holds the topology */
-  PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
+  if (out->hdf5) PetscCall(MSimHDF5SeriesSetUp(&out->h5, out->sys, out->dir));
+  else PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -98,6 +107,11 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_Output, X, 0, 0, 0));
+  if (out->hdf5) {
+    PetscCall(MSimHDF5SeriesWriteFrame(&out->h5, step, t, X));
+    PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(PetscSNPrintf(file, sizeof(file), "frame_%06" PetscInt_FMT ".vtu", step));
   PetscCall(MSimOutputWriteVTU(out, file, t, X));
   if (out->sys->rank == 0) {
@@ -117,6 +131,10 @@ PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal
 
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
+  if (out->hdf5) {
+    PetscCall(MSimHDF5SeriesWriteExtra(&out->h5, name, t, X));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(PetscSNPrintf(file, sizeof(file), "%s.vtu", name));
   PetscCall(MSimOutputWriteVTU(out, file, t, X));
   PetscFunctionReturn(PETSC_SUCCESS);
