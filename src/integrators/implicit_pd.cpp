@@ -46,15 +46,34 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
 
-  /* the factorization: preonly + msim's msimllt (one sweep of the factor for x, y and z
-     together; redundant on several ranks); -pd_pc_type cholesky -pd_pc_factor_mat_solver_type
-     mumps|cholmod|petsc selects PETSc's (MUMPS distributes the factor, for large meshes). */
+  /* The global step's solver, unless -pd_ksp_type / -pd_pc_type choose one (measured in
+     runs/scaling/README.md):
+     - msimllt (msim's factor: one sweep for x, y and z together), for cloths, chains and surfaces
+       while the interface rows it keeps dense on every rank stay few (at most 4000: 128 MB);
+     - MUMPS's Cholesky for solids up to 10^5 free vertices: msimllt's serial factor of a 3-D mesh
+       fills in far more (9.6 s against MUMPS's 0.8 s for 30,000 vertices);
+     - CG + GAMG beyond: on a 2-million-spring solid it takes 0.44 s per PD iteration against
+       MUMPS's 0.52 (0.24 against 0.42 on two ranks) in a fifth of the memory and without the
+       18-s factorization. */
   PetscCall(KSPCreate(sys->comm, &imp->pdksp));
   PetscCall(KSPSetOptionsPrefix(imp->pdksp, "pd_"));
   PetscCall(KSPSetOperators(imp->pdksp, imp->A, imp->A));
-  PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
   PetscCall(KSPGetPC(imp->pdksp, &pc));
-  PetscCall(PCSetType(pc, PCMSIMLLT));
+  {
+    PetscInt interface = sys->nghost;
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &interface, 1, MPIU_INT, MPI_SUM, sys->comm));
+    if (sys->cell_size != 4 && (sys->size == 1 || interface <= 4000)) {
+      PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
+      PetscCall(PCSetType(pc, PCMSIMLLT));
+    } else if (sys->nfree <= 100000) {
+      PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
+      PetscCall(PCSetType(pc, PCCHOLESKY));
+      PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    } else {
+      PetscCall(KSPSetType(imp->pdksp, KSPCG));
+      PetscCall(PCSetType(pc, PCGAMG));
+    }
+  }
   PetscCall(KSPSetFromOptions(imp->pdksp));
   {
     /* preonly with msimllt: the solve reads the rhs Vec's interleaved x, y, z directly */
