@@ -22,4 +22,5 @@ struct MSimLocalPart {
   PetscInt               nspring_moving = 0, between_free = 0, cut = 0;
 };
 
-PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], MSimLocalPart &L);
+/* morton: number each rank's vertices along a Z-order curve (else in input order) */
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L);
