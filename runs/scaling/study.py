@@ -8,7 +8,8 @@ Runs unchanged at any rank count (the ranks list is what mpirun gets). Writes ru
 
 - strong: the bunny refined three times (-msim_refine 3: 4.9 M tets, 5.9 M springs), explicit
   symplectic Euler (100 steps of 20 us), projective dynamics (2 steps of 10 ms x 10 iterations,
-  msim's default global step: CG + GAMG at this size) and Newton with CG (1 step of 1 ms, msim's
+  CG + GAMG global steps: msim's default at this size, and set for every run so that weak scaling
+  compares like with like) and Newton with CG (1 step of 1 ms, msim's
   default block-Jacobi ICC; at 10 ms a step takes 5 Newton and 800 CG iterations on the bunny
   refined twice: minutes at this size);
   time per step from the Stepping stage of -log_view, setup from the Read, Partition,
@@ -18,8 +19,10 @@ Runs unchanged at any rank count (the ranks list is what mpirun gets). Writes ru
   and 3 x 10^7 for explicit, on one rank, with setup time.
 - model: METIS partitions of a 10^7-spring box (and of the strong-scaling mesh) into 2 ... 1024
   parts (msim_partition_model: owned springs, halo springs, ghosts, neighbours of the busiest part),
-  an MPI ping-pong here, and the explicit step's per-spring and per-vertex costs measured here,
-  give a predicted time per step at each P on a shared-memory node and over InfiniBand."""
+  an MPI ping-pong and the triad bandwidth here, and the explicit step's per-spring and per-vertex
+  costs measured on that box at one rank, give a predicted time per step at each P on a
+  shared-memory node and over InfiniBand; checked against the box's and the bunny's measured
+  runs at every rank count of the study."""
 import csv
 import math
 import os
@@ -36,7 +39,7 @@ BUNNY_R3 = ("-msim_scene tet -msim_mesh_file examples/meshes/bunny.off -msim_mes
             "-msim_gravity 0,-9.81,0 -msim_density 1100 -msim_young 2e4")
 METHODS = {
     "explicit": "-msim_integrator symplectic_euler -msim_dt {dt_explicit} -msim_steps 100 -msim_spectrum_check 0",
-    "pd": "-msim_integrator implicit_euler -msim_dt 0.01 -msim_steps 2 -snes_type pd -snes_max_it 10 -snes_pd_fixed",
+    "pd": "-msim_integrator implicit_euler -msim_dt 0.01 -msim_steps 2 -snes_type pd -snes_max_it 10 -snes_pd_fixed -pd_ksp_type cg -pd_pc_type gamg",
     "newton_cg": "-msim_integrator implicit_euler -msim_dt 0.001 -msim_steps 1 -snes_type newtonls",
 }
 STAGES = ["Read", "Partition", "Distribution", "Refinement", "Setup", "Stepping"]
@@ -174,49 +177,57 @@ def triad(np_):
 def model(strong_rows, ranks):
     parts = [2, 4, 8, 16, 32, 64, 128, 256, 512, 1024]
     n10, box10 = box(1e7)
-    prow = partitions(box10, parts, f"box {n10}^3") + partitions(BUNNY_R3, [p for p in ranks if p > 1] or [2], "bunny r3")
+    label = f"box {n10}^3"
+    prow = partitions(box10, parts, label) + partitions(BUNNY_R3, [p for p in ranks if p > 1] or [2], "bunny r3")
     write("partitions.csv", prow)
     pp, lat, bw = pingpong()
     write("pingpong.csv", pp)
     print(f"ping-pong here: latency {lat * 1e6:.2f} us, bandwidth {bw / 1e9:.1f} GB/s")
-    # per-spring and per-vertex costs of an explicit step, from the one-rank strong-scaling run
-    one = next(r for r in strong_rows if r["method"] == "explicit" and r["ranks"] == 1)
-    nvert = float(next(r for r in prow if r["mesh"] == "bunny r3")["vertices"])
+    # the explicit step on the modelled box itself, at each rank count here: the per-spring and
+    # per-vertex costs come from its one-rank run, the other runs check the model
+    boxruns = [run(box10, "explicit", np_) for np_ in ranks]
+    one = next(r for r in boxruns if r["ranks"] == 1)
+    nvert = float(next(r for r in prow if r["mesh"] == label)["vertices"])
     t_spring = one["force_s"] / one["springs"]
     t_vertex = max(one["step_s"] - one["force_s"], 0.0) / nvert
-    print(f"explicit step here: {t_spring * 1e9:.3f} ns per spring (force), {t_vertex * 1e9:.3f} ns per vertex (the rest)")
+    print(f"explicit step of the {label} box here: {t_spring * 1e9:.3f} ns per spring (force), {t_vertex * 1e9:.3f} ns per vertex (the rest)")
     rows = []
-    # the check: this machine is one shared-memory node of 2 cores, measured at each rank count
-    for r in strong_rows:
-        if r["method"] != "explicit" or r["ranks"] == 1:
-            continue
-        part = next((p for p in prow if p["mesh"] == "bunny r3" and int(p["parts"]) == r["ranks"] and p["partition"] == "metis"), None)
-        if part is None:
-            continue
-        bw_here = triad(r["ranks"])
-        pred = predict(part, t_spring, t_vertex, lat, bw, bw_here / r["ranks"], 0)
-        rows.append(dict(machine="here (check)", mesh="bunny r3", parts=r["ranks"], predicted_s=pred, measured_s=r["step_s"], error=pred / r["step_s"] - 1,
-                         speedup=one["step_s"] / pred, efficiency=one["step_s"] / pred / r["ranks"]))
-        print(f"model check: {r['ranks']} ranks predicted {pred * 1e3:.2f} ms per step, measured {r['step_s'] * 1e3:.2f} ms ({(pred / r['step_s'] - 1) * 100:+.1f}%)")
-    # the 10^7-spring box: one rank of the modelled node (a core alone gets SINGLE_CORE_BW), a full
-    # node (NODE_BW shared by 16), and 16 ranks per node over InfiniBand
-    boxp = [x for x in prow if x["mesh"].startswith("box") and x["partition"] == "metis"]
-    springs1, verts1 = float(boxp[0]["springs"]), float(boxp[0]["vertices"])
-    serial = verts1 * t_vertex + springs1 * max(t_spring, BYTES_PER_SPRING / SINGLE_CORE_BW)
-    rows.append(dict(machine="node", mesh=boxp[0]["mesh"], parts=1, predicted_s=serial, measured_s="", error="", speedup=1.0, efficiency=1.0))
+    bunny_one = next(r for r in strong_rows if r["method"] == "explicit" and r["ranks"] == 1)
+    bunny_vert = float(next(r for r in prow if r["mesh"] == "bunny r3")["vertices"])
+    tb_spring = bunny_one["force_s"] / bunny_one["springs"]
+    tb_vertex = max(bunny_one["step_s"] - bunny_one["force_s"], 0.0) / bunny_vert
+    for mesh, measured, ts, tv, ref in ((label, boxruns, t_spring, t_vertex, one), ("bunny r3", [r for r in strong_rows if r["method"] == "explicit"], tb_spring, tb_vertex, bunny_one)):
+        for r in measured:
+            if r["ranks"] == 1:
+                continue
+            part = next((p for p in prow if p["mesh"] == mesh and int(p["parts"]) == r["ranks"] and p["partition"] == "metis"), None)
+            if part is None:
+                continue
+            bw_here = triad(r["ranks"])
+            pred = predict(part, ts, tv, lat, bw, bw_here / r["ranks"], 0)
+            rows.append(dict(machine="here (check)", mesh=mesh, parts=r["ranks"], predicted_s=pred, measured_s=r["step_s"], error=pred / r["step_s"] - 1,
+                             speedup=ref["step_s"] / pred, efficiency=ref["step_s"] / pred / r["ranks"]))
+            print(f"model check, {mesh}: {r['ranks']} ranks predicted {pred * 1e3:.2f} ms per step, measured {r['step_s'] * 1e3:.2f} ms ({(pred / r['step_s'] - 1) * 100:+.1f}%); triad {bw_here / 1e9:.1f} GB/s")
+    write("box_explicit.csv", boxruns)
+    # the box on a modelled node: one rank alone gets SINGLE_CORE_BW, P ranks share NODE_BW; over
+    # InfiniBand, 16 ranks per node
+    boxp = [x for x in prow if x["mesh"] == label and x["partition"] == "metis"]
+    springs1 = float(boxp[0]["springs"])
+    serial = nvert * t_vertex + springs1 * max(t_spring, BYTES_PER_SPRING / SINGLE_CORE_BW)
+    rows.append(dict(machine="node", mesh=label, parts=1, predicted_s=serial, measured_s="", error="", speedup=1.0, efficiency=1.0))
     for p in boxp:
         P = int(p["parts"])
         cases = [("infiniband", predict(p, t_spring, t_vertex, IB_LATENCY, IB_BW, NODE_BW / NODE_CORES, CACHE_PER_CORE))]
         if P <= NODE_CORES:
-            cases.insert(0, ("node", predict(p, t_spring, t_vertex, lat, bw, NODE_BW / P if P > 1 else SINGLE_CORE_BW, CACHE_PER_CORE)))
+            cases.insert(0, ("node", predict(p, t_spring, t_vertex, lat, bw, NODE_BW / P, CACHE_PER_CORE)))
         for machine, t in cases:
-            rows.append(dict(machine=machine, mesh=p["mesh"], parts=P, predicted_s=t, measured_s="", error="", speedup=serial / t, efficiency=serial / t / P))
+            rows.append(dict(machine=machine, mesh=label, parts=P, predicted_s=t, measured_s="", error="", speedup=serial / t, efficiency=serial / t / P))
             print(f"model {machine:10s} P = {P:4d}: {t * 1e3:8.3f} ms per step, speedup {serial / t:7.1f}, efficiency {serial / t / P:.2f}")
     write("model.csv", rows)
-    return rows, prow
+    return rows, prow, boxruns
 
 
-def charts(strong_rows, weak_rows, model_rows, prow):
+def charts(strong_rows, weak_rows, model_rows, prow, boxruns):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -245,9 +256,9 @@ def charts(strong_rows, weak_rows, model_rows, prow):
         sel = [r for r in model_rows if r["machine"] == machine]
         axes[0].plot([r["parts"] for r in sel], [r["speedup"] for r in sel], mk, label=f"predicted, {machine}")
         axes[1].plot([r["parts"] for r in sel], [r["efficiency"] for r in sel], mk, label=f"predicted, {machine}")
-    meas = [r for r in strong_rows if r["method"] == "explicit"]
-    axes[0].plot([r["ranks"] for r in meas], [r["speedup"] for r in meas], "k*", ms=10, label="measured here (bunny r3)")
-    axes[1].plot([r["ranks"] for r in meas], [r["efficiency"] for r in meas], "k*", ms=10, label="measured here (bunny r3)")
+    base = next(r["step_s"] for r in boxruns if r["ranks"] == 1)
+    axes[0].plot([r["ranks"] for r in boxruns], [base / r["step_s"] for r in boxruns], "k*", ms=10, label="measured here (the same box)")
+    axes[1].plot([r["ranks"] for r in boxruns], [base / r["step_s"] / r["ranks"] for r in boxruns], "k*", ms=10, label="measured here (the same box)")
     axes[0].plot([1, 1024], [1, 1024], "k:", lw=0.8)
     for ax in axes:
         ax.set_xscale("log", base=2)
@@ -283,8 +294,8 @@ def main():
     if "--skip-memory" not in sys.argv:
         write("memory.csv", memory())
     if "--skip-model" not in sys.argv:
-        m, prow = model(s, ranks)
-        charts(s, w, m, prow)
+        m, prow, boxruns = model(s, ranks)
+        charts(s, w, m, prow, boxruns)
 
 
 if __name__ == "__main__":
