@@ -32,7 +32,8 @@ struct MSimBlockLayout {
 };
 
 /* Sends send[k] to rank dest[k]; recv gets what every rank sent here (src[k]: its source rank, if
-   asked for). Collective. */
+   asked for). Collective. The moving form hands send's storage over where it can (one rank) and
+   leaves send empty. */
 template <typename T>
 PetscErrorCode MSimExchange(MPI_Comm comm, const std::vector<PetscMPIInt> &dest, const std::vector<T> &send, std::vector<T> &recv, std::vector<PetscMPIInt> *src = nullptr)
 {
@@ -71,6 +72,26 @@ PetscErrorCode MSimExchange(MPI_Comm comm, const std::vector<PetscMPIInt> &dest,
     for (PetscMPIInt r = 0; r < size; r++)
       for (PetscMPIInt k = rdispl[r]; k < rdispl[r + 1]; k++) (*src)[k] = r;
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+template <typename T>
+PetscErrorCode MSimExchange(MPI_Comm comm, const std::vector<PetscMPIInt> &dest, std::vector<T> &&send, std::vector<T> &recv, std::vector<PetscMPIInt> *src = nullptr)
+{
+  PetscMPIInt size;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  if (size == 1) {
+    recv.swap(send);
+    send.clear();
+    send.shrink_to_fit();
+    if (src) src->assign(recv.size(), 0);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(MSimExchange(comm, dest, (const std::vector<T> &)send, recv, src));
+  send.clear();
+  send.shrink_to_fit();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -27,6 +27,10 @@ typedef struct {
      E V_e / L_e^2 (V_e: the volume of the tets around edge e); with k_bend > 0 a bending spring
      across every edge two triangles share */
   PetscReal              k_cell = 0, young = 0, k_bend = 0;
+  /* the generator made a mesh's springs, measure and shares itself (the box), and placed each cell
+     at the directory of its first vertex: the scene needs neither spread nor edge search unless
+     it refines */
+  PetscBool              springs_made = PETSC_FALSE;
   std::vector<PetscInt>  corners, edge; /* what -msim_fix corners|edge means (grids and chains) */
   std::string            name;         /* scene type, for messages */
   std::string            source;       /* where a mesh came from, for views */

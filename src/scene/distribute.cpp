@@ -50,7 +50,7 @@ PetscErrorCode MSimSceneToDirectory(MPI_Comm comm, MSimSceneData *s)
   s->vid.shrink_to_fit();
   s->vx.clear();
   s->vx.shrink_to_fit();
-  PetscCall(MSimExchange(comm, dest, send, recv));
+  PetscCall(MSimExchange(comm, dest, std::move(send), recv));
   send.clear();
   send.shrink_to_fit();
   const PetscInt start = s->dir.Start(rank), count = s->dir.Count(rank);
@@ -98,7 +98,7 @@ PetscErrorCode MSimSceneSpreadCells(MPI_Comm comm, MSimSceneData *s)
   }
   s->cells.clear();
   s->cells.shrink_to_fit();
-  PetscCall(MSimExchange(comm, dest, send, recv));
+  PetscCall(MSimExchange(comm, dest, std::move(send), recv));
   s->cells.resize(k * recv.size());
   for (size_t c = 0; c < recv.size(); c++)
     for (int q = 0; q < k; q++) s->cells[k * c + q] = recv[c].v[q];
@@ -136,7 +136,7 @@ PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
     shares[v] = {E.ids[v], share[v]};
     dest[v]   = s->dir.Owner(E.ids[v]);
   }
-  PetscCall(MSimExchange(comm, dest, shares, gotshares));
+  PetscCall(MSimExchange(comm, dest, std::move(shares), gotshares));
   const PetscInt start = s->dir.Start(rank);
   s->share.assign(s->dir.Count(rank), 0.0);
   for (const ShareRecord &r : gotshares) s->share[r.id - start] += r.share;
@@ -164,7 +164,7 @@ PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
     dest[e]  = s->dir.Owner(r.a);
   }
   E = MSimLocalEdges();
-  PetscCall(MSimExchange(comm, dest, edges, got));
+  PetscCall(MSimExchange(comm, dest, std::move(edges), got));
   edges.clear();
   edges.shrink_to_fit();
   /* one spring per edge; Young's modulus: k = E V_e / L^2. Under any uniform strain eps the
@@ -200,7 +200,7 @@ PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
     /* one bending spring per pair of opposite vertices, none where an edge already joins them (a
        pair can face two edges, e.g. on a tetrahedron's surface); the edges from c are all here */
     std::vector<PairRecord> pairs;
-    PetscCall(MSimExchange(comm, bdest, bend, pairs));
+    PetscCall(MSimExchange(comm, bdest, std::move(bend), pairs));
     std::sort(pairs.begin(), pairs.end(), [](const PairRecord &u, const PairRecord &v) { return u.a < v.a || (u.a == v.a && u.b < v.b); });
     pairs.erase(std::unique(pairs.begin(), pairs.end(), [](const PairRecord &u, const PairRecord &v) { return u.a == v.a && u.b == v.b; }), pairs.end());
     std::vector<PetscInt> far;

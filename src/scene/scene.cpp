@@ -151,9 +151,17 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
 
   /* the distributed steps: vertices to their directory, cells spread, refined, springs from the
      cells' edges */
+  if (refine && S.springs_made) { /* the refined mesh makes its own */
+    S.si.clear();
+    S.sj.clear();
+    S.sk.clear();
+    S.sL.clear();
+    S.share.clear();
+    S.springs_made = PETSC_FALSE;
+  }
   PetscCall(PetscLogStagePush(MSIM_StageDistribute));
   PetscCall(MSimSceneToDirectory(comm, &S));
-  if (S.cell_size) PetscCall(MSimSceneSpreadCells(comm, &S));
+  if (S.cell_size && !S.springs_made) PetscCall(MSimSceneSpreadCells(comm, &S));
   PetscCall(PetscLogStagePop());
   if (refine) {
     PetscCall(PetscLogStagePush(MSIM_StageRefine));
@@ -161,7 +169,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
     PetscCall(PetscLogStagePop());
   }
   PetscCall(PetscLogStagePush(MSIM_StageDistribute));
-  if (S.cell_size) PetscCall(MSimSceneCellSprings(comm, &S));
+  if (S.cell_size && !S.springs_made) PetscCall(MSimSceneCellSprings(comm, &S));
   {
     PetscInt n[2] = {(PetscInt)S.si.size(), S.cell_size ? (PetscInt)(S.cells.size() / S.cell_size) : 0};
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, n, 2, MPIU_INT, MPI_SUM, comm));

@@ -209,8 +209,13 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     PetscCall(ISDestroy(&isf));
     PetscCall(ISDestroy(&ist));
   }
-  /* the cells output draws: a mesh's cells held here, or the springs held here as lines */
-  if (S.cell_size) {
+  /* the cells output draws: a mesh's cells held here, or the springs held here as lines; none
+     (and the scene's topology freed with the scene) when no option writes a series or modes */
+  PetscBool drawn, modes;
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_output", &drawn));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_spectrum_modes", &modes));
+  if (!drawn && !modes) sys->out_cell_size = S.cell_size ? S.cell_size : 2;
+  else if (S.cell_size) {
     sys->out_cell_size = S.cell_size;
     sys->out_cells     = S.cells;
   } else {

@@ -116,7 +116,7 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
       send.push_back({b, a});
       dest.push_back(S.dir.Owner(S.sj[s]));
     }
-    PetscCall(MSimExchange(comm, dest, send, got));
+    PetscCall(MSimExchange(comm, dest, std::move(send), got));
     send.clear();
     send.shrink_to_fit();
     std::sort(got.begin(), got.end(), [](const Adjacency &u, const Adjacency &v) { return u.row < v.row || (u.row == v.row && u.col < v.col); });
@@ -145,7 +145,7 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
       send.push_back({start + v, {S.x0[3 * v], S.x0[3 * v + 1], S.x0[3 * v + 2]}, S.mass[v]});
       dest.push_back(part[k++]);
     }
-    PetscCall(MSimExchange(comm, dest, send, got));
+    PetscCall(MSimExchange(comm, dest, std::move(send), got));
     if (morton) PetscCall(MortonOrder(got));
     else std::sort(got.begin(), got.end(), [](const Migrant &u, const Migrant &v) { return u.vid < v.vid; });
     L.nown = (PetscInt)got.size();
@@ -176,7 +176,7 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
       send[k] = {L.own_vid[k], L.rstart + k};
       dest[k] = S.dir.Owner(L.own_vid[k]);
     }
-    PetscCall(MSimExchange(comm, dest, send, got));
+    PetscCall(MSimExchange(comm, dest, std::move(send), got));
     std::vector<PetscMPIInt> from;
     for (PetscInt v = 0; v < count; v++) {
       table[v].owner = -1;
@@ -199,6 +199,8 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     PetscInt                  counts[3] = {0, 0, 0}; /* springs with a free end, between free vertices, cut */
     PetscCall(MSimFetch(comm, S.dir, table, ends, info));
     dest.clear();
+    dest.reserve(S.si.size());
+    send.reserve(S.si.size());
     for (size_t s = 0; s < S.si.size(); s++) {
       const VertexInfo &a = info[at[s]], &b = info[at[ns + s]];
       if (a.owner < 0 && b.owner < 0) continue; /* both ends fixed: no effect on the motion */
@@ -224,7 +226,7 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
         }
       }
     }
-    PetscCall(MSimExchange(comm, dest, send, got));
+    PetscCall(MSimExchange(comm, dest, std::move(send), got));
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPIU_INT, MPI_SUM, comm));
     L.nspring_moving = counts[0];
     L.between_free   = counts[1];

@@ -1,4 +1,5 @@
 /* Tet scenes through the library, at any rank count:
+   - the box's springs and masses made from its structure equal those of its tets' edges;
    - the Kuhn box: every tet has positive volume and they add up to lx ly lz; its springs are the
      unique edges: (nx+1)(ny+1)(nz+1) vertices, 3 axis families, 3 face-diagonal families and one
      body diagonal per cube, counted here;
@@ -50,6 +51,35 @@ static PetscErrorCode TestBoxGeometry(void)
   CHECK(PetscAbsReal(vol - 6.0) < 1e-13, "box tets add up to %.15g, not 6", (double)vol);
   NOTE("box 3 x 4 x 5: %" PetscInt_FMT " vertices, %" PetscInt_FMT " tets, %" PetscInt_FMT " springs, volume %.15g\n", s.nv, s.ncell, s.nspring, (double)vol);
   PetscCall(MSimSceneDestroy(&scene));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The box's springs and masses made from its structure equal those the edges of its tets give */
+static PetscErrorCode TestBoxDirect(void)
+{
+  MSimScene scene[2];
+  PetscInt  bad = 0;
+  PetscReal worst = 0;
+
+  PetscFunctionBeginUser;
+  for (int w = 0; w < 2; w++) {
+    PetscCall(PetscOptionsClear(NULL));
+    PetscCall(PetscOptionsInsertString(NULL, "-msim_scene box -msim_box_n 3,4,5 -msim_box_size 1,2,3 -msim_young 2e5 -msim_density 700"));
+    PetscCall(PetscOptionsSetValue(NULL, "-msim_box_springs", w ? "cells" : "direct"));
+    PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene[w]));
+  }
+  const MSimSceneData &a = scene[0]->data, &b = scene[1]->data;
+  /* both hold each spring where its lower vertex has its directory, in the order of its ends */
+  bad += a.si != b.si || a.sj != b.sj || a.mass.size() != b.mass.size();
+  for (size_t q = 0; !bad && q < a.sk.size(); q++) worst = PetscMax(worst, PetscMax(PetscAbsReal(a.sk[q] - b.sk[q]) / b.sk[q], PetscAbsReal(a.sL[q] - b.sL[q]) / b.sL[q]));
+  for (size_t v = 0; !bad && v < a.mass.size(); v++) worst = PetscMax(worst, PetscAbsReal(a.mass[v] - b.mass[v]) / b.mass[v]);
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &bad, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &worst, 1, MPIU_REAL, MPIU_MAX, PETSC_COMM_WORLD));
+  CHECK(!bad, "the box's direct springs are not the edges of its tets on %" PetscInt_FMT " ranks", bad);
+  CHECK(worst < 1e-12, "the box's direct stiffnesses, rest lengths or masses differ from the tets' by %g", (double)worst);
+  NOTE("box springs made directly and from the tets' edges: %" PetscInt_FMT " springs, largest relative difference %.1e\n", a.nspring, (double)worst);
+  PetscCall(MSimSceneDestroy(&scene[0]));
+  PetscCall(MSimSceneDestroy(&scene[1]));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -110,6 +140,7 @@ static PetscErrorCode Main(void)
 {
   PetscFunctionBeginUser;
   PetscCall(TestBoxGeometry());
+  PetscCall(TestBoxDirect());
   for (int k = 0; k < 3; k++) {
     PetscCall(TestOwnership(k));
     PetscCall(TestDilation(k));
