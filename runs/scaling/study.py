@@ -67,7 +67,19 @@ def stages(log):
     return out
 
 
-def run(scene, method, np_, extra=""):
+def run(scene, method, np_, extra="", repeat=2):
+    """the best of `repeat` runs: the fastest step, and the fastest setup of the same runs (this
+    machine is shared and its first run after a pause pays for the host backing fresh memory)"""
+    rows = [run_once(scene, method, np_, extra) for _ in range(repeat)]
+    best = min(rows, key=lambda r: r["step_s"])
+    fastest = min(rows, key=lambda r: r["setup_total_s"])
+    for key in fastest:
+        if key.endswith("_s") and key not in ("step_s", "force_s", "stepping_s"):
+            best[key] = fastest[key]
+    return best
+
+
+def run_once(scene, method, np_, extra=""):
     dt = "2e-5" if "bunny" in scene else "5e-5"
     args = f"{scene} {METHODS[method].format(dt_explicit=dt)} {extra} -log_view -memory_view -msim_scene_view".split()
     cmd = (["mpirun", "-n", str(np_)] if np_ > 1 else []) + [MSIM] + args
@@ -122,13 +134,18 @@ def weak(ranks):
 
 def memory():
     rows = []
+    ft = first_touch()
+    print(f"first touch here: {ft['4k'][0] / 1e9:.2f} GB/s with 4 KiB pages, {ft['thp'][0] / 1e9:.2f} GB/s with huge pages; rewriting mapped pages {ft['thp'][1] / 1e9:.1f} GB/s", flush=True)
     for target in (1e5, 1e6, 4e6, 3e7):
         n, scene = box(target)
         for method in (METHODS if target < 1e7 else ["explicit"]):
             r = run(scene, method, 1)
             r["box_n"] = n
+            # the least setup can cost here: fault in (zero) the peak resident memory once
+            r["first_touch_floor_s"] = r["max_memory_total_b"] / ft["thp"][0]
             rows.append(r)
-            print(f"memory {method:9s} box {n}^3, {r['springs']} springs: {r['bytes_per_spring']:.0f} B/spring, setup {r['setup_total_s']:.2f} s, step {r['step_s'] * 1e3:.2f} ms", flush=True)
+            print(f"memory {method:9s} box {n}^3, {r['springs']} springs: {r['bytes_per_spring']:.0f} B/spring, setup {r['setup_total_s']:.2f} s "
+                  f"(first-touch floor {r['first_touch_floor_s']:.2f} s), step {r['step_s'] * 1e3:.2f} ms", flush=True)
     return rows
 
 
@@ -163,6 +180,18 @@ def predict(part, t_spring, t_vertex, latency, link_bw, mem_bw_core, cache_core)
     comm = 2 * float(part["max_neighbours"]) * latency + 2 * 24.0 * float(part["max_ghosts"]) / link_bw
     inner = (springs - ghosted) * ts
     return float(part["max_owned_vertices"]) * t_vertex + springs * ts + max(0.0, comm - inner)
+
+
+def first_touch():
+    """GB/s at which fresh pages are written the first time (runs/bench/first_touch.cpp): with
+    4 KiB pages, with transparent huge pages, and rewriting pages already mapped"""
+    exe = "/tmp/msim_first_touch"
+    subprocess.run(["g++", "-O2", os.path.join(ROOT, "runs", "bench", "first_touch.cpp"), "-o", exe], check=True)
+    out = {}
+    for line in subprocess.run([exe], capture_output=True, text=True, check=True).stdout.splitlines():
+        kind, first, second = line.split()
+        out[kind] = (float(first) * 1e9, float(second) * 1e9)
+    return out
 
 
 def triad(np_):
@@ -217,7 +246,8 @@ def model(strong_rows, ranks):
     rows.append(dict(machine="node", mesh=label, parts=1, predicted_s=serial, measured_s="", error="", speedup=1.0, efficiency=1.0))
     for p in boxp:
         P = int(p["parts"])
-        cases = [("infiniband", predict(p, t_spring, t_vertex, IB_LATENCY, IB_BW, NODE_BW / NODE_CORES, CACHE_PER_CORE))]
+        # over InfiniBand from one full node (16 ranks) up: fewer ranks fit in one node
+        cases = [("infiniband", predict(p, t_spring, t_vertex, IB_LATENCY, IB_BW, NODE_BW / NODE_CORES, CACHE_PER_CORE))] if P >= NODE_CORES else []
         if P <= NODE_CORES:
             cases.insert(0, ("node", predict(p, t_spring, t_vertex, lat, bw, NODE_BW / P, CACHE_PER_CORE)))
         for machine, t in cases:

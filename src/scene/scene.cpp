@@ -124,7 +124,10 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscFunctionListFind(MSimSceneList, type, &gen));
   PetscCheck(gen, comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_scene %s is not a known scene", type);
   sc->data.name = type;
+  /* the Read stage holds reading a file or generating the scene's blocks */
+  PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall((*gen)(comm, &sc->data));
+  PetscCall(PetscLogStagePop());
 
   /* -help lists every scene's options, not only the chosen one's: the other generators read
      their options on a scratch scene and build nothing */

@@ -44,9 +44,7 @@ PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
   s->k_cell = kedge;
   s->k_bend = bending ? kbend : 0.0;
-  PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadSurface(file, scale, s); }));
-  PetscCall(PetscLogStagePop());
   PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

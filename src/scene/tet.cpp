@@ -75,9 +75,7 @@ PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
   PetscCall(MSimSceneGetStiffness(NULL, &k));
   s->k_cell = k;
   s->young  = young;
-  PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, switches, scale, s); }));
-  PetscCall(PetscLogStagePop());
   PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
