@@ -35,10 +35,19 @@ CASES = [
     (["-msim_dt", "abc"], "-msim_dt: 'abc' is not a number"),
     (["-msim_cloth_n", "2.5"], "-msim_cloth_n: '2.5' is not an integer"),
     (["-msim_integrator", "implicit_euler", "-msim_psd", "maybe"], "-msim_psd: 'maybe' is not true or false"),
+    # numbers PETSc would take: infinities, NaN, integers past PetscInt; an item of a list
+    (["-msim_dt", "inf"], "-msim_dt: 'inf' is not a finite number"),
+    (["-msim_stiffness", "nan"], "-msim_stiffness: 'nan' is not a finite number"),
+    (["-msim_gravity", "0,0,-1e999"], "-msim_gravity: '-1e999' is not a finite number"),
+    (["-msim_steps", "99999999999999999999"], "-msim_steps: '99999999999999999999' is too large"),
+    (["-msim_wind", "a,b,c", "-msim_drag", "1"], "-msim_wind: 'a' is not a number"),
+    (["-msim_fix", "list", "-msim_fix_list", "1,x"], "-msim_fix_list: 'x' is not an integer"),
+    (["-msim_checkpoint_every", "10"], "-msim_checkpoint_every needs -msim_checkpoint F"),
+    (["-msim_progress", "-1"], "-msim_progress must be >= 0 s"),
     # inertia correction reads the inertia of MUMPS's LDL^T of the exact Hessian: nothing else has it
     (["-msim_integrator", "implicit_euler", "-msim_inertia_correction"], "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS"),
     # options files, read inside PetscInitialize (written by main() below)
-    (["-options_file", "missing.opts"], "Unable to open options file missing.opts"),
+    (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
 ]
 

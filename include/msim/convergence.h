@@ -7,5 +7,7 @@
 typedef struct _n_MSimConvergenceMonitor *MSimConvergenceMonitor;
 PetscErrorCode MSimConvergenceMonitorCreate(MSimSystem sys, MSimConvergenceMonitor *mon); /* NULL when off */
 PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES snes, MSimImplicit imp);
-PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon);
+/* step: the step about to be taken; first_step: this run's first (rows of earlier steps in an
+   existing file are kept when a restarted run opens it) */
+PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon, PetscInt step, PetscInt first_step);
 PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon);

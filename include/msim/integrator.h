@@ -23,6 +23,7 @@ struct _n_MSimIntegrator {
   MSimSystem        sys;
   PetscReal         dt;
   PetscInt          steps;
+  PetscInt          step, first_step; /* the step being taken (1 ... steps, counted by MSimIntegratorStep); this run's first (after a restart, not 1) */
   MSimIntegratorOps ops;
   void             *data;
   PetscBool         setupcalled;

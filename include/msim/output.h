@@ -11,6 +11,8 @@ typedef struct _n_MSimOutput *MSimOutput;
 /* -msim_output DIR, -msim_output_every k. Returns NULL output (no-op) when no directory is set. */
 PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out);
 PetscErrorCode MSimOutputSetUp(MSimOutput out); /* creates the directory: call once input is valid */
+/* A restarted run: the series lists the frames on disk up to that step, and goes on */
+PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step);
 PetscErrorCode MSimOutputWanted(MSimOutput out, PetscInt step, PetscInt last, PetscBool *want);
 PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X);
 /* A file NAME.vtu in the output directory outside the series (e.g. the last finite state). */
@@ -32,8 +34,32 @@ typedef struct {
   PetscLogDouble wall0;
 } MSimMonitor;
 
+/* checkpoint.cpp: -msim_checkpoint F (-msim_checkpoint_every k), -msim_restart F */
+typedef struct _n_MSimCheckpoint *MSimCheckpoint;
+PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck);
+PetscErrorCode MSimCheckpointWanted(MSimCheckpoint ck, PetscInt step, PetscInt last, PetscBool *want);
+PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t, PetscReal dt, PetscReal E0, Vec X, Vec V);
+/* Collective: with -msim_restart, checks the file against this scene and loads X, V and the step,
+   time, step size and initial energy it was written at (*restarted: whether it did) */
+PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, Vec V, PetscInt *step, PetscReal *t, PetscReal *dt, PetscReal *E0, PetscBool *restarted);
+PetscErrorCode MSimCheckpointPath(MSimCheckpoint ck, char buf[], size_t len);
+PetscErrorCode MSimCheckpointDestroy(MSimCheckpoint *ck);
+
+/* progress.cpp: a line on stderr now and then on long runs (-msim_progress) */
+typedef struct {
+  PetscReal      interval;    /* s; 0: quiet */
+  PetscInt       steps, decile;
+  PetscMPIInt    rank;
+  PetscLogDouble start, last;
+} MSimProgress;
+PetscErrorCode MSimProgressCreate(MPI_Comm comm, PetscInt steps, MSimProgress *p);
+PetscErrorCode MSimProgressBegin(MSimProgress *p);
+PetscErrorCode MSimProgressUpdate(MSimProgress *p, PetscInt step, PetscReal t);
+
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon);
-PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon);
+/* resume_step >= 0: a restarted run, keeping an existing file's rows up to that step */
+PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step);
+PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
 /* phi: the implicit step's incremental potential at its result (0 for explicit methods) */
 PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi);

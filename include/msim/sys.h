@@ -33,14 +33,42 @@ void MSimSetMPIDefaults(void);
    running itself once more with GLIBC_TUNABLES where the user has not set it; call first in main */
 void MSimSetMallocDefaults(int argc, char **argv);
 int  MSimInitializeEnd(PetscErrorCode ierr);
+/* After MPI_Init, before PETSc: 1 (with one line on stderr) if an -options_file does not open */
+int MSimCheckOptionsFiles(int argc, char **argv);
 /* Options set but never read (a misspelled name does nothing otherwise): one warning line each on
    stderr, unless -options_left asked PETSc to list them. */
 PetscErrorCode MSimWarnUnusedOptions(MPI_Comm comm);
 PetscErrorCode MSimFinalize(void);
 
+/* msim's numeric options, inside a PetscOptionsBegin block: PETSc's, after a check that every
+   item is a finite number (an integer within PetscInt for integer options); errors name the
+   option, once (options.cpp). Arguments as PETSc's PetscOptionsReal etc. */
+PetscErrorCode MSimOptionsReal_Private(PetscOptionItems *, const char[], const char[], const char[], PetscReal, PetscReal *, PetscBool *);
+PetscErrorCode MSimOptionsInt_Private(PetscOptionItems *, const char[], const char[], const char[], PetscInt, PetscInt *, PetscBool *);
+PetscErrorCode MSimOptionsRealArray_Private(PetscOptionItems *, const char[], const char[], const char[], PetscReal[], PetscInt *, PetscBool *);
+PetscErrorCode MSimOptionsIntArray_Private(PetscOptionItems *, const char[], const char[], const char[], PetscInt[], PetscInt *, PetscBool *);
+#define MSimOptionsReal(a, b, c, d, e, f)      MSimOptionsReal_Private(PetscOptionsObject, a, b, c, d, e, f)
+#define MSimOptionsInt(a, b, c, d, e, f)       MSimOptionsInt_Private(PetscOptionsObject, a, b, c, d, e, f)
+#define MSimOptionsRealArray(a, b, c, d, e, f) MSimOptionsRealArray_Private(PetscOptionsObject, a, b, c, d, e, f)
+#define MSimOptionsIntArray(a, b, c, d, e, f)  MSimOptionsIntArray_Private(PetscOptionsObject, a, b, c, d, e, f)
 /* Parse "a,b,c" into three reals inside a PetscOptionsBegin block; errors name the option. */
 PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, const char name[], const char help[], PetscReal v[3], PetscBool *set);
 #define MSimOptionsVec3(name, help, v, set) MSimOptionsVec3_Private(PetscOptionsObject, name, help, v, set)
+
+/* stop_signal.cpp: SIGINT/SIGTERM noted during stepping; every rank stops after the same step */
+#include <csignal>
+typedef struct {
+  MPI_Comm         comm;
+  PetscMPIInt      size;
+  MPI_Request      request;
+  int              local, global;
+  PetscBool        active;
+  struct sigaction old_int, old_term;
+} MSimStopSignal;
+PetscErrorCode MSimStopSignalBegin(MPI_Comm comm, MSimStopSignal *s);
+/* after each step: *signal_seen is SIGINT or SIGTERM when every rank is to stop now (collective) */
+PetscErrorCode MSimStopSignalPoll(MSimStopSignal *s, int *signal_seen);
+PetscErrorCode MSimStopSignalEnd(MSimStopSignal *s); /* handlers restored; safe to call twice */
 
 /* Preconditioner set-ups so far in this process (PETSc's log counter of PCSetUp, which logs only
    when it does work): bracketing a factor PC's solves with it counts its factorizations. */

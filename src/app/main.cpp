@@ -60,10 +60,18 @@ int main(int argc, char **argv)
 
   MSimSetMallocDefaults(argc, argv);
   MSimSetMPIDefaults();
+  /* MPI first, so options files can be checked before PETSc reads them (then PETSc leaves
+     MPI_Finalize to us) */
+  MPI_Init(&argc, &argv);
+  if (MSimCheckOptionsFiles(argc, argv)) {
+    MPI_Finalize();
+    return 1;
+  }
   MSimInitializeBegin();
   if (MSimInitializeEnd(SlepcInitialize(&argc, &argv, NULL, help))) return 1;
   ierr = MSimMain();
   /* the error was reported as one line by msim's handler; finalize so MPI exits cleanly */
-  if (SlepcFinalize() || ierr) return 1;
-  return 0;
+  ierr = (PetscErrorCode)(SlepcFinalize() || ierr);
+  MPI_Finalize();
+  return ierr ? 1 : 0;
 }

@@ -41,6 +41,7 @@ PetscErrorCode MSimIntegratorCreate(MSimSystem sys, MSimIntegrator *integ)
   (*integ)->sys             = sys;
   (*integ)->dt              = 2e-4;
   (*integ)->steps           = 5000;
+  (*integ)->first_step      = 1;
   (*integ)->stability_limit = PETSC_INFINITY;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -73,8 +74,8 @@ PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ)
   if (integ->type[0]) PetscCall(PetscStrncpy(type, integ->type, sizeof(type)));
   PetscOptionsBegin(integ->comm, NULL, "msim time integration", NULL);
   PetscCall(PetscOptionsFList("-msim_integrator", "Time integrator", NULL, MSimIntegratorList, type, type, sizeof(type), NULL));
-  PetscCall(PetscOptionsReal("-msim_dt", "Time step h, s", NULL, integ->dt, &integ->dt, NULL));
-  PetscCall(PetscOptionsInt("-msim_steps", "Number of time steps", NULL, integ->steps, &integ->steps, NULL));
+  PetscCall(MSimOptionsReal("-msim_dt", "Time step h, s", NULL, integ->dt, &integ->dt, NULL));
+  PetscCall(MSimOptionsInt("-msim_steps", "Number of time steps", NULL, integ->steps, &integ->steps, NULL));
   PetscOptionsEnd();
   PetscCheck(integ->dt > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_dt must be > 0 s (got %g)", (double)integ->dt);
   PetscCheck(integ->steps > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_steps must be >= 1 (got %" PetscInt_FMT ")", integ->steps);
@@ -124,6 +125,7 @@ PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec 
   integ->residual                          = 0;
   integ->phi                               = 0;
   integ->failed                            = PETSC_FALSE;
+  integ->step++;
   PetscCall((*integ->ops.step)(integ, t, X, V));
   PetscCall(PetscLogEventEnd(MSIM_Step, X, V, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -1,4 +1,5 @@
 /* Time loop: stability guard, steps, monitors, output, divergence detection. */
+#include <csignal>
 #include <msim/run.h>
 #include <msim/spectrum.h>
 #include <cmath>
@@ -59,8 +60,14 @@ static PetscErrorCode MSimGuard(MSimSystem sys, MSimIntegrator integ, Vec X, MSi
 
 PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimRunInfo *info)
 {
-  MSimMonitor mon;
-  MSimOutput  out;
+  MSimMonitor    mon;
+  MSimProgress   progress;
+  MSimOutput     out;
+  MSimCheckpoint ck;
+  MSimStopSignal stop;
+  PetscInt       step0 = 0;
+  PetscReal      t_ck = 0, dt_ck = 0, E0_ck = 0;
+  PetscBool      restarted;
   PetscBool   want_mon, want_out;
   PetscReal   factor = 10, kin, pot, E0, scale, gnorm;
   PetscInt    check_every = 10, last_good = 0;
@@ -70,41 +77,56 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   *info = MSimRunInfo();
   info->critical_dt = PETSC_INFINITY;
   PetscOptionsBegin(sys->comm, NULL, "msim divergence detection", NULL);
-  PetscCall(PetscOptionsReal("-msim_divergence_factor", "Stop when |E - E0| exceeds this factor times the energy scale of the scene", NULL, factor, &factor, NULL));
-  PetscCall(PetscOptionsInt("-msim_divergence_check_every", "Check energy every k steps (always every step when monitoring)", NULL, check_every, &check_every, NULL));
+  PetscCall(MSimOptionsReal("-msim_divergence_factor", "Stop when |E - E0| exceeds this factor times the energy scale of the scene", NULL, factor, &factor, NULL));
+  PetscCall(MSimOptionsInt("-msim_divergence_check_every", "Check energy every k steps (always every step when monitoring)", NULL, check_every, &check_every, NULL));
   PetscOptionsEnd();
   PetscCheck(factor > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_divergence_factor must be > 0 (got %g)", (double)factor);
   PetscCheck(check_every >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_divergence_check_every must be >= 1 (got %" PetscInt_FMT ")", check_every);
   PetscCall(MSimMonitorCreate(sys->comm, &mon));
+  PetscCall(MSimProgressCreate(sys->comm, integ->steps, &progress));
   PetscCall(MSimOutputCreate(sys, &out));
+  PetscCall(MSimCheckpointCreate(sys, &ck));
   PetscCall(MSimMonitorWanted(&mon, &want_mon));
   integ->want_phi = want_mon;
   PetscCall(PetscLogStagePush(MSIM_StageSetup));
   PetscCall(MSimIntegratorSetUp(integ));
   PetscCall(PetscLogStagePop());
   PetscCall(MSimGuard(sys, integ, X, info));
+  PetscCall(MSimCheckpointRestart(ck, integ->steps, X, V, &step0, &t_ck, &dt_ck, &E0_ck, &restarted));
   /* all input is valid from here on: create the output directory */
   PetscCall(MSimOutputSetUp(out));
-  PetscCall(MSimMonitorSetUp(sys->comm, &mon));
+  if (restarted) PetscCall(MSimOutputResume(out, step0));
+  PetscCall(MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1));
+  /* the time at step k: k h, or after a restart with another step size, from the checkpoint's */
+  const PetscBool same_dt = (PetscBool)(!restarted || dt_ck == integ->dt);
+  auto            time_at = [&](PetscInt k) { return same_dt ? k * integ->dt : t_ck + (k - step0) * integ->dt; };
 
   /* Energy scale: the initial energy, what gravity can release over the scene's size, the kinetic
      energy of the whole mass moving with the handles or the wind. Divergence is an energy change
      many times larger than all of them. */
   PetscCall(MSimSystemComputeEnergy(sys, 0, X, V, &kin, &pot));
-  E0    = kin + pot;
+  E0    = restarted ? E0_ck : kin + pot; /* a restarted run compares with the first run's start */
   gnorm = PetscSqrtReal(sys->gravity[0] * sys->gravity[0] + sys->gravity[1] * sys->gravity[1] + sys->gravity[2] * sys->gravity[2]);
   scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2] + sys->wind[0] * sys->wind[0] + sys->wind[1] * sys->wind[1] + sys->wind[2] * sys->wind[2]) + PETSC_SMALL;
-  if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0));
-  PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
-  if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X));
+  if (!restarted) { /* a restarted run has these from the first */
+    if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0));
+    PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
+    if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X));
+  }
+  last_good         = step0;
+  integ->step       = step0; /* counted up by each MSimIntegratorStep */
+  integ->first_step = step0 + 1;
   PetscCall(VecDuplicate(X, &Xgood));
   PetscCall(VecDuplicate(V, &Vgood));
   PetscCall(VecCopy(X, Xgood));
   PetscCall(VecCopy(V, Vgood));
 
+  PetscCall(MSimProgressBegin(&progress));
+  PetscCall(MSimStopSignalBegin(sys->comm, &stop));
   PetscCall(PetscLogStagePush(MSIM_StageStep));
-  for (PetscInt n = 1; n <= integ->steps; n++) {
-    const PetscReal t0 = (n - 1) * integ->dt, t = n * integ->dt;
+  for (PetscInt n = step0 + 1; n <= integ->steps; n++) {
+    const PetscReal t0 = time_at(n - 1), t = time_at(n);
+    int             signal_seen;
     PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
 
     PetscCall(MSimIntegratorStep(integ, t0, X, V));
@@ -120,11 +142,13 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       info->diverged   = PETSC_TRUE;
       info->steps_done = n;
       info->t          = t;
-      PetscCall(MSimOutputWriteExtra(out, "last_finite", last_good * integ->dt, Xgood));
+      PetscCall(MSimStopSignalEnd(&stop));
+      PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood));
       PetscCall(VecCopy(Xgood, X));
       PetscCall(VecCopy(Vgood, V));
       PetscCall(MSimMonitorDestroy(sys->comm, &mon));
       PetscCall(MSimOutputDestroy(&out));
+      PetscCall(MSimCheckpointDestroy(&ck));
       PetscCall(VecDestroy(&Xgood));
       PetscCall(VecDestroy(&Vgood));
       PetscCall(PetscLogStagePop());
@@ -138,10 +162,32 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi));
     PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
     if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X));
+    PetscCall(MSimStopSignalPoll(&stop, &signal_seen));
+    PetscCall(MSimCheckpointWanted(ck, n, integ->steps, &want_out));
+    if (want_out || signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));
+    if (signal_seen) {
+      /* SIGINT or SIGTERM (a batch system's time limit): stopped after a whole step, its state
+         kept where a checkpoint was asked for */
+      char how[PETSC_MAX_PATH_LEN + 96];
+      PetscCall(MSimStopSignalEnd(&stop));
+      PetscCall(MSimCheckpointPath(ck, how, sizeof(how)));
+      PetscCall(MSimMonitorDestroy(sys->comm, &mon));
+      PetscCall(MSimOutputDestroy(&out));
+      PetscCall(MSimCheckpointDestroy(&ck));
+      PetscCall(VecDestroy(&Xgood));
+      PetscCall(VecDestroy(&Vgood));
+      PetscCall(PetscLogStagePop());
+      info->steps_done = n;
+      info->t          = t;
+      SETERRQ(sys->comm, PETSC_ERR_SIG, "stopped by %s after step %" PetscInt_FMT " of %" PetscInt_FMT " (t = %g s); %s", signal_seen == SIGINT ? "SIGINT" : "SIGTERM", n, integ->steps, (double)t, how);
+    }
+    PetscCall(MSimProgressUpdate(&progress, n, t));
   }
+  PetscCall(MSimStopSignalEnd(&stop));
   PetscCall(PetscLogStagePop());
+  PetscCall(MSimCheckpointDestroy(&ck));
   info->steps_done = integ->steps;
-  info->t          = integ->steps * integ->dt;
+  info->t          = time_at(integ->steps);
   if (integ->saddle_steps)
     PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps Newton converged to a saddle point of Phi, not a minimum (up to %" PetscInt_FMT " negative eigenvalues of the exact Hessian): an unstable state, usually a cloth compressed flat; -msim_inertia_correction or a descent method (-msim_psd 1, pd, qn) moves off it\n", integ->saddle_steps, integ->steps, integ->saddle_negative));
   if (integ->unconverged_steps)

@@ -1,4 +1,5 @@
 #include <msim/convergence.h>
+#include <msim/output.h>
 #include <cstdio>
 
 struct _n_MSimConvergenceMonitor {
@@ -6,7 +7,7 @@ struct _n_MSimConvergenceMonitor {
   MSimImplicit   imp;
   char           path[PETSC_MAX_PATH_LEN];
   FILE          *fp;
-  PetscInt       step;
+  PetscInt       step, first_step;
   PetscLogDouble start, spent; /* step start, time spent inside the monitor */
   Vec            G;
 };
@@ -43,14 +44,16 @@ static PetscErrorCode MSimConvergenceMonitorIterate(SNES snes, PetscInt its, Pet
   PetscCall(MSimImplicitResidual(mon->imp, X, mon->G));
   PetscCall(VecNorm(mon->G, NORM_2, &gnorm));
   if (mon->sys->rank == 0) {
+    /* rows flushed as they are made: a killed run keeps its history up to the last row */
     if (!mon->fp) {
-      char tmp[PETSC_MAX_PATH_LEN + 8];
-      PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->path));
-      mon->fp = fopen(tmp, "w");
-      PetscCheck(mon->fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "-msim_monitor_convergence: cannot write %s", tmp);
-      fprintf(mon->fp, "step,iteration,wall_s,phi,gnorm\n");
+      PetscBool kept = PETSC_FALSE;
+      if (mon->first_step > 1) PetscCall(MSimCSVKeepSteps(mon->path, mon->first_step - 1, &kept));
+      mon->fp = fopen(mon->path, kept ? "a" : "w");
+      PetscCheck(mon->fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "-msim_monitor_convergence: cannot write %s", mon->path);
+      if (!kept) fprintf(mon->fp, "step,iteration,wall_s,phi,gnorm\n");
     }
-    fprintf(mon->fp, "%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.17e,%.6e\n", mon->step, its, t0 - mon->start - mon->spent, (double)phi, (double)gnorm);
+    const int wrote = fprintf(mon->fp, "%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.17e,%.6e\n", mon->step, its, t0 - mon->start - mon->spent, (double)phi, (double)gnorm);
+    PetscCheck(wrote > 0 && fflush(mon->fp) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_convergence: write to %s failed", mon->path);
   }
   PetscCall(PetscTime(&t1));
   mon->spent += t1 - t0;
@@ -65,10 +68,11 @@ PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES sne
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon)
+PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon, PetscInt step, PetscInt first_step)
 {
   PetscFunctionBeginUser;
-  mon->step++;
+  mon->step       = step;
+  mon->first_step = first_step;
   mon->spent = 0;
   PetscCall(PetscTime(&mon->start));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -79,10 +83,9 @@ PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon)
   PetscFunctionBeginUser;
   if (!*mon) PetscFunctionReturn(PETSC_SUCCESS);
   if ((*mon)->fp) {
-    char tmp[PETSC_MAX_PATH_LEN + 8];
-    PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", (*mon)->path));
-    fclose((*mon)->fp);
-    PetscCheck(rename(tmp, (*mon)->path) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "cannot rename %s", tmp);
+    const int closed = fclose((*mon)->fp);
+    (*mon)->fp       = NULL;
+    PetscCheck(closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_convergence: write to %s failed", (*mon)->path);
   }
   PetscCall(VecDestroy(&(*mon)->G));
   delete *mon;

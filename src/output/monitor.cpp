@@ -1,6 +1,8 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
    with wall time. Energies: kinetic, potential (springs + gravity), total. */
 #include <msim/output.h>
+#include <cstdlib>
+#include <string>
 
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
 {
@@ -16,9 +18,10 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Opens the CSV (PATH.tmp, renamed when the run ends, so a killed run never leaves a half file);
-   collective, so a file that cannot be written is an error on every rank. */
-PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon)
+/* Opens the CSV; collective, so a file that cannot be written is an error on every rank. Rows are
+   written and flushed as they are made, so a run that is killed keeps every step before its last
+   (at most the line being written is cut). */
+PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step)
 {
   PetscMPIInt rank;
   int         ok = 1;
@@ -27,14 +30,47 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon)
   if (!mon->csv_path[0]) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   if (rank == 0) {
-    char tmp[PETSC_MAX_PATH_LEN + 8];
-    PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
-    mon->csv = fopen(tmp, "w");
-    if (mon->csv) fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s\n");
-    ok = mon->csv != NULL;
+    /* a restarted run keeps the rows up to its checkpoint and goes on from there */
+    PetscBool kept = PETSC_FALSE;
+    if (resume_step >= 0) PetscCall(MSimCSVKeepSteps(mon->csv_path, resume_step, &kept));
+    mon->csv = fopen(mon->csv_path, kept ? "a" : "w");
+    if (mon->csv && !kept) ok = fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s\n") > 0 && fflush(mon->csv) == 0;
+    else ok = mon->csv != NULL;
   }
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
-  PetscCheck(ok, comm, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s.tmp", mon->csv_path);
+  PetscCheck(ok, comm, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s", mon->csv_path);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Rank 0: PATH's header and its rows whose first field (the step) is <= last, written back
+   atomically; *kept: whether PATH existed with its header */
+PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept)
+{
+  FILE       *fp = fopen(path, "r");
+  std::string text, line;
+  char        buf[4096];
+
+  PetscFunctionBeginUser;
+  *kept = PETSC_FALSE;
+  if (!fp) PetscFunctionReturn(PETSC_SUCCESS);
+  bool header = true;
+  while (fgets(buf, sizeof(buf), fp)) {
+    line = buf;
+    if (line.empty() || line.back() != '\n') break; /* a row cut by a kill */
+    if (header) {
+      text += line;
+      header = false;
+      continue;
+    }
+    char *end;
+    long  step = strtol(line.c_str(), &end, 10);
+    if (end == line.c_str() || *end != ',') break;
+    if (step <= last) text += line;
+  }
+  fclose(fp);
+  if (header) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimWriteFileAtomic(path, text.data(), text.size()));
+  *kept = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -53,7 +89,8 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
   if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e phi %.10e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi));
   if (mon->csv) {
     PetscCall(PetscTime(&now));
-    fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, now - mon->wall0);
+    const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, now - mon->wall0);
+    PetscCheck(wrote > 0 && fflush(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -62,11 +99,9 @@ PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon)
 {
   PetscFunctionBeginUser;
   if (mon->csv) {
-    char tmp[PETSC_MAX_PATH_LEN + 8];
-    PetscCall(PetscSNPrintf(tmp, sizeof(tmp), "%s.tmp", mon->csv_path));
-    PetscCheck(fclose(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", tmp);
-    mon->csv = NULL;
-    PetscCheck(rename(tmp, mon->csv_path) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: cannot rename %s", tmp);
+    const int closed = fclose(mon->csv);
+    mon->csv         = NULL;
+    PetscCheck(closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 #include <cerrno>
+#include <cstdlib>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -31,7 +32,7 @@ PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
   *out = NULL;
   PetscOptionsBegin(sys->comm, NULL, "msim output", NULL);
   PetscCall(PetscOptionsString("-msim_output", "Directory for the ParaView series (.vtu frames + series.pvd)", NULL, dir, dir, sizeof(dir), &set));
-  PetscCall(PetscOptionsInt("-msim_output_every", "Write a frame every k steps", NULL, every, &every, NULL));
+  PetscCall(MSimOptionsInt("-msim_output_every", "Write a frame every k steps", NULL, every, &every, NULL));
   format = 0;
   PetscCall(PetscOptionsEList("-msim_output_format", "Series format: vtu (rank 0 writes .vtu + .pvd), hdf5 (all ranks write HDF5 + XDMF), auto (vtu up to 10^6 vertices)", NULL, formats, 3, formats[0], &format, NULL));
   PetscOptionsEnd();
@@ -75,6 +76,50 @@ PetscErrorCode MSimOutputSetUp(MSimOutput out)
   /* a serial series: rank 0 writes every frame whole, so it holds the topology */
   if (out->hdf5) PetscCall(MSimHDF5SeriesSetUp(&out->h5, out->sys, out->dir));
   else PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The frame step in a collection entry's file name (frame_NNNNNN.), or -1 */
+static long FrameStep(const std::string &entry)
+{
+  const size_t at = entry.find("frame_");
+  return at == std::string::npos ? -1 : strtol(entry.c_str() + at + 6, NULL, 10);
+}
+
+PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
+{
+  PetscFunctionBeginUser;
+  if (!out || out->sys->rank) PetscFunctionReturn(PETSC_SUCCESS);
+  /* the collection as the earlier run left it, its entries after the checkpoint dropped (their
+     frames are written again) */
+  const std::string path = std::string(out->dir) + (out->hdf5 ? "/series.xdmf" : "/series.pvd");
+  FILE             *fp   = fopen(path.c_str(), "r");
+  std::string       text, kept;
+  char              buf[4096];
+  if (!fp) PetscFunctionReturn(PETSC_SUCCESS);
+  while (fgets(buf, sizeof(buf), fp)) text += buf;
+  fclose(fp);
+  if (out->hdf5) { /* grids from "    <Grid Name=" to "    </Grid>" */
+    const std::string open = "    <Grid Name=\"frame_", close = "    </Grid>\n";
+    for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at)) {
+      const size_t end = text.find(close, at);
+      if (end == std::string::npos) break;
+      const std::string grid = text.substr(at, end + close.size() - at);
+      if (FrameStep(grid) <= step) kept += grid;
+      at = end + close.size();
+    }
+    out->h5.grids = kept;
+  } else {
+    size_t at = 0;
+    while (at < text.size()) {
+      size_t            nl   = text.find('\n', at);
+      const std::string line = text.substr(at, nl == std::string::npos ? std::string::npos : nl + 1 - at);
+      if (line.find("<DataSet ") != std::string::npos && FrameStep(line) >= 0 && FrameStep(line) <= step) kept += line;
+      if (nl == std::string::npos) break;
+      at = nl + 1;
+    }
+    out->pvd_entries = kept;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -104,9 +104,9 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim box scene (a tet box)", NULL);
-  PetscCall(PetscOptionsIntArray("-msim_box_n", "Cubes along x, y, z", NULL, n, &nn, &nset));
-  PetscCall(PetscOptionsRealArray("-msim_box_size", "Side lengths along x, y, z, m", NULL, size, &nl, &lset));
-  PetscCall(PetscOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
+  PetscCall(MSimOptionsIntArray("-msim_box_n", "Cubes along x, y, z", NULL, n, &nn, &nset));
+  PetscCall(MSimOptionsRealArray("-msim_box_size", "Side lengths along x, y, z, m", NULL, size, &nl, &lset));
+  PetscCall(MSimOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
   PetscCall(PetscOptionsEList("-msim_box_springs", "How the box gets its springs and masses: direct (from its structure) or cells (the edges of its tets, as a mesh)", NULL, ways, 2, ways[0], &way, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);

@@ -12,8 +12,8 @@ PetscErrorCode MSimSceneGenerate_Chain(MPI_Comm comm, MSimSceneData *s)
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim chain scene", NULL);
-  PetscCall(PetscOptionsInt("-msim_chain_n", "Vertices of the chain", NULL, N, &N, NULL));
-  PetscCall(PetscOptionsReal("-msim_chain_length", "Rest length of the chain, m", NULL, length, &length, NULL));
+  PetscCall(MSimOptionsInt("-msim_chain_n", "Vertices of the chain", NULL, N, &N, NULL));
+  PetscCall(MSimOptionsReal("-msim_chain_length", "Rest length of the chain, m", NULL, length, &length, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(N >= 2, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_chain_n must be >= 2 (got %" PetscInt_FMT ")", N);

@@ -26,10 +26,10 @@ PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s)
     list.resize(nlist);
     PetscOptionsBegin(comm, NULL, "msim fixed vertices", NULL);
     PetscCall(PetscOptionsEList("-msim_fix", "Fixed vertices: corners, edge (grids and chains), none, list", NULL, fixes, 4, fixes[ifix], &ifix, &fix_set));
-    PetscCall(PetscOptionsIntArray("-msim_fix_list", "Fixed vertex ids (input order, from 0)", NULL, list.data(), &nlist, &list_set));
+    PetscCall(MSimOptionsIntArray("-msim_fix_list", "Fixed vertex ids (input order, from 0)", NULL, list.data(), &nlist, &list_set));
     PetscCall(PetscOptionsEList("-msim_fix_plane", "Fix the vertices on the scene's extreme plane in one direction", NULL, planes, 6, planes[0], &iplane, &plane_set));
-    PetscCall(PetscOptionsReal("-msim_fix_plane_tol", "Distance from the plane within which -msim_fix_plane fixes vertices, m (default 1e-6 of the scene's diameter)", NULL, tol, &tol, NULL));
-    PetscCall(PetscOptionsRealArray("-msim_fix_box", "Fix the vertices in the box x0,x1,y0,y1,z0,z1 (m, bounds included)", NULL, box, &nbox, &box_set));
+    PetscCall(MSimOptionsReal("-msim_fix_plane_tol", "Distance from the plane within which -msim_fix_plane fixes vertices, m (default 1e-6 of the scene's diameter)", NULL, tol, &tol, NULL));
+    PetscCall(MSimOptionsRealArray("-msim_fix_box", "Fix the vertices in the box x0,x1,y0,y1,z0,z1 (m, bounds included)", NULL, box, &nbox, &box_set));
     PetscOptionsEnd();
     PetscCheck(!list_set || nlist < room || room == s->nv, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: at most %" PetscInt_FMT " ids (fix large sets with -msim_fix_plane or -msim_fix_box)", room - 1);
     list.resize(list_set ? nlist : 0);

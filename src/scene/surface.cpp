@@ -29,8 +29,8 @@ PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
   PetscCall(PetscOptionsString("-msim_springs", "Spring families of a surface: edge, or edge,bending", NULL, springs, springs, sizeof(springs), NULL));
   PetscCall(MSimSceneGetStiffness("edge", &kedge));
   PetscCall(MSimSceneGetStiffness("bending", &kbend));
-  PetscCall(PetscOptionsReal("-msim_stiffness_edge", "Stiffness of the springs on a surface's edges, N/m", NULL, kedge, &kedge, NULL));
-  PetscCall(PetscOptionsReal("-msim_stiffness_bending", "Stiffness of bending springs, N/m", NULL, kbend, &kbend, NULL));
+  PetscCall(MSimOptionsReal("-msim_stiffness_edge", "Stiffness of the springs on a surface's edges, N/m", NULL, kedge, &kedge, NULL));
+  PetscCall(MSimOptionsReal("-msim_stiffness_bending", "Stiffness of bending springs, N/m", NULL, kbend, &kbend, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   {

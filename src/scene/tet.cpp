@@ -7,7 +7,7 @@ PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, ch
 {
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsString("-msim_mesh_file", "Mesh file: .off .obj .stl (surfaces), TetGen .node/.ele, Gmsh .msh", NULL, file, file, len, set));
-  PetscCall(PetscOptionsReal("-msim_mesh_scale", "Multiply the mesh's coordinates by this (e.g. 0.001 for a file in mm), before TetGen", NULL, *scale, scale, NULL));
+  PetscCall(MSimOptionsReal("-msim_mesh_scale", "Multiply the mesh's coordinates by this (e.g. 0.001 for a file in mm), before TetGen", NULL, *scale, scale, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -66,7 +66,7 @@ PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
   PetscOptionsBegin(comm, NULL, "msim tet scene (a solid: springs on tet edges)", NULL);
   PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set));
   PetscCall(PetscOptionsString("-msim_tetgen_switches", "TetGen switches for a surface (p: keep the surface, q1.414: radius-edge ratio bound, Y: no new vertices on the surface, a0.1: tet volume bound)", NULL, switches, switches, sizeof(switches), NULL));
-  PetscCall(PetscOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
+  PetscCall(MSimOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, or Gmsh .msh)");

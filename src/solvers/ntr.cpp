@@ -144,9 +144,9 @@ static PetscErrorCode SNESSetFromOptions_NTR(SNES snes, PetscOptionItems *PetscO
 
   PetscFunctionBeginUser;
   PetscOptionsHeadBegin(PetscOptionsObject, "SNES ntr (Newton trust region on the objective)");
-  PetscCall(PetscOptionsReal("-snes_ntr_eta", "Accept a step when Phi falls by more than this fraction of the model's prediction", NULL, tr->eta, &tr->eta, NULL));
-  PetscCall(PetscOptionsReal("-snes_ntr_forcing_max", "Largest relative CG tolerance (inexact Newton: min(this, sqrt(|g|/|g0|)))", NULL, tr->forcing_max, &tr->forcing_max, NULL));
-  PetscCall(PetscOptionsReal("-snes_ntr_delta0", "First trust-region radius as a multiple of the preconditioned gradient step's P-norm", NULL, tr->delta0, &tr->delta0, NULL));
+  PetscCall(MSimOptionsReal("-snes_ntr_eta", "Accept a step when Phi falls by more than this fraction of the model's prediction", NULL, tr->eta, &tr->eta, NULL));
+  PetscCall(MSimOptionsReal("-snes_ntr_forcing_max", "Largest relative CG tolerance (inexact Newton: min(this, sqrt(|g|/|g0|)))", NULL, tr->forcing_max, &tr->forcing_max, NULL));
+  PetscCall(MSimOptionsReal("-snes_ntr_delta0", "First trust-region radius as a multiple of the preconditioned gradient step's P-norm", NULL, tr->delta0, &tr->delta0, NULL));
   PetscOptionsHeadEnd();
   PetscCheck(tr->eta >= 0 && tr->eta < 0.25, PetscObjectComm((PetscObject)snes), PETSC_ERR_ARG_OUTOFRANGE, "-snes_ntr_eta must be in [0, 0.25) (got %g)", (double)tr->eta);
   PetscCheck(tr->forcing_max > 0 && tr->forcing_max < 1, PetscObjectComm((PetscObject)snes), PETSC_ERR_ARG_OUTOFRANGE, "-snes_ntr_forcing_max must be in (0, 1) (got %g)", (double)tr->forcing_max);

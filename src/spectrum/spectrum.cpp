@@ -96,8 +96,8 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
   PetscFunctionBeginUser;
   PetscOptionsBegin(sys->comm, NULL, "msim spectrum (SLEPc)", NULL);
   PetscCall(PetscOptionsBool("-msim_spectrum", "Compute omega_max and the critical step of each explicit method, then exit", NULL, on, &on, NULL));
-  PetscCall(PetscOptionsInt("-msim_spectrum_largest", "Number of largest eigenvalues to print", NULL, nlargest, &nlargest, NULL));
-  PetscCall(PetscOptionsInt("-msim_spectrum_lowest", "Number of lowest modes (natural frequencies in Hz; options prefix low_)", NULL, nlow, &nlow, NULL));
+  PetscCall(MSimOptionsInt("-msim_spectrum_largest", "Number of largest eigenvalues to print", NULL, nlargest, &nlargest, NULL));
+  PetscCall(MSimOptionsInt("-msim_spectrum_lowest", "Number of lowest modes (natural frequencies in Hz; options prefix low_)", NULL, nlow, &nlow, NULL));
   PetscCall(PetscOptionsString("-msim_spectrum_modes", "Directory for the lowest mode shapes as .vtu files", NULL, dir, dir, sizeof(dir), NULL));
   PetscOptionsEnd();
   *ran = on;

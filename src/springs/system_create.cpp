@@ -14,8 +14,8 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscOptionsBegin(sys->comm, NULL, "msim physics", NULL);
   PetscCall(MSimOptionsVec3("-msim_gravity", "Gravitational acceleration, m/s^2", sys->gravity, NULL));
   PetscCall(MSimOptionsVec3("-msim_wind", "Air velocity, m/s (acts through -msim_drag)", sys->wind, NULL));
-  PetscCall(PetscOptionsReal("-msim_drag", "Air drag per vertex, N s/m: f = drag (wind - v)", NULL, sys->drag, &sys->drag, NULL));
-  PetscCall(PetscOptionsReal("-msim_damping", "Spring damping along the spring, N s/m", NULL, sys->damping, &sys->damping, NULL));
+  PetscCall(MSimOptionsReal("-msim_drag", "Air drag per vertex, N s/m: f = drag (wind - v)", NULL, sys->drag, &sys->drag, NULL));
+  PetscCall(MSimOptionsReal("-msim_damping", "Spring damping along the spring, N s/m", NULL, sys->damping, &sys->damping, NULL));
   PetscCall(PetscOptionsString("-msim_partition", "Distribution of vertices across ranks: metis (on rank 0), ptscotch (parallel) or natural", NULL, partition, partition, len, NULL));
   PetscCall(PetscOptionsBool("-msim_partition_view", "Print the scene's counts, the edge cut, ghosts per rank and the load balance", NULL, *view_partition, view_partition, NULL));
   {

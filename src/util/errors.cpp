@@ -2,6 +2,7 @@
    including errors inside SlepcInitialize (an options file that does not open or parse), which
    come before msim's handler exists, and a warning for every option set but never read. */
 #include <msim/sys.h>
+#include <cerrno>
 #include <cstdarg>
 #include <cstring>
 #include <sstream>
@@ -92,6 +93,29 @@ static PetscErrorCode MSimCaptureErrorPrintf(const char format[], ...)
 void MSimInitializeBegin(void)
 {
   PetscErrorPrintf = MSimCaptureErrorPrintf;
+}
+
+/* PETSc reads an options file on rank 0 inside PetscInitialize; one that does not open is an error
+   there while the other ranks wait for the broadcast of its contents, so only MPI_Abort could end
+   them. Checked first (MPI is up, PETSc not yet), the run ends with one line on every rank count. */
+int MSimCheckOptionsFiles(int argc, char **argv)
+{
+  int rank = 0, bad = -1;
+
+  MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+  if (rank == 0)
+    for (int a = 1; a + 1 < argc && bad < 0; a++) {
+      if (strcmp(argv[a], "-options_file") && strcmp(argv[a], "-options_file_yaml")) continue;
+      FILE *f = fopen(argv[a + 1], "r");
+      if (f) fclose(f);
+      else {
+        fprintf(stderr, "msim: error: %s %s: cannot open it (%s)\n", argv[a], argv[a + 1], strerror(errno));
+        fflush(stderr);
+        bad = a;
+      }
+    }
+  MPI_Bcast(&bad, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  return bad >= 0;
 }
 
 int MSimInitializeEnd(PetscErrorCode ierr)

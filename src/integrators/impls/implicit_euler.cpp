@@ -180,7 +180,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     PetscBool pd_fixed = PETSC_FALSE;
     PetscInt  pd_anderson = 0;
     PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, pd_fixed, &pd_fixed, NULL));
-    PetscCall(PetscOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, pd_anderson, &pd_anderson, NULL));
+    PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, pd_anderson, &pd_anderson, NULL));
   }
   PetscOptionsEnd();
   PetscCall(VecDuplicate(sys->X0, &ie->G));
@@ -287,7 +287,7 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
 
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitBeginStep(ie->imp, t, integ->dt, X, V));
-  if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv));
+  if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv, integ->step, integ->first_step));
   /* initial guess x0 = x_n + h v_n; v_{n+1} = (x_{n+1} - x_n)/h */
   PetscCall(VecAXPY(X, integ->dt, V));
   PetscCall(SNESSolve(ie->snes, NULL, X));

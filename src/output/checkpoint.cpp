@@ -1,0 +1,225 @@
+/* Checkpoint and restart: -msim_checkpoint F [-msim_checkpoint_every k] writes the state the
+   stepping loop carries (free positions and velocities in input vertex order, so that any rank
+   count can read them; the step, time, step size, the initial energy the divergence check
+   compares with) with a format version and what identifies the scene (its vertex and moving-spring
+   counts and the options that define it), through PETSc's binary viewer, collectively, to F.tmp
+   renamed to F once closed: a killed run leaves its previous checkpoint whole. -msim_restart F
+   continues from one. The integrators carry nothing else from step to step (the accelerated
+   solvers' histories start afresh each step), so a restarted run repeats the uninterrupted one
+   bit for bit at the same rank count. */
+#include <msim/output.h>
+#include <msim/mesh.h>
+#include <algorithm>
+#include <sstream>
+#include <string>
+#include <sys/stat.h>
+
+static const PetscInt MSIM_CHECKPOINT_MAGIC   = 0x6d73696d; /* "msim" */
+static const PetscInt MSIM_CHECKPOINT_VERSION = 1;
+enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_COUNT };
+
+struct _n_MSimCheckpoint {
+  MSimSystem sys;
+  char       path[PETSC_MAX_PATH_LEN];    /* "" : no checkpoints */
+  char       restart[PETSC_MAX_PATH_LEN]; /* "" : a fresh run */
+  PetscInt   every;
+  std::string ident;
+};
+
+/* The options that define the scene, one "-name value" line each, sorted: a checkpoint of another
+   scene differs in one of them (or in its counts). */
+static PetscErrorCode SceneIdentity(std::string &ident)
+{
+  char                    *all = NULL;
+  std::vector<std::string> lines;
+  std::stringstream        ss;
+  std::string              tok, name;
+  const char              *defining[] = {"msim_scene", "msim_cloth_", "msim_chain_", "msim_mesh_", "msim_box_", "msim_tetgen_", "msim_refine", "msim_stiffness", "msim_young", "msim_mass", "msim_density", "msim_fix", "msim_springs", "msim_prestretch", "msim_perturb"};
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsGetAll(NULL, &all));
+  ss << all;
+  PetscCall(PetscFree(all));
+  auto flush = [&](const std::string &value) {
+    for (const char *d : defining)
+      if (!name.compare(1, strlen(d), d)) {
+        lines.push_back(name + (value.empty() ? "" : " " + value));
+        break;
+      }
+    name.clear();
+  };
+  while (ss >> tok) {
+    const bool is_name = tok.size() > 1 && tok[0] == '-' && !isdigit((unsigned char)tok[1]) && tok[1] != '.';
+    if (is_name) {
+      if (!name.empty()) flush("");
+      name = tok;
+    } else if (!name.empty()) flush(tok);
+  }
+  if (!name.empty()) flush("");
+  std::sort(lines.begin(), lines.end());
+  ident.clear();
+  for (const std::string &l : lines) ident += l + "\n";
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
+{
+  PetscBool set;
+
+  PetscFunctionBeginUser;
+  *ck          = new _n_MSimCheckpoint();
+  (*ck)->sys   = sys;
+  (*ck)->every = 100;
+  PetscOptionsBegin(sys->comm, NULL, "msim checkpoint and restart", NULL);
+  PetscCall(PetscOptionsString("-msim_checkpoint", "Write the state to this file (PETSc binary) every -msim_checkpoint_every steps, at the end and when stopped by SIGINT or SIGTERM", NULL, (*ck)->path, (*ck)->path, sizeof((*ck)->path), NULL));
+  PetscCall(MSimOptionsInt("-msim_checkpoint_every", "Steps between checkpoints", NULL, (*ck)->every, &(*ck)->every, &set));
+  PetscCall(PetscOptionsString("-msim_restart", "Continue from this checkpoint", NULL, (*ck)->restart, (*ck)->restart, sizeof((*ck)->restart), NULL));
+  PetscOptionsEnd();
+  PetscCheck((*ck)->every >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_checkpoint_every must be >= 1 (got %" PetscInt_FMT ")", (*ck)->every);
+  PetscCheck(!set || (*ck)->path[0], sys->comm, PETSC_ERR_ARG_WRONG, "-msim_checkpoint_every needs -msim_checkpoint F");
+  PetscCall(SceneIdentity((*ck)->ident));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimCheckpointWanted(MSimCheckpoint ck, PetscInt step, PetscInt last, PetscBool *want)
+{
+  PetscFunctionBeginUser;
+  *want = (PetscBool)(ck->path[0] && (step % ck->every == 0 || step == last));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t, PetscReal dt, PetscReal E0, Vec X, Vec V)
+{
+  MSimSystem        sys = ck->sys;
+  PetscViewer       v;
+  const std::string tmp = std::string(ck->path) + ".tmp";
+  PetscInt          header[H_COUNT];
+  PetscReal         reals[3] = {t, dt, E0};
+  int               ok       = 1;
+
+  PetscFunctionBeginUser;
+  if (!ck->path[0]) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscLogEventBegin(MSIM_Output, X, 0, 0, 0));
+  header[H_MAGIC]   = MSIM_CHECKPOINT_MAGIC;
+  header[H_VERSION] = MSIM_CHECKPOINT_VERSION;
+  header[H_NV]      = sys->nv;
+  header[H_NSPRING] = sys->nspring_global;
+  header[H_STEP]    = step;
+  header[H_IDENT]   = (PetscInt)ck->ident.size();
+  PetscCall(PetscViewerCreate(sys->comm, &v));
+  PetscCall(PetscViewerSetType(v, PETSCVIEWERBINARY));
+  PetscCall(PetscViewerSetFromOptions(v)); /* -viewer_binary_mpiio */
+  PetscCall(PetscViewerBinarySetSkipInfo(v, PETSC_TRUE));
+  PetscCall(PetscViewerFileSetMode(v, FILE_MODE_WRITE));
+  PetscCall(PetscViewerFileSetName(v, tmp.c_str()));
+  PetscCall(PetscViewerBinaryWrite(v, header, H_COUNT, PETSC_INT));
+  PetscCall(PetscViewerBinaryWrite(v, reals, 3, PETSC_REAL));
+  if (header[H_IDENT]) PetscCall(PetscViewerBinaryWrite(v, ck->ident.data(), header[H_IDENT], PETSC_CHAR));
+  PetscCall(MSimSystemNaturalPositions(sys, t, X));
+  PetscCall(VecView(sys->natural, v));
+  PetscCall(MSimSystemNaturalVector(sys, V));
+  PetscCall(VecView(sys->natural, v));
+  PetscCall(PetscViewerDestroy(&v)); /* collective: the file is complete here */
+  if (sys->rank == 0) ok = rename(tmp.c_str(), ck->path) == 0;
+  PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, sys->comm));
+  PetscCheck(ok, sys->comm, PETSC_ERR_FILE_WRITE, "-msim_checkpoint: cannot rename %s to %s", tmp.c_str(), ck->path);
+  PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The first option line that differs between two identities, as "-a x there, -a y here" */
+static std::string FirstDifference(const std::string &there, const std::string &here)
+{
+  std::stringstream a(there), b(here);
+  std::string       la, lb;
+  while (true) {
+    const bool ga = (bool)std::getline(a, la), gb = (bool)std::getline(b, lb);
+    if (!ga && !gb) return "";
+    if (ga && gb && la == lb) continue;
+    auto opt = [](const std::string &l) { return l.substr(0, l.find(' ')); };
+    if (ga && gb && opt(la) == opt(lb)) return la + " there, " + lb.substr(lb.find(' ') + 1) + " here";
+    if (!gb || (ga && la < lb)) return la + " there, not here";
+    return lb + " here, not there";
+  }
+}
+
+PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, Vec V, PetscInt *step, PetscReal *t, PetscReal *dt, PetscReal *E0, PetscBool *restarted)
+{
+  MSimSystem  sys = ck->sys;
+  PetscViewer v;
+  PetscInt    header[H_COUNT];
+  PetscReal   reals[3];
+  long long   size = -1;
+  const char *F    = ck->restart;
+
+  PetscFunctionBeginUser;
+  *restarted = PETSC_FALSE;
+  if (!F[0]) PetscFunctionReturn(PETSC_SUCCESS);
+  /* what a damaged file cannot make the ranks disagree on: rank 0 checks its size before any
+     collective read */
+  if (sys->rank == 0) {
+    struct stat st;
+    if (stat(F, &st) == 0 && S_ISREG(st.st_mode)) size = (long long)st.st_size;
+  }
+  PetscCallMPI(MPI_Bcast(&size, 1, MPI_LONG_LONG, 0, sys->comm));
+  PetscCheck(size >= 0, sys->comm, PETSC_ERR_FILE_OPEN, "-msim_restart %s: cannot open it", F);
+  const long long head = (long long)(H_COUNT * sizeof(PetscInt) + 3 * sizeof(PetscReal));
+  PetscCheck(size >= head, sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: not an msim checkpoint (%lld bytes, too short)", F, size);
+  PetscCall(PetscViewerBinaryOpen(sys->comm, F, FILE_MODE_READ, &v));
+  PetscCall(PetscViewerBinaryRead(v, header, H_COUNT, NULL, PETSC_INT));
+  PetscCall(PetscViewerBinaryRead(v, reals, 3, NULL, PETSC_REAL));
+  if (header[H_MAGIC] != MSIM_CHECKPOINT_MAGIC) {
+    PetscCall(PetscViewerDestroy(&v));
+    SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: not an msim checkpoint", F);
+  }
+  if (header[H_VERSION] != MSIM_CHECKPOINT_VERSION) {
+    PetscCall(PetscViewerDestroy(&v));
+    SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: checkpoint format version %" PetscInt_FMT "; this msim reads version %" PetscInt_FMT, F, header[H_VERSION], MSIM_CHECKPOINT_VERSION);
+  }
+  const long long expect = head + (long long)header[H_IDENT] + 2 * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar));
+  if (header[H_IDENT] < 0 || header[H_NV] < 0 || size != expect) {
+    PetscCall(PetscViewerDestroy(&v));
+    SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: damaged checkpoint (%lld bytes, its header says %lld)", F, size, expect);
+  }
+  std::string there((size_t)header[H_IDENT], '\0');
+  if (header[H_IDENT]) PetscCall(PetscViewerBinaryRead(v, &there[0], header[H_IDENT], NULL, PETSC_CHAR));
+  const std::string diff = FirstDifference(there, ck->ident);
+  if (!diff.empty() || header[H_NV] != sys->nv || header[H_NSPRING] != sys->nspring_global) {
+    PetscCall(PetscViewerDestroy(&v));
+    if (!diff.empty()) SETERRQ(sys->comm, PETSC_ERR_ARG_INCOMP, "-msim_restart %s: a checkpoint of another scene (%s)", F, diff.c_str());
+    SETERRQ(sys->comm, PETSC_ERR_ARG_INCOMP, "-msim_restart %s: a checkpoint of another scene (%" PetscInt_FMT " vertices and %" PetscInt_FMT " moving springs there, %" PetscInt_FMT " and %" PetscInt_FMT " here)", F, header[H_NV], header[H_NSPRING], sys->nv, sys->nspring_global);
+  }
+  if (header[H_STEP] >= steps) {
+    PetscCall(PetscViewerDestroy(&v));
+    SETERRQ(sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_restart %s: the checkpoint is at step %" PetscInt_FMT " and -msim_steps is %" PetscInt_FMT ": nothing left to run", F, header[H_STEP], steps);
+  }
+  for (Vec target : {X, V}) {
+    PetscCall(VecLoad(sys->natural, v));
+    PetscCall(VecScatterBegin(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
+    PetscCall(VecScatterEnd(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
+  }
+  PetscCall(PetscViewerDestroy(&v));
+  *step      = header[H_STEP];
+  *t         = reals[0];
+  *dt        = reals[1];
+  *E0        = reals[2];
+  *restarted = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* for a message after an interrupted run: what was kept and how to go on */
+PetscErrorCode MSimCheckpointPath(MSimCheckpoint ck, char buf[], size_t len)
+{
+  PetscFunctionBeginUser;
+  if (ck->path[0]) PetscCall(PetscSNPrintf(buf, len, "state saved in %s: continue with -msim_restart %s", ck->path, ck->path));
+  else PetscCall(PetscSNPrintf(buf, len, "no checkpoint asked for (-msim_checkpoint F would keep the state)"));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimCheckpointDestroy(MSimCheckpoint *ck)
+{
+  PetscFunctionBeginUser;
+  delete *ck;
+  *ck = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,60 @@
+/* SIGINT and SIGTERM during stepping (Ctrl-C; a batch system at its time limit): the handler only
+   notes the signal; the time loop stops after the step in progress. The ranks agree on the step
+   to stop at through a non-blocking reduction started after each step and completed after the
+   next, so the stepping never waits for it (and at one rank there is none). */
+#include <msim/sys.h>
+#include <csignal>
+
+static volatile sig_atomic_t msim_signal_seen = 0;
+
+static void MSimNoteSignal(int sig)
+{
+  msim_signal_seen = sig;
+}
+
+PetscErrorCode MSimStopSignalBegin(MPI_Comm comm, MSimStopSignal *s)
+{
+  struct sigaction act = {};
+
+  PetscFunctionBeginUser;
+  s->comm     = comm;
+  s->request  = MPI_REQUEST_NULL;
+  s->local    = 0;
+  s->global   = 0;
+  s->active   = PETSC_TRUE;
+  msim_signal_seen = 0;
+  PetscCallMPI(MPI_Comm_size(comm, &s->size));
+  act.sa_handler = MSimNoteSignal;
+  sigemptyset(&act.sa_mask);
+  PetscCheck(sigaction(SIGINT, &act, &s->old_int) == 0 && sigaction(SIGTERM, &act, &s->old_term) == 0, comm, PETSC_ERR_SYS, "cannot install the SIGINT/SIGTERM handlers");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimStopSignalPoll(MSimStopSignal *s, int *signal_seen)
+{
+  PetscFunctionBeginUser;
+  *signal_seen = 0;
+  if (s->size == 1) {
+    *signal_seen = (int)msim_signal_seen;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  if (s->request != MPI_REQUEST_NULL) {
+    PetscCallMPI(MPI_Wait(&s->request, MPI_STATUS_IGNORE));
+    *signal_seen = s->global;
+  }
+  if (*signal_seen) PetscFunctionReturn(PETSC_SUCCESS);
+  s->local = (int)msim_signal_seen;
+  PetscCallMPI(MPI_Iallreduce(&s->local, &s->global, 1, MPI_INT, MPI_MAX, s->comm, &s->request));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimStopSignalEnd(MSimStopSignal *s)
+{
+  PetscFunctionBeginUser;
+  if (!s->active) PetscFunctionReturn(PETSC_SUCCESS);
+  if (s->request != MPI_REQUEST_NULL) PetscCallMPI(MPI_Wait(&s->request, MPI_STATUS_IGNORE));
+  sigaction(SIGINT, &s->old_int, NULL);
+  sigaction(SIGTERM, &s->old_term, NULL);
+  s->active = PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

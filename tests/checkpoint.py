@@ -1,0 +1,208 @@
+#!/usr/bin/env python3
+"""Checkpoint and restart (-msim_checkpoint, -msim_restart):
+- a run stopped at step 30 with a checkpoint and restarted to step 60 ends bit for bit where the
+  uninterrupted run does at the same rank count (1 and 2), to roundoff at another (1 -> 2), with
+  the same frames in series.pvd and the same monitor rows (all but the wall time);
+- a run killed with SIGKILL at a random moment and restarted from its last checkpoint ends the same,
+  with the same complete frames and monitor rows, and no .tmp left behind;
+- SIGTERM stops a run after a whole step with one line and a checkpoint of that step (1 and 2
+  ranks), from which it goes on to the same end;
+- a checkpoint of another scene, a damaged or foreign file, a missing one and one with nothing
+  left to run are refused with one line, and no output directory is made."""
+import os
+import random
+import shutil
+import signal
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+
+MSIM = os.path.abspath(sys.argv[1])
+SCENE = ["-msim_cloth_n", "16", "-msim_integrator", "implicit_euler", "-msim_dt", "0.005", "-snes_type", "pd", "-snes_pd_anderson", "5",
+         "-snes_max_it", "8", "-snes_pd_fixed", "-msim_output_every", "10", "-msim_wind", "1,0,2", "-msim_drag", "0.01"]
+failed = 0
+
+
+
+def kill_all(p):
+    """SIGKILL to mpirun's ranks (Open MPI puts them in process groups of their own) and to mpirun
+    or the single msim, at once; returns when none is left"""
+    ranks = [int(x) for x in subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True, text=True).stdout.split()]
+    for pid in ranks + [p.pid]:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    p.wait()
+    deadline = time.time() + 10  # a zombie no init reaps stays listed: give up waiting then
+    for pid in ranks:
+        while time.time() < deadline:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.01)
+
+def check(ok, what):
+    global failed
+    if not ok:
+        failed += 1
+    print(("ok   " if ok else "FAIL ") + what)
+
+
+def cmd(np, args):
+    return ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + args
+
+
+def run(np, args, cwd):
+    return subprocess.run(cmd(np, args), cwd=cwd, capture_output=True, text=True)
+
+
+def final(path):
+    """positions from a PETSc binary Vec file (big-endian: int classid, int n, n doubles)"""
+    data = open(path, "rb").read()
+    n = struct.unpack(">i", data[4:8])[0]
+    return struct.unpack(f">{n}d", data[8:8 + 8 * n])
+
+
+def frames(out):
+    pvd = open(os.path.join(out, "series.pvd")).read()
+    listed = [l.split('file="')[1].split('"')[0] for l in pvd.splitlines() if 'file="' in l]
+    return listed, {f: open(os.path.join(out, f), "rb").read() for f in listed}
+
+
+def monitor(path):
+    rows = open(path).read().splitlines()
+    return [",".join(r.split(",")[:-1]) for r in rows]  # all but wall_s
+
+
+def whole(tmp, np, name, steps, extra=()):
+    out = os.path.join(tmp, name)
+    r = run(np, SCENE + ["-msim_steps", str(steps), "-msim_output", out, "-msim_monitor_csv", out + ".csv",
+                         "-msim_view_final", f"binary:{out}.bin"] + list(extra), tmp)
+    if r.returncode:
+        print(r.stderr[-2000:])
+    return out, r
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        ref = {}
+        for np in (1, 2):
+            out, r = whole(tmp, np, f"ref{np}", 60)
+            check(r.returncode == 0, f"np={np}: the uninterrupted run")
+            ref[np] = (final(out + ".bin"), frames(out), monitor(out + ".csv"))
+
+        # stop at 30 with a checkpoint, go on to 60: at the same rank count and at another
+        for np1, np2 in ((1, 1), (2, 2), (1, 2)):
+            name = f"split{np1}{np2}"
+            out = os.path.join(tmp, name)
+            ck = os.path.join(tmp, name + ".ck")
+            base = SCENE + ["-msim_output", out, "-msim_monitor_csv", out + ".csv", "-msim_checkpoint", ck, "-msim_checkpoint_every", "10"]
+            r1 = run(np1, base + ["-msim_steps", "30"], tmp)
+            r2 = run(np2, base + ["-msim_steps", "60", "-msim_restart", ck, "-msim_view_final", f"binary:{out}.bin"], tmp)
+            check(r1.returncode == 0 and r2.returncode == 0 and r2.stderr.strip() == "", f"{np1} -> {np2} ranks: both parts run ({r1.stderr.strip()[:200]} {r2.stderr.strip()[:200]})")
+            if r1.returncode or r2.returncode:
+                continue
+            x, (listed, files), mon = final(out + ".bin"), frames(out), monitor(out + ".csv")
+            rx, (rlisted, rfiles), rmon = ref[np1]
+            if np1 == np2:
+                check(x == rx, f"{np1} -> {np2} ranks: final positions bit for bit equal to the uninterrupted run")
+                check(listed == rlisted and files == rfiles, f"{np1} -> {np2} ranks: the same frames, byte for byte ({len(listed)})")
+            else:
+                err = max(abs(a - b) for a, b in zip(x, rx))
+                check(err < 1e-10, f"{np1} -> {np2} ranks: final positions equal to roundoff (max difference {err:.2e} m)")
+                check(listed == rlisted, f"{np1} -> {np2} ranks: the same frames listed ({len(listed)})")
+            check(mon == rmon if np1 == np2 else len(mon) == len(rmon), f"{np1} -> {np2} ranks: the monitor rows of the uninterrupted run ({len(mon)} lines)")
+
+        # the parallel series (HDF5 + XDMF) goes on too: the same index as the uninterrupted run's
+        for name, parts in (("h5ref", [("60", [])]), ("h5split", [("30", []), ("60", ["-msim_restart"])])):
+            out = os.path.join(tmp, name)
+            for steps, extra in parts:
+                args = SCENE + ["-msim_output", out, "-msim_output_format", "hdf5", "-msim_checkpoint", out + ".ck", "-msim_steps", steps]
+                r = run(2, args + (extra + [out + ".ck"] if extra else []), tmp)
+                check(r.returncode == 0, f"hdf5 series, {name} to step {steps} ({r.stderr.strip()[:200]})")
+        xdmf = [open(os.path.join(tmp, n, "series.xdmf")).read() for n in ("h5ref", "h5split")]
+        check(xdmf[0] == xdmf[1] and xdmf[0].count("<Grid Name=\"frame_") == 7, "hdf5 series: series.xdmf after a restart lists the uninterrupted run's 7 frames")
+
+        # killed at a random moment, restarted from the last checkpoint
+        random.seed(7)
+        for np in (1, 2):
+            name = f"kill{np}"
+            out = os.path.join(tmp, name)
+            ck = os.path.join(tmp, name + ".ck")
+            args = SCENE + ["-msim_steps", "400", "-msim_output", out, "-msim_monitor_csv", out + ".csv", "-msim_checkpoint", ck, "-msim_checkpoint_every", "7",
+                            "-msim_view_final", f"binary:{out}.bin"]
+            refout, r = whole(tmp, np, f"kref{np}", 400)
+            p = subprocess.Popen(cmd(np, args), cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+            # a random moment: after a random number of steps, somewhere between two checkpoints
+            target, t0 = random.randint(20, 300), time.time()
+            while (not os.path.exists(out + ".csv") or sum(1 for _ in open(out + ".csv")) < target) and time.time() - t0 < 60:
+                time.sleep(0.005)
+            kill_all(p)
+            r = run(np, args + ["-msim_restart", ck], tmp)
+            check(r.returncode == 0, f"np={np}: restarted after SIGKILL ({r.stderr.strip()[:200]})")
+            if r.returncode:
+                continue
+            leftovers = [f for f in os.listdir(out) + os.listdir(tmp) if f.endswith(".tmp")]
+            check(final(out + ".bin") == final(refout + ".bin"), f"np={np}: killed and resumed ends bit for bit where the uninterrupted run does")
+            check(frames(out) == frames(refout), f"np={np}: the same complete frames ({len(frames(out)[0])})")
+            check(monitor(out + ".csv") == monitor(refout + ".csv"), f"np={np}: the same monitor rows")
+            check(not leftovers, f"np={np}: no temporary file left ({leftovers})")
+
+        # SIGTERM: one line, a checkpoint of the last whole step, and the run goes on from it (mpirun
+        # forwards the signal to its ranks a few seconds late: the run is made long enough)
+        for np in (1, 2):
+            name = f"term{np}"
+            out = os.path.join(tmp, name)
+            ck = os.path.join(tmp, name + ".ck")
+            args = SCENE + ["-msim_output", out, "-msim_checkpoint", ck, "-msim_checkpoint_every", "100000", "-msim_monitor_csv", out + ".csv"]
+            p = subprocess.Popen(cmd(np, args + ["-msim_steps", "100000"]), cwd=tmp, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            t0 = time.time()
+            while (not os.path.exists(out + ".csv") or sum(1 for _ in open(out + ".csv")) < 20) and time.time() - t0 < 60:
+                time.sleep(0.01)
+            p.send_signal(signal.SIGTERM)
+            err = p.communicate(timeout=120)[1]
+            lines = [l for l in err.splitlines() if l.strip()]
+            stopped = len(lines) == 1 and "stopped by SIGTERM after step" in lines[0] and "-msim_restart" in lines[0]
+            check(p.returncode != 0 and stopped and os.path.exists(ck), f"np={np}: SIGTERM stops with one line and a checkpoint (rc {p.returncode}, {lines[:3]})")
+            if stopped:
+                step = int(lines[0].split("after step ")[1].split()[0])
+                rows = monitor(out + ".csv")
+                check(rows[-1].startswith(f"{step},"), f"np={np}: the monitor's last row is the step named ({step})")
+                r = run(np, args + ["-msim_steps", str(step + 10), "-msim_restart", ck], tmp)
+                rows = monitor(out + ".csv")
+                check(r.returncode == 0 and rows[-1].startswith(f"{step + 10},") and len(rows) == step + 12,
+                      f"np={np}: resumed after SIGTERM to step {step + 10}, the monitor's rows continuing ({len(rows)} lines)")
+
+        # refusals: one line, non-zero exit, no output directory
+        ck = os.path.join(tmp, "split11.ck")
+        shutil.copy(ck, os.path.join(tmp, "cut.ck"))
+        with open(os.path.join(tmp, "cut.ck"), "r+b") as f:
+            f.truncate(os.path.getsize(ck) - 100)
+        with open(os.path.join(tmp, "junk.ck"), "wb") as f:
+            f.write(os.urandom(4096))
+        cases = [(["-msim_cloth_n", "17", "-msim_restart", ck], "a checkpoint of another scene (-msim_cloth_n 16 there, 17 here)"),
+                 (["-msim_fix", "edge", "-msim_restart", ck], "a checkpoint of another scene (-msim_fix edge here, not there)"),
+                 (["-msim_restart", os.path.join(tmp, "cut.ck")], "damaged checkpoint"),
+                 (["-msim_restart", os.path.join(tmp, "junk.ck")], "not an msim checkpoint"),
+                 (["-msim_restart", os.path.join(tmp, "none.ck")], "cannot open it"),
+                 (["-msim_restart", ck, "-msim_steps", "50"], "the checkpoint is at step 60 and -msim_steps is 50: nothing left to run")]
+        for np in (1, 2):
+            for extra, message in cases:
+                out = os.path.join(tmp, "refused")
+                args = SCENE + ["-msim_steps", "60", "-msim_output", out]
+                for k in range(0, len(extra), 2):  # later values win
+                    args += extra[k:k + 2]
+                r = run(np, args, tmp)
+                lines = [l for l in r.stderr.splitlines() if l.strip()]
+                check(r.returncode != 0 and len(lines) == 1 and message in lines[0] and not os.path.exists(out),
+                      f"np={np}: refused: {message} ({lines[:2]})")
+    print("FAILED" if failed else "all passed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

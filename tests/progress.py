@@ -1,0 +1,43 @@
+#!/usr/bin/env python3
+"""A long run says how far it is: with -msim_progress s, lines 'msim: step n of N (p%), t = ..., wall
+..., ... steps/s, ETA ...' on stderr, from rank 0 only (no line twice at two ranks), steps rising,
+the percentage and simulated time matching the step; -msim_progress 0 prints none."""
+import os
+import re
+import subprocess
+import sys
+
+MSIM = os.path.abspath(sys.argv[1])
+STEPS = 4000
+ARGS = ["-msim_cloth_n", "40", "-msim_integrator", "implicit_euler", "-msim_dt", "0.001", "-msim_steps", str(STEPS),
+        "-snes_type", "pd", "-snes_max_it", "3", "-snes_pd_fixed"]
+LINE = re.compile(r"^msim: step (\d+) of (\d+) \((\d+)%\), t = (\S+) s, wall \S+, \S+ steps/s, ETA \S+$")
+
+
+def run(np, extra):
+    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + ARGS + extra
+    return subprocess.run(cmd, capture_output=True, text=True)
+
+
+def main():
+    failed = 0
+    for np in (1, 2):
+        r = run(np, ["-msim_progress", "0.05"])
+        lines = [l for l in r.stderr.splitlines() if l.strip()]
+        found = [LINE.match(l) for l in lines]
+        steps = [int(m.group(1)) for m in found if m]
+        ok = (r.returncode == 0 and len(lines) >= 2 and all(found) and steps == sorted(set(steps))
+              and all(int(m.group(2)) == STEPS and abs(int(m.group(3)) - 100 * int(m.group(1)) / STEPS) <= 0.5
+                      and abs(float(m.group(4)) - 0.001 * int(m.group(1))) < 1e-9 for m in found))
+        quiet = run(np, ["-msim_progress", "0"])
+        ok = ok and quiet.returncode == 0 and quiet.stderr.strip() == ""
+        print(f"np={np}: {len(lines)} progress lines (steps {steps[:3]}...{steps[-1:]}); quiet run stderr {quiet.stderr.strip()[:100]!r}")
+        if not ok:
+            failed += 1
+            print(f"FAIL np={np}: rc {r.returncode}, stderr {lines[:4]!r}")
+    print("FAILED" if failed else "all passed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
