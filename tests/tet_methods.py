@@ -2,7 +2,7 @@
 """Every integrator and implicit solver works on a tet solid unchanged: a 3 x 3 x 3 Kuhn box (E =
 1 MPa, 1000 kg/m^3) clamped at x = 0, under gravity, at 1 and 2 ranks.
 - Implicit Euler, 5 steps of h = 5 ms, solved to |g| <= 1e-10 |g0| by Newton (MUMPS Cholesky; CG +
-  ICC or block Jacobi), PD, PD + safeguarded Anderson, PETSc's Anderson with PD, L-BFGS with the PD
+  ICC or block Jacobi, GAMG, hypre's BoomerAMG), PD, PD + safeguarded Anderson, PETSc's Anderson with PD, L-BFGS with the PD
   Hessian, the trust region, PD with msim's parallel factor and with MUMPS: all reach the same
   x_5 to 1e-8 m (the box moves about 1e-3 m), at 2 ranks with METIS's partition and with
   contiguous blocks alike.
@@ -24,6 +24,8 @@ TIGHT = "-snes_rtol 1e-10 -snes_atol 1e-16 -snes_max_it 5000".split()
 IMPLICIT = {
     "newton mumps": "-snes_type newtonls -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps",
     "newton cg": "-snes_type newtonls -ksp_rtol 1e-12",
+    "newton cg gamg": "-snes_type newtonls -ksp_type cg -pc_type gamg -ksp_rtol 1e-12",
+    "newton cg hypre": "-snes_type newtonls -ksp_type cg -pc_type hypre -ksp_rtol 1e-12",
     "pd": "-snes_type pd",
     "pd mumps": "-snes_type pd -pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps",
     "pd anderson": "-snes_type pd -snes_pd_anderson",
