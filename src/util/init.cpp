@@ -22,6 +22,8 @@ static void MSimSingleThreadedBLAS(void)
   if (set) set(1);
 }
 
+static PetscBool msim_handler_pushed = PETSC_FALSE; /* msim's one-line error handler is on the stack */
+
 PetscErrorCode MSimInitialize(void)
 {
   PetscBool trace = PETSC_FALSE;
@@ -30,6 +32,7 @@ PetscErrorCode MSimInitialize(void)
   MSimSingleThreadedBLAS();
   PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_traceback", &trace, NULL));
   if (!trace) PetscCall(PetscPushErrorHandler(MSimErrorHandler, NULL));
+  msim_handler_pushed = (PetscBool)!trace;
   /* the default log keeps event counts; msim reads them (MSimFactorizationCount), -log_view prints them */
   PetscCall(PetscLogDefaultBegin());
   PetscCall(PetscClassIdRegister("msim", &MSIM_CLASSID));
@@ -65,6 +68,9 @@ PetscErrorCode MSimInitialize(void)
 PetscErrorCode MSimFinalize(void)
 {
   PetscFunctionBeginUser;
+  /* popped so that -malloc_dump finds nothing of msim's left */
+  if (msim_handler_pushed) PetscCall(PetscPopErrorHandler());
+  msim_handler_pushed = PETSC_FALSE;
   PetscCall(MSimSceneFinalizePackage());
   PetscCall(MSimIntegratorFinalizePackage());
   PetscFunctionReturn(PETSC_SUCCESS);
