@@ -65,7 +65,7 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
         const PetscInt v = 4 * c + l;
         pick[l]          = -1;
         for (size_t q = 0; q < lane[l].size() && pick[l] < 0; q++)
-          if (other(lane[l][q], v) - v == off && k[lane[l][q]] != 0) pick[l] = (PetscInt)q;
+          if (lane[l][q] >= 0 && other(lane[l][q], v) - v == off && k[lane[l][q]] != 0) pick[l] = (PetscInt)q; /* -1: taken by an earlier slot */
         all = (PetscBool)(pick[l] >= 0);
       }
       if (!all) continue;
