@@ -19,31 +19,14 @@ import sys
 import tempfile
 import time
 
+from processes import kill_all  # tests/processes.py
+
 MSIM = os.path.abspath(sys.argv[1])
 SCENE = ["-msim_cloth_n", "16", "-msim_integrator", "implicit_euler", "-msim_dt", "0.005", "-snes_type", "pd", "-snes_pd_anderson", "5",
          "-snes_max_it", "8", "-snes_pd_fixed", "-msim_output_every", "10", "-msim_wind", "1,0,2", "-msim_drag", "0.01"]
 failed = 0
 
 
-
-def kill_all(p):
-    """SIGKILL to mpirun's ranks (Open MPI puts them in process groups of their own) and to mpirun
-    or the single msim, at once; returns when none is left"""
-    ranks = [int(x) for x in subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True, text=True).stdout.split()]
-    for pid in ranks + [p.pid]:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    p.wait()
-    deadline = time.time() + 10  # a zombie no init reaps stays listed: give up waiting then
-    for pid in ranks:
-        while time.time() < deadline:
-            try:
-                os.kill(pid, 0)
-            except ProcessLookupError:
-                break
-            time.sleep(0.01)
 
 def check(ok, what):
     global failed

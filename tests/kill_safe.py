@@ -4,36 +4,18 @@ of a two-rank run at once) keeps its -msim_monitor_csv and -msim_monitor_converg
 every row made before the kill: the header, then complete rows of consecutive steps (the last line
 may be cut), and every frame it listed in series.pvd complete."""
 import os
-import signal
 import subprocess
 import sys
 import tempfile
 import time
+
+from processes import kill_all  # tests/processes.py
 
 MSIM = os.path.abspath(sys.argv[1])
 ARGS = ["-msim_cloth_n", "30", "-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "100000",
         "-snes_type", "pd", "-snes_max_it", "5", "-snes_pd_fixed", "-msim_output_every", "5"]
 
 
-
-def kill_all(p):
-    """SIGKILL to mpirun's ranks (Open MPI puts them in process groups of their own) and to mpirun
-    or the single msim, at once; returns when none is left"""
-    ranks = [int(x) for x in subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True, text=True).stdout.split()]
-    for pid in ranks + [p.pid]:
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except ProcessLookupError:
-            pass
-    p.wait()
-    deadline = time.time() + 10  # a zombie no init reaps stays listed: give up waiting then
-    for pid in ranks:
-        while time.time() < deadline:
-            try:
-                os.kill(pid, 0)
-            except ProcessLookupError:
-                break
-            time.sleep(0.01)
 
 def rows_ok(path, header, fields, step_col):
     with open(path) as f:

@@ -121,6 +121,18 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(VecCopy(X, Xgood));
   PetscCall(VecCopy(V, Vgood));
 
+  /* a run that ends inside the loop (diverged, or stopped by a signal) closes what it opened,
+     keeping what it wrote */
+  auto EndEarly = [&]() -> PetscErrorCode {
+    PetscCall(MSimStopSignalEnd(&stop));
+    PetscCall(MSimMonitorDestroy(sys->comm, &mon));
+    PetscCall(MSimOutputDestroy(&out));
+    PetscCall(MSimCheckpointDestroy(&ck));
+    PetscCall(VecDestroy(&Xgood));
+    PetscCall(VecDestroy(&Vgood));
+    PetscCall(PetscLogStagePop());
+    return PETSC_SUCCESS;
+  };
   PetscCall(MSimProgressBegin(&progress));
   PetscCall(MSimStopSignalBegin(sys->comm, &stop));
   PetscCall(PetscLogStagePush(MSIM_StageStep));
@@ -142,16 +154,10 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       info->diverged   = PETSC_TRUE;
       info->steps_done = n;
       info->t          = t;
-      PetscCall(MSimStopSignalEnd(&stop));
       PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood));
       PetscCall(VecCopy(Xgood, X));
       PetscCall(VecCopy(Vgood, V));
-      PetscCall(MSimMonitorDestroy(sys->comm, &mon));
-      PetscCall(MSimOutputDestroy(&out));
-      PetscCall(MSimCheckpointDestroy(&ck));
-      PetscCall(VecDestroy(&Xgood));
-      PetscCall(VecDestroy(&Vgood));
-      PetscCall(PetscLogStagePop());
+      PetscCall(EndEarly());
       SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? "the nonlinear solver failed" : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
     }
     if (check) {
@@ -169,14 +175,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       /* SIGINT or SIGTERM (a batch system's time limit): stopped after a whole step, its state
          kept where a checkpoint was asked for */
       char how[PETSC_MAX_PATH_LEN + 96];
-      PetscCall(MSimStopSignalEnd(&stop));
       PetscCall(MSimCheckpointPath(ck, how, sizeof(how)));
-      PetscCall(MSimMonitorDestroy(sys->comm, &mon));
-      PetscCall(MSimOutputDestroy(&out));
-      PetscCall(MSimCheckpointDestroy(&ck));
-      PetscCall(VecDestroy(&Xgood));
-      PetscCall(VecDestroy(&Vgood));
-      PetscCall(PetscLogStagePop());
+      PetscCall(EndEarly());
       info->steps_done = n;
       info->t          = t;
       SETERRQ(sys->comm, PETSC_ERR_SIG, "stopped by %s after step %" PetscInt_FMT " of %" PetscInt_FMT " (t = %g s); %s", signal_seen == SIGINT ? "SIGINT" : "SIGTERM", n, integ->steps, (double)t, how);
