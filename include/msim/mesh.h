@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-typedef struct {
+typedef struct _n_MSimMesh {
   std::string            file;       /* for messages about cells */
   std::string            vertex_file; /* for messages about vertices, where it differs (.node) */
   PetscInt               nv = 0;
