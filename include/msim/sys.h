@@ -55,6 +55,11 @@ PetscErrorCode MSimOptionsIntArray_Private(PetscOptionItems *, const char[], con
 PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, const char name[], const char help[], PetscReal v[3], PetscBool *set);
 #define MSimOptionsVec3(name, help, v, set) MSimOptionsVec3_Private(PetscOptionsObject, name, help, v, set)
 
+/* crash_guard.cpp: runs fn; a crash signal inside it (SIGSEGV, SIGABRT, SIGFPE, SIGBUS, SIGILL)
+   returns here as that signal's number (0: fn returned). For third-party calls on bad input. */
+#include <functional>
+int MSimCallGuarded(const std::function<void(void)> &fn);
+
 /* stop_signal.cpp: SIGINT/SIGTERM noted during stepping; every rank stops after the same step */
 #include <csignal>
 typedef struct {

@@ -35,30 +35,14 @@ static const char *TetGenReason(int code)
 }
 
 /* TetGen 1.5 does not always throw: on some faulty surfaces it fails an assertion (abort) or reads
-   out of bounds. A crash inside it becomes an error: the signal jumps back to the call, and msim
-   exits with one line (TetGen's state is abandoned, not reused). */
-static sigjmp_buf tetgen_crash;
-static void       TetGenCrashed(int sig)
-{
-  siglongjmp(tetgen_crash, sig);
-}
-
-/* tetrahedralize() with TetGen's failures as a code: its thrown int, 1 for out of memory, or
-   100 + the signal it crashed with */
+   out of bounds. A crash inside it becomes an error (MSimCallGuarded), and msim exits with one
+   line (TetGen's state is abandoned, not reused). */
 static int TetGenRun(const char *switches, tetgenio *in, tetgenio *out)
 {
-  const int        sigs[] = {SIGSEGV, SIGABRT, SIGFPE, SIGBUS, SIGILL};
-  struct sigaction sa, old[5];
-  volatile int     code = 0;
-  std::string      sw(switches);
+  int         code = 0;
+  std::string sw(switches);
 
-  memset(&sa, 0, sizeof(sa));
-  sa.sa_handler = TetGenCrashed;
-  sigemptyset(&sa.sa_mask);
-  for (int k = 0; k < 5; k++) sigaction(sigs[k], &sa, &old[k]);
-  int sig = sigsetjmp(tetgen_crash, 1);
-  if (sig) code = 100 + sig;
-  else {
+  const int sig = MSimCallGuarded([&]() {
     try {
       tetrahedralize(&sw[0], in, out);
     } catch (int c) {
@@ -66,9 +50,8 @@ static int TetGenRun(const char *switches, tetgenio *in, tetgenio *out)
     } catch (const std::bad_alloc &) {
       code = 1;
     }
-  }
-  for (int k = 0; k < 5; k++) sigaction(sigs[k], &old[k], NULL);
-  return code;
+  });
+  return sig ? 100 + sig : code;
 }
 #endif
 
