@@ -67,7 +67,6 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
     ctx->nfallback++;
     PetscCall(VecDot(F, Y, &slope));
     slope = -slope;
-    PetscCall(VecNorm(Y, NORM_2, &ynorm));
     if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
   }
   if (!accepted) {
@@ -84,6 +83,11 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
     PetscCall(SNESLineSearchSetReason(ls, domain ? SNES_LINESEARCH_FAILED_DOMAIN : SNES_LINESEARCH_FAILED_NANORINF));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  /* SNES's step-length test (-snes_stol: |dx| < stol |x|) reads ynorm after the search: it must be
+     the length of the step taken, lambda |Y|. PETSc hands the search a stale ynorm (1 at the first
+     iteration), and passing that back kept -snes_stol from ever triggering. */
+  PetscCall(VecNorm(Y, NORM_2, &ynorm));
+  ynorm *= lambda;
   PetscCall(VecCopy(W, X));
   PetscCall(VecCopy(G, F));
   PetscCall(VecNorm(X, NORM_2, &xnorm));

@@ -21,7 +21,25 @@ typedef struct {
   PetscBool              inertia;        /* Newton's PC is MUMPS LDL^T of the exact Hessian: its inertia is known */
   PetscBool              inertia_correction; /* -msim_inertia_correction */
   MSimInertiaCorrection  ic;
+  PetscReal              step_atol;      /* -msim_step_atol: converged once a step moves less */
 } ImplicitEuler;
+
+/* -msim_step_atol d: also converged once an iteration's step dx has |dx|_2 < d (in metres), the rule
+   of graphics codes' Newton (e.g. |dx| < 1e-3 with at most 20 iterations). PETSc's own step test,
+   -snes_stol, is relative to |x|: it would make convergence depend on where the scene sits in
+   space. Read by the SNES types that report their step length (newtonls, ntr, qn; not pd). */
+static PetscErrorCode ConvergedStep(SNES snes, PetscInt it, PetscReal xnorm, PetscReal snorm, PetscReal fnorm, SNESConvergedReason *reason, void *ctx)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)ctx;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, NULL));
+  if ((*reason == SNES_CONVERGED_ITERATING || *reason == SNES_DIVERGED_MAX_IT) && it > 0 && snorm < ie->step_atol) {
+    PetscCall(PetscInfo(snes, "converged: step length %g < -msim_step_atol %g\n", (double)snorm, (double)ie->step_atol));
+    *reason = SNES_CONVERGED_SNORM_RELATIVE;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 static PetscErrorCode FormFunction(SNES snes, Vec X, Vec G, void *ctx)
 {
@@ -174,6 +192,8 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
   PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
   PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, NULL));
   PetscCall(PetscOptionsBool("-msim_inertia_correction", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): factor H + delta M with the least delta (0, then 1e-3 x 8^k) that leaves no negative pivot, so Newton converges to minima of Phi, not saddles", NULL, ie->inertia_correction, &ie->inertia_correction, NULL));
+  PetscCall(MSimOptionsReal("-msim_step_atol", "Converged also once an iteration's step dx has |dx|_2 below this (m; 0: off): graphics codes' rule, absolute where -snes_stol is relative to |x| (newtonls, ntr, qn)", NULL, ie->step_atol, &ie->step_atol, NULL));
+  PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   {
     /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
@@ -223,6 +243,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
       PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
     }
   }
+  if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
   PetscCall(SNESSetFromOptions(ie->snes));
   if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ie->imp));
   {
@@ -314,9 +335,10 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
     PetscReal atol, rtol, stol;
     PetscInt  maxit, maxf;
     PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
-    if (atol > 0 || rtol > 0) {
+    if (atol > 0 || rtol > 0 || ie->step_atol > 0) {
       integ->unconverged_steps++;
-      PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)", type, maxit, (double)atol, (double)rtol));
+      if (ie->step_atol > 0) PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|) or |dx| < %g", type, maxit, (double)atol, (double)rtol, (double)ie->step_atol));
+      else PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)", type, maxit, (double)atol, (double)rtol));
     }
   }
   else if (reason < 0) {
