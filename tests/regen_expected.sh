@@ -11,6 +11,7 @@ run chain
 run cloth_ts
 run cloth_wind
 run cloth_newton "$small"
+run cloth_newton_fast "$small -msim_step_atol 1e-10 -snes_max_it 100"
 run cloth_bw "$small"
 run cloth_pd "$small"
 run cloth_anderson "$small -msim_dt 0.005 -snes_max_it 30"

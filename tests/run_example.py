@@ -55,6 +55,9 @@ def main():
             sys.exit("an option was not used (mistyped?)")
         lines = []
         out = r.stdout.splitlines(True)
+        if re.search(r"^-ksp_type\s+(cg|gmres|minres)\s*$", text, re.M):
+            # a Krylov method's iteration count depends on the partition's roundoff: not compared
+            out = [re.sub(r" lin \d+ ", " lin - ", l) for l in out]
         steps = [l for l in out if re.match(r"step\s+\d+\s", l)]
         for line in out:
             m = re.match(r"step\s+(\d+)\s", line)
