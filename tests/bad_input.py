@@ -44,6 +44,12 @@ CASES = [
     (["-msim_fix", "list", "-msim_fix_list", "1,x"], "-msim_fix_list: 'x' is not an integer"),
     (["-msim_checkpoint_every", "10"], "-msim_checkpoint_every needs -msim_checkpoint F"),
     (["-msim_progress", "-1"], "-msim_progress must be >= 0 s"),
+    # scene data with nothing to simulate; output that cannot be written
+    (["-msim_scene", "chain", "-msim_chain_n", "2", "-msim_fix", "corners"], "every vertex of the chain scene is fixed: nothing to simulate"),
+    (["-msim_cloth_n", "2", "-msim_springs", "bending"], "the cloth scene has no springs"),
+    (["-msim_output", "/proc/msim_cannot/out"], "-msim_output: cannot create or write directory /proc/msim_cannot/out"),
+    (["-msim_monitor_csv", "/proc/msim_cannot/m.csv"], "-msim_monitor_csv: cannot write /proc/msim_cannot/m.csv"),
+    (["-msim_integrator", "implicit_euler", "-msim_step_atol", "-1"], "-msim_step_atol must be >= 0"),
     # inertia correction reads the inertia of MUMPS's LDL^T of the exact Hessian: nothing else has it
     (["-msim_integrator", "implicit_euler", "-msim_inertia_correction"], "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS"),
     # options files, read inside PetscInitialize (written by main() below)
@@ -65,9 +71,10 @@ def main():
         with open(os.path.join(tmp, "malformed.opts"), "w") as f:
             f.write("-msim_cloth_n 8\nmsim_steps 3\n")  # the dash forgotten on line 2
         for np in (1, 2):
-            for args, message in CASES:
-                out = os.path.join(tmp, f"series_{np}")
-                r = run(args + ["-msim_output", out, "-msim_steps", "5"] if "-msim_steps" not in args else args + ["-msim_output", out], tmp, np)
+            for i, (args, message) in enumerate(CASES):
+                out = os.path.join(tmp, f"series_{np}_{i}")
+                extra = ([] if "-msim_output" in args else ["-msim_output", out]) + ([] if "-msim_steps" in args else ["-msim_steps", "5"])
+                r = run(args + extra, tmp, np)
                 lines = [l for l in r.stderr.splitlines() if l.strip()]
                 problems = []
                 if r.returncode == 0:

@@ -92,6 +92,13 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
   PetscCallMPI(MPI_Allreduce(&nfl, &L.nfree, 1, MPIU_INT, MPI_SUM, comm));
   PetscCheck(L.nfree > 0, comm, PETSC_ERR_ARG_WRONG, "every vertex of the %s scene is fixed: nothing to simulate", S.name.c_str());
   {
+    /* a scene without springs is a cloud of free particles: always a mistake in the scene's
+       options (a spring family list that makes none, a mesh with no edges) */
+    PetscInt64 mine = (PetscInt64)S.si.size(), all = 0;
+    PetscCallMPI(MPI_Allreduce(&mine, &all, 1, MPIU_INT64, MPI_SUM, comm));
+    PetscCheck(all > 0, comm, PETSC_ERR_ARG_WRONG, "the %s scene has no springs: nothing holds its vertices together (see -msim_springs)", S.name.c_str());
+  }
+  {
     PetscInt nfix = count - nfl;
     PetscCallMPI(MPI_Allreduce(&nfix, &L.nfix_global, 1, MPIU_INT, MPI_SUM, comm));
   }

@@ -8,7 +8,7 @@
 #include <cstdlib>
 
 PetscClassId  MSIM_CLASSID;
-PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
+PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor, MSIM_LLTSweep;
 PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
 PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, MSIM_StageRefine, MSIM_StageSetup, MSIM_StageStep;
 
@@ -48,6 +48,7 @@ PetscErrorCode MSimInitialize(void)
   PetscCall(PetscLogEventRegister("MSimPDGlobal", MSIM_CLASSID, &MSIM_PDGlobal));
   PetscCall(PetscLogEventRegister("MSimSpectrum", MSIM_CLASSID, &MSIM_Spectrum));
   PetscCall(PetscLogEventRegister("MSimLLTFactor", MSIM_CLASSID, &MSIM_LLTFactor));
+  PetscCall(PetscLogEventRegister("MSimLLTSweep", MSIM_CLASSID, &MSIM_LLTSweep));
   PetscCall(PetscLogEventRegister("MSimMeshRead", MSIM_CLASSID, &MSIM_MeshRead));
   PetscCall(PetscLogEventRegister("MSimMeshCheck", MSIM_CLASSID, &MSIM_MeshCheck));
   PetscCall(PetscLogEventRegister("MSimMeshEdges", MSIM_CLASSID, &MSIM_MeshEdges));
