@@ -9,7 +9,7 @@
 /* Log events registered once by MSimInitialize(); -log_view reports them. */
 extern PetscClassId  MSIM_CLASSID;
 extern PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual,
-  MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor;
+  MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor, MSIM_LLTSweep;
 /* rank 0's mesh work: parsing a file, validating it, finding its unique edges, TetGen */
 extern PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
 /* -log_view stages: reading a file (rank 0), partitioning, moving the scene between ranks,
