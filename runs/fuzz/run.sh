@@ -6,7 +6,7 @@
 # per format to runs/fuzz/results.csv. allocator_may_return_null: an absurd request (a negative size in
 # PETSc's Gmsh reader) fails as it does outside ASan, and the reader reports it; libFuzzer's
 # -malloc_limit_mb still catches any request over 1 GB.
-# Usage: bash runs/fuzz/run.sh [SECONDS] [formats...]
+# Usage: bash runs/fuzz/run.sh [SECONDS] [formats...]   (MSIM_FUZZ_JOBS: harnesses at once, default nproc)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 each=${1:-600}
@@ -18,8 +18,9 @@ for fmt in $formats; do targets+=" fuzz_mesh_$fmt"; done
 cmake --build build-fuzz -j"$(nproc)" --target $targets > /dev/null
 /usr/bin/python3 runs/fuzz/seeds.py build-fuzz/seeds $formats > /dev/null
 . tools/env.sh
-echo "format,seconds,executions,corpus,findings" > runs/fuzz/results.csv
-for fmt in $formats; do
+# one harness per core at once (each is single-threaded); results.csv in the order given
+fuzz_one() {
+  fmt=$1
   mkdir -p build-fuzz/corpus/$fmt build-fuzz/findings/$fmt
   ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1 build-fuzz/runs/fuzz/fuzz_mesh_$fmt build-fuzz/corpus/$fmt build-fuzz/seeds/$fmt \
     -max_total_time="$each" -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=20 -max_len=65536 \
@@ -27,6 +28,14 @@ for fmt in $formats; do
   runs=$(grep -o "stat::number_of_executed_units: *[0-9]*" build-fuzz/$fmt.log | grep -o "[0-9]*$" || echo 0)
   found=$(ls build-fuzz/findings/$fmt | wc -l)
   corpus=$(ls build-fuzz/corpus/$fmt | wc -l)
-  echo "$fmt,$each,$runs,$corpus,$found" >> runs/fuzz/results.csv
+  echo "$fmt,$each,$runs,$corpus,$found" > build-fuzz/$fmt.result
   echo "fuzz $fmt: $runs executions in $each s, corpus $corpus, findings $found"
+}
+jobs_max=${MSIM_FUZZ_JOBS:-$(nproc)}
+for fmt in $formats; do
+  while [ "$(jobs -rp | wc -l)" -ge "$jobs_max" ]; do sleep 1; done
+  fuzz_one "$fmt" &
 done
+wait
+echo "format,seconds,executions,corpus,findings" > runs/fuzz/results.csv
+for fmt in $formats; do cat build-fuzz/$fmt.result >> runs/fuzz/results.csv; done
