@@ -93,11 +93,11 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(PetscLogStagePop());
   PetscCall(MSimGuard(sys, integ, X, info));
   PetscCall(MSimCheckpointRestart(ck, integ->steps, X, V, &step0, &t_ck, &dt_ck, &E0_ck, &restarted));
-  /* all input is valid from here on: open the monitor files (a path that cannot be written is
-     still an input error), then create the output directory */
-  PetscCall(MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1));
+  /* all input is valid from here on: create the output directory (a monitor file may live in
+     it), then open the monitor files */
   PetscCall(MSimOutputSetUp(out));
   if (restarted) PetscCall(MSimOutputResume(out, step0));
+  PetscCall(MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1));
   /* the time at step k: k h, or after a restart with another step size, from the checkpoint's */
   const PetscBool same_dt = (PetscBool)(!restarted || dt_ck == integ->dt);
   auto            time_at = [&](PetscInt k) { return same_dt ? k * integ->dt : t_ck + (k - step0) * integ->dt; };
