@@ -18,6 +18,9 @@ import tempfile
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from checks import Checks  # noqa: E402
+
 MSIM = os.path.abspath(sys.argv[1])
 STEPS = 4
 SCENE = ["-msim_cloth_n", "31", "-msim_integrator", "implicit_euler", "-msim_dt", "0.0333333333333333", "-msim_steps", str(STEPS),
@@ -38,12 +41,7 @@ def run(np_, extra, tmp, tag):
 
 
 def main():
-    failed = 0
-
-    def check(ok, what):
-        nonlocal failed
-        print(("ok  " if ok else "FAIL") + " " + what)
-        failed += 0 if ok else 1
+    check = Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in (1, 2):
@@ -66,8 +64,7 @@ def main():
             r, its, _ = run(np_, ["-msim_step_atol", "1e-12"] + LOOSE + ["-snes_max_it", "2"], tmp, "budget")
             check(r.returncode == 0 and re.search(r"stopped at -snes_max_it 2 before .* or \|dx\| < 1e-12", r.stderr) is not None,
                   f"np={np_}: a budget too small for the rule is warned about: {r.stderr.strip()[:160]!r}")
-    print("FAILED" if failed else "all passed")
-    return 1 if failed else 0
+    return check.exit_code()
 
 
 if __name__ == "__main__":

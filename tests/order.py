@@ -16,6 +16,9 @@ import tempfile
 
 import numpy as np
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from checks import Checks  # noqa: E402
+
 MSIM = os.path.abspath(sys.argv[1])
 SCENE = ["-msim_scene", "chain", "-msim_chain_n", "8", "-msim_fix", "corners", "-msim_spectrum_check", "0"]
 T = 0.3
@@ -51,12 +54,7 @@ def energy_error(np_, h, steps, tmp):
 
 
 def main():
-    failed = 0
-
-    def check(ok, what):
-        nonlocal failed
-        print(("ok  " if ok else "FAIL") + " " + what)
-        failed += 0 if ok else 1
+    check = Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in (1, 2):
@@ -72,8 +70,7 @@ def main():
                   f"np={np_}: symplectic Euler's energy error bounded over 10^4 steps: max |E - E0| {first:.3e} in the first tenth, {last:.3e} in the last (h = 1e-3); {first2:.3e}, {last2:.3e} (h = 5e-4)")
             check(abs(math.log2(max(first, last) / max(first2, last2)) - 1) < 0.15,
                   f"np={np_}: symplectic Euler's energy error is first order in h (ratio {max(first, last) / max(first2, last2):.3f} for h halved)")
-    print("FAILED" if failed else "all passed")
-    return 1 if failed else 0
+    return check.exit_code()
 
 
 if __name__ == "__main__":

@@ -78,26 +78,36 @@ def checkpoints(scene):
     return done
 
 
+def solve_step(scene, opts, step, checkpoint):
+    """one method on one step from a checkpoint of the step before (None: from the start): its
+    history [(iteration, seconds, Phi, |g|)], the one-off PD factorization taken out of the times,
+    or None where it wrote none. A solver that ends in failure (ntr with zero tolerances stops with
+    DIVERGED_TR_DELTA once its radius is down at roundoff) keeps its history: it is used."""
+    path, log = f"{TMP}/conv.csv", f"{TMP}/conv_log.txt"
+    for p in (path, log):
+        if os.path.exists(p):
+            os.remove(p)
+    start = f" -msim_restart {checkpoint}" if checkpoint else ""
+    r = msim(f"{SCENES[scene]} -msim_dt {H} {opts} -msim_steps {step}{start} -msim_monitor_convergence {path} -log_view :{log}", check=False)
+    if not os.path.exists(path):
+        print(f"{scene} step {step} {opts}: failed {r.stderr.strip()[-200:]}", flush=True)
+        return None
+    with open(path) as f:
+        it = [(int(x["iteration"]), float(x["wall_s"]), float(x["phi"]), float(x["gnorm"])) for x in csv.DictReader(f) if int(x["step"]) == step]
+    _, setup = event(open(log).read(), "MSimPDSetUp") if os.path.exists(log) else (0, 0.0)
+    return [(i, max(t - (setup if i > 0 else 0), 0.0), p, g) for i, t, p, g in it]
+
+
 def per_step():
     rows, summary = [], []
     for scene in SCENES:
         checkpoints(scene)
         for step in STEPS:
-            start = f" -msim_restart {TMP}/{scene}_ck{step - 1}" if step > 1 else ""
             data = {}
             for name, opts in PER_STEP:
-                path, log = f"{TMP}/conv.csv", f"{TMP}/conv_log.txt"
-                for p in (path, log):
-                    if os.path.exists(p):
-                        os.remove(p)
-                r = msim(f"{SCENES[scene]} -msim_dt {H} {opts} -msim_steps {step}{start} -msim_monitor_convergence {path} -log_view :{log}", check=False)
-                if not os.path.exists(path):
-                    print(f"{scene} step {step} {name}: failed {r.stderr.strip()[-200:]}", flush=True)
-                    continue
-                with open(path) as f:
-                    it = [(int(x["iteration"]), float(x["wall_s"]), float(x["phi"]), float(x["gnorm"])) for x in csv.DictReader(f) if int(x["step"]) == step]
-                _, setup = event(open(log).read(), "MSimPDSetUp") if os.path.exists(log) else (0, 0.0)
-                data[name] = [(i, max(t - (setup if i > 0 else 0), 0.0), p, g) for i, t, p, g in it]
+                it = solve_step(scene, opts, step, f"{TMP}/{scene}_ck{step - 1}" if step > 1 else None)
+                if it:
+                    data[name] = it
             phi_star = min(p for it in data.values() for _, _, p, _ in it)
             phi0 = next(iter(data.values()))[0][2]
             phi1 = min((it[1][2] for it in data.values() if len(it) > 1), default=phi0)
@@ -143,22 +153,11 @@ def median_steps():
             phi_tight[k] = [float(x["phi"]) for x in csv.DictReader(f) if int(x["step"]) == k][0]
     rows = []
     for k in range(1, MEDIAN_STEPS + 1):
-        start = f" -msim_restart {TMP}/cloth_all_ck{k - 1}" if k > 1 else ""
         data = {}
         for name, opts in MEDIAN_METHODS:
-            path, log = f"{TMP}/median.csv", f"{TMP}/median_log.txt"
-            for p_ in (path, log):
-                if os.path.exists(p_):
-                    os.remove(p_)
-            # a solver that ends in failure (ntr with zero tolerances stops with DIVERGED_TR_DELTA
-            # once its radius is down at roundoff) keeps its history: use it
-            msim(f"{SCENES['cloth']} -msim_dt {H} {opts} -msim_steps {k}{start} -msim_monitor_convergence {path} -log_view :{log}", check=False)
-            if not os.path.exists(path):
-                continue
-            with open(path) as f:
-                it = [(int(x["iteration"]), float(x["wall_s"]), float(x["phi"]), float(x["gnorm"])) for x in csv.DictReader(f) if int(x["step"]) == k]
-            _, setup = event(open(log).read(), "MSimPDSetUp") if os.path.exists(log) else (0, 0.0)
-            data[name] = [(i, max(t - (setup if i > 0 else 0), 0.0), p, g) for i, t, p, g in it]
+            it = solve_step("cloth", opts, k, f"{TMP}/cloth_all_ck{k - 1}" if k > 1 else None)
+            if it:
+                data[name] = it
         phi_star = min([phi_tight[k]] + [p for it in data.values() for _, _, p, _ in it])
         phi0 = next(iter(data.values()))[0][2]
         for name, it in data.items():
@@ -246,7 +245,7 @@ def trajectory():
                  + [("implicit_euler", h, "PD, 10 its", "-snes_type pd -snes_pd_fixed -snes_max_it 10") for h in (H, "0.01", "0.001")]
                  + [("implicit_euler", H, f"PD, {n} its", f"-snes_type pd -snes_pd_fixed -snes_max_it {n}") for n in (5, 20, 50, 100, 200)]
                  + [("implicit_euler", H, f"L-BFGS, {n} its", f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it {n}") for n in (5, 10, 20, 50)]
-                 + [("implicit_euler", h, f"Newton-CG PD factor, |dx| < 1e-3", f"{NEWTON_CG_PD} {LOOSE} -msim_step_atol 1e-3 -snes_max_it 20") for h in (H, "0.01", "0.001")]),
+                 + [("implicit_euler", h, "Newton-CG PD factor, |dx| < 1e-3", f"{NEWTON_CG_PD} {LOOSE} -msim_step_atol 1e-3 -snes_max_it 20") for h in (H, "0.01", "0.001")]),
     }
     rows = []
     for scene, (href, runs) in cases.items():

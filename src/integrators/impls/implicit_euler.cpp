@@ -337,8 +337,9 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
     PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
     if (atol > 0 || rtol > 0 || ie->step_atol > 0) {
       integ->unconverged_steps++;
-      if (ie->step_atol > 0) PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|) or |dx| < %g", type, maxit, (double)atol, (double)rtol, (double)ie->step_atol));
-      else PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)", type, maxit, (double)atol, (double)rtol));
+      char step_rule[64] = "";
+      if (ie->step_atol > 0) PetscCall(PetscSNPrintf(step_rule, sizeof(step_rule), " or |dx| < %g", (double)ie->step_atol));
+      PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)%s", type, maxit, (double)atol, (double)rtol, step_rule));
     }
   }
   else if (reason < 0) {
