@@ -55,6 +55,14 @@ CASES = [
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
 ]
+# the corpus of bad options files (also the options fuzzer's seeds): each says on its first line,
+# "# expect: TEXT", what its one error line must contain
+CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "bad")
+for name in sorted(os.listdir(CORPUS)):
+    if name.endswith(".opts"):
+        first = open(os.path.join(CORPUS, name)).readline()
+        assert first.startswith("# expect: "), f"{name}: its first line must be '# expect: TEXT'"
+        CASES.append((["-options_file", os.path.join(CORPUS, name)], first[len("# expect: "):].strip()))
 
 
 def run(args, cwd, np=1):
@@ -72,7 +80,9 @@ def main():
         for np in (1, 2):
             for i, (args, message) in enumerate(CASES):
                 out = os.path.join(tmp, f"series_{np}_{i}")
-                extra = ([] if "-msim_output" in args else ["-msim_output", out]) + ([] if "-msim_steps" in args else ["-msim_steps", "5"])
+                # options given in the case (or in its options file) are not overridden
+                given = " ".join(args) + (open(os.path.join(tmp, args[1])).read() if args[0] == "-options_file" and os.path.exists(os.path.join(tmp, args[1])) else "")
+                extra = ([] if "-msim_output" in given else ["-msim_output", out]) + ([] if "-msim_steps" in given else ["-msim_steps", "5"])
                 r = run(args + extra, tmp, np)
                 lines = [l for l in r.stderr.splitlines() if l.strip()]
                 problems = []

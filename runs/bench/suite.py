@@ -138,14 +138,20 @@ def main():
                              f"{row['sweep_over_bound']}x its bytes); local step {row['local_over_bound']}x its bytes")
                 print(f"{scene:10s} {np_}r {name:45s} {row['ms_per_step']:10.3f} ms/step {row['iterations_per_step']:6.1f} its "
                       f"{row['bytes_per_spring']:8.1f} B/spring{bound}{tgt}", flush=True)
+                write_csv(rows)  # after every row, so an interrupted suite keeps what it measured
+    plot(rows, ranks)
+
+
+def write_csv(rows):
     fields = []
     for r in rows:
         fields += [k for k in r if k not in fields]
-    with open(os.path.join(HERE, "suite.csv"), "w", newline="") as f:
+    tmp = os.path.join(HERE, "suite.csv.tmp")
+    with open(tmp, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
-    plot(rows, ranks)
+    os.replace(tmp, os.path.join(HERE, "suite.csv"))
 
 
 def plot(rows, ranks):

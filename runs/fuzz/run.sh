@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Fuzzes each of msim's mesh readers (OFF, OBJ, STL, TetGen, Gmsh through PETSc) with libFuzzer,
+# Fuzzes each of msim's mesh readers (OFF, OBJ, STL, TetGen, Gmsh through PETSc), the options-to-scene
+# path (an options file) and the checkpoint reader with libFuzzer,
 # AddressSanitizer and UndefinedBehaviorSanitizer for SECONDS each (default 600), from the seed
 # corpus of runs/fuzz/seeds.py. Builds build-fuzz/ with clang. Findings (crash-*, oom-*, timeout-*)
 # go to build-fuzz/findings/<format>/; each run's statistics to build-fuzz/<format>.log and a line
@@ -11,18 +12,20 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 each=${1:-600}
 shift || true
-formats=${*:-off obj stl tetgen gmsh}
+formats=${*:-off obj stl tetgen gmsh options checkpoint}
+target() { case $1 in options | checkpoint) echo fuzz_$1 ;; *) echo fuzz_mesh_$1 ;; esac; }
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DMSIM_FUZZ=ON -DMSIM_SANITIZE=ON \
   -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo > /dev/null
-for fmt in $formats; do targets+=" fuzz_mesh_$fmt"; done
+targets=msim # the checkpoint seeds are written by msim
+for fmt in $formats; do targets+=" $(target "$fmt")"; done
 cmake --build build-fuzz -j"$(nproc)" --target $targets > /dev/null
-/usr/bin/python3 runs/fuzz/seeds.py build-fuzz/seeds $formats > /dev/null
+MSIM_EXE=$PWD/build-fuzz/msim ASAN_OPTIONS=detect_leaks=0 /usr/bin/python3 runs/fuzz/seeds.py build-fuzz/seeds $formats > /dev/null
 . tools/env.sh
 # one harness per core at once (each is single-threaded); results.csv in the order given
 fuzz_one() {
   fmt=$1
   mkdir -p build-fuzz/corpus/$fmt build-fuzz/findings/$fmt
-  ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1 build-fuzz/runs/fuzz/fuzz_mesh_$fmt build-fuzz/corpus/$fmt build-fuzz/seeds/$fmt \
+  ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1 build-fuzz/runs/fuzz/$(target "$fmt") build-fuzz/corpus/$fmt build-fuzz/seeds/$fmt \
     -max_total_time="$each" -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=20 -max_len=65536 \
     -artifact_prefix=build-fuzz/findings/$fmt/ -print_final_stats=1 > build-fuzz/$fmt.log 2>&1 || true
   runs=$(grep -o "stat::number_of_executed_units: *[0-9]*" build-fuzz/$fmt.log | grep -o "[0-9]*$" || echo 0)

@@ -5,10 +5,61 @@
    its first two vertices back. The reader gives no line numbers: faults name the element. */
 #include <msim/mesh.h>
 #include <petscdmplex.h>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 
 PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, std::string &message);
+
+/* Every section "$Name" must close with "$EndName" before the next one opens. PETSc's reader
+   skips a section it does not know ($Comments, ...) by reading until its end line and, when that
+   line is missing, never returns at the end of the file (runs/fuzz/findings/gmsh/timeout-*): so
+   msim walks the sections first. Binary sections are skipped the same way, by searching for their
+   end line; only the text between sections is required to be blank. */
+static PetscErrorCode GmshCheckSections(const char file[])
+{
+  std::string data;
+
+  PetscFunctionBeginUser;
+  {
+    FILE *fp = fopen(file, "rb");
+    PetscCheck(fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s: cannot open (%s)", file, strerror(errno));
+    char   buf[1 << 16];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, fp)) > 0) data.append(buf, n);
+    fclose(fp);
+  }
+  PetscCheck(!data.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
+  size_t   pos = 0, sections = 0;
+  PetscInt line = 1;
+  auto     lines_to = [&](size_t end) {
+    for (; pos < end; pos++) line += data[pos] == '\n';
+  };
+  while (true) {
+    while (pos < data.size() && isspace((unsigned char)data[pos])) lines_to(pos + 1);
+    if (pos == data.size()) break;
+    size_t eol = data.find_first_of("\r\n", pos);
+    if (eol == std::string::npos) eol = data.size();
+    std::string name = data.substr(pos, eol - pos);
+    while (!name.empty() && isspace((unsigned char)name.back())) name.pop_back();
+    std::string shown = name.substr(0, 32);
+    for (char &c : shown)
+      if (!isprint((unsigned char)c)) c = '?';
+    PetscCheck(name.size() > 1 && name[0] == '$' && name.compare(0, 4, "$End") != 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": '%s' where a section ($Name) should begin", file, line, shown.c_str());
+    PetscCheck(sections > 0 || name == "$MeshFormat", PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a Gmsh file begins with $MeshFormat, not '%s'", file, line, shown.c_str());
+    const std::string end = "\n$End" + name.substr(1);
+    size_t            at  = eol;
+    while ((at = data.find(end, at)) != std::string::npos) {
+      const size_t after = at + end.size();
+      if (after == data.size() || isspace((unsigned char)data[after])) break;
+      at = after;
+    }
+    PetscCheck(at != std::string::npos, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": section %s has no $End%s line (a truncated or malformed .msh file)", file, line, shown.c_str(), shown.c_str() + 1);
+    lines_to(at + end.size());
+    sections++;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m)
 {
@@ -20,14 +71,7 @@ PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m)
   const PetscScalar *xa;
 
   PetscFunctionBeginUser;
-  {
-    FILE *fp = fopen(file, "rb");
-    PetscCheck(fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s: cannot open (%s)", file, strerror(errno));
-    fseek(fp, 0, SEEK_END);
-    long size = ftell(fp);
-    fclose(fp);
-    PetscCheck(size > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
-  }
+  PetscCall(GmshCheckSections(file));
   /* PETSc 3.18's reader crashes on some malformed files (runs/fuzz/open/gmsh): guarded */
   int            crash = 0;
   PetscErrorCode ierr  = MSimCaptureError(

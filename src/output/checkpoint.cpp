@@ -193,12 +193,15 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     PetscCall(PetscViewerDestroy(&v));
     SETERRQ(sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_restart %s: the checkpoint is at step %" PetscInt_FMT " and -msim_steps is %" PetscInt_FMT ": nothing left to run", F, header[H_STEP], steps);
   }
+  /* a vector the file's size admits but VecLoad refuses still closes the file */
+  PetscErrorCode load = PETSC_SUCCESS;
   for (Vec target : {X, V}) {
-    PetscCall(VecLoad(sys->natural, v));
+    if ((load = VecLoad(sys->natural, v))) break;
     PetscCall(VecScatterBegin(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
     PetscCall(VecScatterEnd(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
   }
   PetscCall(PetscViewerDestroy(&v));
+  PetscCall(load);
   *step      = header[H_STEP];
   *t         = reals[0];
   *dt        = reals[1];
