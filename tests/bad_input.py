@@ -48,6 +48,10 @@ CASES = [
     (["-msim_scene", "chain", "-msim_chain_n", "2", "-msim_fix", "corners"], "every vertex of the chain scene is fixed: nothing to simulate"),
     (["-msim_cloth_n", "2", "-msim_springs", "bending"], "the cloth scene has no springs"),
     (["-msim_output", "/proc/msim_cannot/out"], "-msim_output: cannot create or write directory /proc/msim_cannot/out"),
+    # monitor files are opened after the output directory is made (they may live in it), and a
+    # refusal takes the new directory away again
+    (["-msim_monitor_csv", "/proc/msim_cannot/m.csv"], "-msim_monitor_csv: cannot write /proc/msim_cannot/m.csv"),
+    (["-msim_integrator", "implicit_euler", "-msim_monitor_convergence", "/proc/msim_cannot/c.csv"], "-msim_monitor_convergence: cannot write /proc/msim_cannot/c.csv"),
     (["-msim_integrator", "implicit_euler", "-msim_step_atol", "-1"], "-msim_step_atol must be >= 0"),
     # inertia correction reads the inertia of MUMPS's LDL^T of the exact Hessian: nothing else has it
     (["-msim_integrator", "implicit_euler", "-msim_inertia_correction"], "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS"),

@@ -9,5 +9,6 @@ PetscErrorCode MSimConvergenceMonitorCreate(MSimSystem sys, MSimConvergenceMonit
 PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES snes, MSimImplicit imp);
 /* step: the step about to be taken; first_step: this run's first (rows of earlier steps in an
    existing file are kept when a restarted run opens it) */
+PetscErrorCode MSimConvergenceMonitorOpen(MSimConvergenceMonitor mon, PetscInt first_step); /* collective; BeginStep opens it if not yet */
 PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon, PetscInt step, PetscInt first_step);
 PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon);

@@ -14,6 +14,7 @@ typedef struct {
   PetscErrorCode (*setup)(MSimIntegrator);
   PetscErrorCode (*step)(MSimIntegrator, PetscReal t, Vec X, Vec V); /* advance (X, V) from t to t + dt */
   PetscErrorCode (*view)(MSimIntegrator, PetscViewer);
+  PetscErrorCode (*openfiles)(MSimIntegrator); /* optional: its monitor files, opened before the run writes anything */
   PetscErrorCode (*destroy)(MSimIntegrator);
 } MSimIntegratorOps;
 

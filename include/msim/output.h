@@ -11,6 +11,9 @@ typedef struct _n_MSimOutput *MSimOutput;
 /* -msim_output DIR, -msim_output_every k. Returns NULL output (no-op) when no directory is set. */
 PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out);
 PetscErrorCode MSimOutputSetUp(MSimOutput out); /* creates the directory: call once input is valid */
+/* Takes away the directories MSimOutputSetUp created while they are still empty: for a run refused
+   after it (a monitor file that cannot be written), which then leaves nothing behind. */
+PetscErrorCode MSimOutputRemoveIfUnused(MSimOutput out);
 /* A restarted run: the series lists the frames on disk up to that step, and goes on */
 PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step);
 PetscErrorCode MSimOutputWanted(MSimOutput out, PetscInt step, PetscInt last, PetscBool *want);
@@ -18,7 +21,9 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
 /* A file NAME.vtu in the output directory outside the series (e.g. the last finite state). */
 PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X);
 PetscErrorCode MSimOutputDestroy(MSimOutput *out);
-PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[]);
+/* made (optional, len bytes): the outermost directory this call created ("" if none), so that a run
+   refused before it writes anything can take them away again (MSimOutputRemoveIfUnused) */
+PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[], char made[], size_t len);
 
 /* One .vtu file (raw appended binary): points, cells of cell_size vertices each (2: VTK_LINE, 3:
    VTK_TRIANGLE, 4: VTK_TETRA), the fixed flag, and optionally one point vector field `name` (e.g.

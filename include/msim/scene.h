@@ -14,7 +14,7 @@
 
 enum MSimSpringFamily { MSIM_STRUCTURAL = 0, MSIM_SHEAR = 1, MSIM_BENDING = 2, MSIM_EDGE = 3 };
 
-typedef struct {
+typedef struct _n_MSimSceneData {
   /* made by the generator on this rank */
   PetscInt               nv = 0;       /* vertices of the whole scene (every rank knows it) */
   std::vector<PetscInt>  vid;          /* vertices made here: input ids ... */

@@ -7,8 +7,9 @@ RSS summed over ranks (-memory_view) and bytes per spring. Each figure that has 
 beside it with the ratio. Cost bound of the explicit force: the bytes it must move (28 B per spring,
 see explicit.py) at the triad bandwidth of as many ranks streaming at once (stream.cpp), and the
 measured force time as a multiple of it.
-Writes suite.csv and suite.png. Usage: runs/bench/run [--quick] [--ranks 1,2] (--quick: cloths only,
-one run each)."""
+Writes suite.csv, suite.md (the table runs/bench/README.md shows) and suite.png.
+Usage: runs/bench/run [--quick] [--ranks 1,2] [--table] (--quick: cloths only, one run each;
+--table: rewrite suite.md from suite.csv)."""
 import argparse
 import csv
 import os
@@ -89,7 +90,12 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--ranks", default="1,2")
+    ap.add_argument("--table", action="store_true", help="only rewrite suite.md from suite.csv")
     a = ap.parse_args()
+    if a.table:
+        with open(os.path.join(HERE, "suite.csv")) as f:
+            write_table(list(csv.DictReader(f)))
+        return
     ranks = [int(x) for x in a.ranks.split(",")]
     reps = 1 if a.quick else 3
     subprocess.run(["mpicxx", "-O3", "-march=x86-64-v2", os.path.join(HERE, "stream.cpp"), "-o", STREAM], check=True)
@@ -139,7 +145,31 @@ def main():
                 print(f"{scene:10s} {np_}r {name:45s} {row['ms_per_step']:10.3f} ms/step {row['iterations_per_step']:6.1f} its "
                       f"{row['bytes_per_spring']:8.1f} B/spring{bound}{tgt}", flush=True)
                 write_csv(rows)  # after every row, so an interrupted suite keeps what it measured
+    write_table(rows)
     plot(rows, ranks)
+
+
+def write_table(rows):
+    """suite.md: one line per scene and method, the rank counts side by side, targets with ratios"""
+    def num(x):
+        return "" if x in ("", None) else f"{float(x):,.3g}" if float(x) < 100 else f"{float(x):,.0f}"
+    by = {}
+    for r in rows:
+        by.setdefault((r["scene"], r["method"]), {})[int(r["ranks"])] = r
+    lines = ["| scene (springs) | method | ms/step 1 rank | 2 ranks | speedup | its/step | ms/it (1 rank) | B/spring 1 / 2 ranks | target: ratio |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for (scene, method), rk in by.items():
+        one, two = rk.get(1), rk.get(2)
+        first = one or two
+        speed = f"{float(one['ms_per_step']) / float(two['ms_per_step']):.2f}x" if one and two else ""
+        tgt = "; ".join(f"{r['target_metric'].replace('_', ' ')} <= {num(r['target'])} ({n} rank{'s' if n > 1 else ''}): {r['ratio_to_target']}"
+                        for n, r in sorted(rk.items()) if r.get("target_metric"))
+        cell = method.replace("|", "\\|")  # a bar in a name would end the table's cell
+        lines.append(f"| {scene} ({int(first['springs']):,}) | {cell} | {num(one['ms_per_step']) if one else ''} | {num(two['ms_per_step']) if two else ''} | "
+                     f"{speed} | {first['iterations_per_step']} | {num(one['ms_per_iteration']) if one else ''} | "
+                     f"{num(one['bytes_per_spring']) if one else ''} / {num(two['bytes_per_spring']) if two else ''} | {tgt} |")
+    with open(os.path.join(HERE, "suite.md"), "w") as f:
+        f.write("\n".join(lines) + "\n")
 
 
 def write_csv(rows):

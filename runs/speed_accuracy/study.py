@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """Speed against accuracy of every integrator and implicit solver, over whole runs.
 
-1. Per-step solver accuracy. Steps 1, 10, 30 and 60 of the benchmark cloth (101 x 101, h = 1/30 s)
-   and of a falling rope (1000 vertices, one end fixed, h = 1/30 s), each solved by every method
+1. Per-step solver accuracy. Steps 1, 10, 30 and 60 of the benchmark cloth (101 x 101, h = 1/30 s),
+   of a falling rope (1000 vertices, one end fixed, h = 1/30 s) and of a tet solid (a cantilever
+   beam, 1 x 0.25 x 0.25 m in 24 x 6 x 6 cubes, 7,056 springs, Young's modulus 2e5 Pa, 100 kg/m^3,
+   clamped at x = 0, swinging under gravity), each solved by every method
    from the same start: the implicit Euler trajectory solved tightly (exact-Hessian Newton,
    |g| <= 1e-9 |g0|) up to the step before, taken from a checkpoint (-msim_restart).
    -msim_monitor_convergence gives Phi(x_k), |g(x_k)| and wall time per iteration; Phi* is the lowest
@@ -11,7 +13,7 @@
    The one-off PD factorization (MSimPDSetUp), which a whole run pays once, is taken out of the
    times of the step it falls in.
 2. Trajectory accuracy (work-precision). The largest vertex distance and the energy difference at
-   T (the cloth 0.2 s, before it folds chaotically; the rope 1 s) against (a) the implicit Euler trajectory solved tightly at the same h (solver error
+   T (the cloth 0.2 s, before it folds chaotically; the rope 1 s; the beam 0.5 s) against (a) the implicit Euler trajectory solved tightly at the same h (solver error
    alone) and (b) RK4 at a tiny step (discretisation + solver error), against the cost per
    simulated second (MSimStep time / T), for every integrator and solver at several h and
    iteration budgets; and the energy PD loses per simulated second against its iteration count,
@@ -20,8 +22,9 @@ Writes per_step.csv, per_step_summary.csv, trajectory.csv, per_step.png, work_pr
 energy_loss.png. 3. Median over steps 1 ... 30 of the cloth, each from the tight trajectory: time to 1e-4 and
    1e-6 for the fastest methods, the median and the worst step.
 Writes also median_steps.csv, median_summary.csv.
-Usage: /usr/bin/python3 runs/speed_accuracy/study.py [part: steps|median|trajectory|plot]
-(one rank for every timed run; the tight reference solves run on 2 ranks)."""
+Usage: /usr/bin/python3 runs/speed_accuracy/study.py [part: steps|median|trajectory|plot] [scenes]
+(scenes: cloth, rope, solid; default all. Rows of the scenes named replace theirs in the CSVs, the
+others' stay. One rank for every timed run; the tight reference solves run on 2 ranks)."""
 import csv
 import math
 import os
@@ -37,6 +40,7 @@ H = "0.0333333333333333"
 SCENES = {
     "cloth": "-msim_cloth_n 101 -msim_integrator implicit_euler",
     "rope": "-msim_scene chain -msim_chain_n 1000 -msim_fix edge -msim_integrator implicit_euler",
+    "solid": "-msim_scene box -msim_box_n 24,6,6 -msim_box_size 1,0.25,0.25 -msim_fix_plane x_min -msim_young 2e5 -msim_density 100 -msim_integrator implicit_euler",
 }
 LOOSE = "-snes_rtol 0 -snes_atol 0 -snes_stol 0"
 NEWTON_EXACT = "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -msim_check_saddle 0"
@@ -98,9 +102,9 @@ def solve_step(scene, opts, step, checkpoint):
     return [(i, max(t - (setup if i > 0 else 0), 0.0), p, g) for i, t, p, g in it]
 
 
-def per_step():
+def per_step(scenes):
     rows, summary = [], []
-    for scene in SCENES:
+    for scene in scenes:
         checkpoints(scene)
         for step in STEPS:
             data = {}
@@ -127,8 +131,8 @@ def per_step():
                          final_relative_energy=f"{rel[-1][0]:.2e}", final_relative_gnorm=f"{it[-1][3] / it[0][3]:.2e}" if it[0][3] > 0 else "")
                 summary.append(s)
                 print(s, flush=True)
-    write(os.path.join(HERE, "per_step.csv"), rows)
-    write(os.path.join(HERE, "per_step_summary.csv"), summary)
+    merge(os.path.join(HERE, "per_step.csv"), rows, scenes)
+    merge(os.path.join(HERE, "per_step_summary.csv"), summary, scenes)
 
 
 MEDIAN_STEPS = 30
@@ -192,6 +196,15 @@ def median_steps():
     write(os.path.join(HERE, "median_summary.csv"), summary)
 
 
+def merge(path, rows, scenes):
+    """rows replace those of their scenes in path; other scenes' rows are kept"""
+    kept = []
+    if os.path.exists(path):
+        with open(path) as f:
+            kept = [r for r in csv.DictReader(f) if r["scene"] not in scenes]
+    write(path, kept + rows)
+
+
 def write(path, rows):
     fields = []
     for r in rows:
@@ -208,7 +221,7 @@ def final_state(path):
 
 # Final times: the cloth folds chaotically once it buckles (two RK4 runs at h = 1e-4 and 5e-5 end
 # 4 cm apart at 1 s), so its trajectories are compared at 0.2 s, before the folds; the rope at 1 s.
-T_END = {"cloth": 0.2, "rope": 1.0}
+T_END = {"cloth": 0.2, "rope": 1.0, "solid": 0.5}
 
 
 def run_traj(scene, integrator, h, opts, tag, np_=1):
@@ -228,7 +241,7 @@ def distance(a, b):
     return max(math.dist(a[i:i + 3], b[i:i + 3]) for i in range(0, len(a), 3))
 
 
-def trajectory():
+def trajectory(scenes):
     """every run to T_END: error against the tight implicit Euler at the same h and against RK4"""
     cases = {  # scene: (RK4 reference h, [(integrator, h, label, options)])
         "cloth": ("2.5e-5", [("symplectic_euler", h, "symplectic Euler", "") for h in ("1.5e-4", "1e-4")]
@@ -246,9 +259,21 @@ def trajectory():
                  + [("implicit_euler", H, f"PD, {n} its", f"-snes_type pd -snes_pd_fixed -snes_max_it {n}") for n in (5, 20, 50, 100, 200)]
                  + [("implicit_euler", H, f"L-BFGS, {n} its", f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it {n}") for n in (5, 10, 20, 50)]
                  + [("implicit_euler", h, "Newton-CG PD factor, |dx| < 1e-3", f"{NEWTON_CG_PD} {LOOSE} -msim_step_atol 1e-3 -snes_max_it 20") for h in (H, "0.01", "0.001")]),
+        # the beam: omega_max = 2753 rad/s (-msim_spectrum), so symplectic Euler is stable below
+        # 2 / omega_max = 7.3e-4 s and RK4 below 2.8 / omega_max = 1.0e-3 s
+        "solid": ("1e-5", [("symplectic_euler", h, "symplectic Euler", "") for h in ("5e-4", "2.5e-4", "1.25e-4")]
+                  + [("rk4", h, "RK4", "") for h in ("8e-4", "4e-4", "2e-4")]
+                  + [("implicit_euler", h, "PD, 10 its", "-snes_type pd -snes_pd_fixed -snes_max_it 10") for h in (H, "0.01")]
+                  + [("implicit_euler", H, f"PD, {n} its", f"-snes_type pd -snes_pd_fixed -snes_max_it {n}") for n in (5, 20, 50, 100, 200)]
+                  + [("implicit_euler", H, f"L-BFGS, {n} its", f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it {n}") for n in (5, 10, 20, 50)]
+                  + [("implicit_euler", H, "Baraff-Witkin", "-snes_type ksponly -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps")]
+                  + [("implicit_euler", H, f"Newton-CG GAMG, |dx| < {d}", f"-snes_type newtonls -ksp_type cg -pc_type gamg -snes_ksp_ew {LOOSE} -msim_step_atol {d} -snes_max_it 20") for d in ("1e-2", "1e-3", "1e-4")]
+                  + [("implicit_euler", h, "Newton-CG PD factor, |dx| < 1e-3", f"{NEWTON_CG_PD} {LOOSE} -msim_step_atol 1e-3 -snes_max_it 20") for h in (H, "0.01")]),
     }
     rows = []
     for scene, (href, runs) in cases.items():
+        if scene not in scenes:
+            continue
         ref = run_traj(scene, "rk4", href, "", f"{scene}_rk4_ref")
         tight = {}
         for integrator, h, label, opts in runs:
@@ -268,7 +293,7 @@ def trajectory():
                              error_vs_tight_m=f"{vs_tight:.3e}" if vs_tight != "" else "", error_vs_rk4_m=f"{distance(x, ref[0]):.3e}",
                              energy_vs_rk4_J=f"{e[-1] - ref[1][-1]:.3e}", energy_lost_per_s_J=f"{(e[0] - e[-1]) / T_END[scene]:.4e}"))
             print(rows[-1], flush=True)
-    write(os.path.join(HERE, "trajectory.csv"), rows)
+    merge(os.path.join(HERE, "trajectory.csv"), rows, scenes)
 
 
 def plot():
@@ -280,8 +305,9 @@ def plot():
         return
     with open(os.path.join(HERE, "per_step.csv")) as f:
         rows = list(csv.DictReader(f))
-    fig, axes = plt.subplots(2, len(STEPS), figsize=(4.2 * len(STEPS), 8), sharey=True)
-    for r_, scene in enumerate(SCENES):
+    shown = [sc for sc in SCENES if any(r["scene"] == sc for r in rows)]
+    fig, axes = plt.subplots(len(shown), len(STEPS), figsize=(4.2 * len(STEPS), 4 * len(shown)), sharey=True, squeeze=False)
+    for r_, scene in enumerate(shown):
         for c, step in enumerate(STEPS):
             ax = axes[r_][c]
             for name, _ in PER_STEP:
@@ -303,11 +329,12 @@ def plot():
 
     with open(os.path.join(HERE, "trajectory.csv")) as f:
         traj = [r for r in csv.DictReader(f)]
-    fig, axes = plt.subplots(1, 3, figsize=(17, 5.2))
+    fig, axes = plt.subplots(2, 2, figsize=(13, 10))
     panels = [("cloth", "error_vs_rk4_m", "cloth: error at T = 0.2 s against RK4 (discretisation + solver)"),
               ("cloth", "error_vs_tight_m", "cloth: against implicit Euler solved tightly (solver error)"),
-              ("rope", "error_vs_rk4_m", "rope: error at T = 1 s against RK4")]
-    for ax, (scene, col, title) in zip(axes, panels):
+              ("rope", "error_vs_rk4_m", "rope: error at T = 1 s against RK4"),
+              ("solid", "error_vs_rk4_m", "tet beam: error at T = 0.5 s against RK4")]
+    for ax, (scene, col, title) in zip(axes.flat, panels):
         families = {}
         for r in traj:
             if r["scene"] != scene or not r[col] or not r["cost_s_per_sim_s"]:
@@ -347,12 +374,13 @@ def plot():
 def main():
     os.makedirs(TMP, exist_ok=True)
     part = sys.argv[1] if len(sys.argv) > 1 else "all"
+    scenes = sys.argv[2:] or list(SCENES)
     if part in ("steps", "all"):
-        per_step()
+        per_step(scenes)
     if part in ("median", "all"):
         median_steps()
     if part in ("trajectory", "all"):
-        trajectory()
+        trajectory(scenes)
     plot()
 
 

@@ -97,7 +97,15 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
      it), then open the monitor files */
   PetscCall(MSimOutputSetUp(out));
   if (restarted) PetscCall(MSimOutputResume(out, step0));
-  PetscCall(MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1));
+  integ->first_step = step0 + 1;
+  {
+    PetscErrorCode merr = MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1);
+    if (!merr && integ->ops.openfiles) merr = integ->ops.openfiles(integ);
+    if (merr) { /* refused before anything is written: the new output directory goes again */
+      PetscCall(MSimOutputRemoveIfUnused(out));
+      PetscCall(merr);
+    }
+  }
   /* the time at step k: k h, or after a restart with another step size, from the checkpoint's */
   const PetscBool same_dt = (PetscBool)(!restarted || dt_ck == integ->dt);
   auto            time_at = [&](PetscInt k) { return same_dt ? k * integ->dt : t_ck + (k - step0) * integ->dt; };

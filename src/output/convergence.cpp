@@ -7,6 +7,7 @@ struct _n_MSimConvergenceMonitor {
   MSimImplicit   imp;
   char           path[PETSC_MAX_PATH_LEN];
   FILE          *fp;
+  PetscBool      opened;
   PetscInt       step, first_step;
   PetscLogDouble start, spent; /* step start, time spent inside the monitor */
   Vec            G;
@@ -45,13 +46,6 @@ static PetscErrorCode MSimConvergenceMonitorIterate(SNES snes, PetscInt its, Pet
   PetscCall(VecNorm(mon->G, NORM_2, &gnorm));
   if (mon->sys->rank == 0) {
     /* rows flushed as they are made: a killed run keeps its history up to the last row */
-    if (!mon->fp) {
-      PetscBool kept = PETSC_FALSE;
-      if (mon->first_step > 1) PetscCall(MSimCSVKeepSteps(mon->path, mon->first_step - 1, &kept));
-      mon->fp = fopen(mon->path, kept ? "a" : "w");
-      PetscCheck(mon->fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "-msim_monitor_convergence: cannot write %s", mon->path);
-      if (!kept) fprintf(mon->fp, "step,iteration,wall_s,phi,gnorm\n");
-    }
     const int wrote = fprintf(mon->fp, "%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.17e,%.6e\n", mon->step, its, t0 - mon->start - mon->spent, (double)phi, (double)gnorm);
     PetscCheck(wrote > 0 && fflush(mon->fp) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_convergence: write to %s failed", mon->path);
   }
@@ -68,12 +62,34 @@ PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES sne
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Opened by rank 0 with every rank told, before the run writes anything (the integrator's
+   openfiles) or at the latest before the first step's solve: a file that cannot be written stops
+   the run on every rank with one line, not rank 0 alone inside a solve. */
+PetscErrorCode MSimConvergenceMonitorOpen(MSimConvergenceMonitor mon, PetscInt first_step)
+{
+  int ok = 1;
+
+  PetscFunctionBeginUser;
+  if (!mon || mon->opened) PetscFunctionReturn(PETSC_SUCCESS);
+  if (mon->sys->rank == 0) {
+    PetscBool kept = PETSC_FALSE;
+    if (first_step > 1) PetscCall(MSimCSVKeepSteps(mon->path, first_step - 1, &kept));
+    mon->fp = fopen(mon->path, kept ? "a" : "w");
+    ok      = mon->fp && (kept || (fprintf(mon->fp, "step,iteration,wall_s,phi,gnorm\n") > 0 && fflush(mon->fp) == 0));
+  }
+  PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, mon->sys->comm));
+  PetscCheck(ok, mon->sys->comm, PETSC_ERR_FILE_OPEN, "-msim_monitor_convergence: cannot write %s", mon->path);
+  mon->opened = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimConvergenceMonitorBeginStep(MSimConvergenceMonitor mon, PetscInt step, PetscInt first_step)
 {
   PetscFunctionBeginUser;
   mon->step       = step;
   mon->first_step = first_step;
   mon->spent = 0;
+  if (!mon->opened) PetscCall(MSimConvergenceMonitorOpen(mon, first_step));
   PetscCall(PetscTime(&mon->start));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -7,6 +7,7 @@
 #include <vector>
 #include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -19,6 +20,7 @@ struct _n_MSimOutput {
   MSimHDF5Series        h5;
   std::vector<char>     fixed; /* .vtu: on rank 0, every vertex's flag and the cells drawn, in input ids */
   std::vector<PetscInt> cells;
+  char                  made[PETSC_MAX_PATH_LEN] = ""; /* the outermost directory SetUp created */
 };
 
 PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
@@ -47,19 +49,22 @@ PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
 }
 
 /* mkdir -p on rank 0; every rank learns the outcome, so a failure is a collective error. */
-PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[])
+PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char option[], char made[], size_t len)
 {
   PetscMPIInt rank;
   int         ok = 1;
 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  if (made && len) made[0] = 0;
   if (rank == 0) {
     std::string path(dir);
     for (size_t pos = 1; ok && pos <= path.size(); pos++) {
       if (pos < path.size() && path[pos] != '/') continue;
       std::string part = path.substr(0, pos);
-      if (mkdir(part.c_str(), 0755) != 0 && errno != EEXIST) ok = 0;
+      if (mkdir(part.c_str(), 0755) == 0) {
+        if (made && len && !made[0]) PetscCall(PetscStrncpy(made, part.c_str(), len));
+      } else if (errno != EEXIST) ok = 0;
     }
     if (ok && access(dir, W_OK) != 0) ok = 0;
   }
@@ -68,11 +73,26 @@ PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char opt
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimOutputRemoveIfUnused(MSimOutput out)
+{
+  PetscFunctionBeginUser;
+  if (!out || !out->made[0] || out->sys->rank != 0) PetscFunctionReturn(PETSC_SUCCESS);
+  /* from the innermost up to the outermost one created; rmdir takes only empty ones */
+  std::string path(out->dir);
+  while (!path.empty() && path.back() == '/') path.pop_back();
+  while (path.size() >= strlen(out->made) && rmdir(path.c_str()) == 0) {
+    const size_t slash = path.find_last_of('/');
+    if (slash == std::string::npos || path == out->made) break;
+    path.resize(slash);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimOutputSetUp(MSimOutput out)
 {
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MSimMakeDirectory(out->sys->comm, out->dir, "-msim_output"));
+  PetscCall(MSimMakeDirectory(out->sys->comm, out->dir, "-msim_output", out->made, sizeof(out->made)));
   /* a serial series: rank 0 writes every frame whole, so it holds the topology */
   if (out->hdf5) PetscCall(MSimHDF5SeriesSetUp(&out->h5, out->sys, out->dir));
   else PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));

@@ -1,6 +1,7 @@
 /* Scene registry, the options every scene shares (stiffness, mass; fixed vertices: fix.cpp), and the
    order of the distributed steps after a generator ran. */
 #include <msim/scene.h>
+#include <memory>
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
@@ -98,7 +99,8 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
 
   PetscFunctionBeginUser;
   PetscCall(MSimSceneRegisterAll());
-  sc = new _n_MSimScene();
+  std::unique_ptr<_n_MSimScene> owner(new _n_MSimScene()); /* freed if the scene is refused */
+  sc = owner.get();
   sc->fix_velocity[0] = sc->fix_velocity[1] = sc->fix_velocity[2] = 0.0;
   sc->prestretch = 1.0;
   sc->perturb    = 0.0;
@@ -207,7 +209,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   }
   PetscCall(PetscLogStagePop());
   if (view) PetscCall(MSimSceneView(comm, &sc->data));
-  *scene = sc;
+  *scene = owner.release();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

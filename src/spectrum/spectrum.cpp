@@ -119,7 +119,7 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
       std::vector<PetscReal> pos, disp;
       std::vector<char>      fixed;
       std::vector<PetscInt>  cells;
-      PetscCall(MSimMakeDirectory(sys->comm, dir, "-msim_spectrum_modes"));
+      PetscCall(MSimMakeDirectory(sys->comm, dir, "-msim_spectrum_modes", NULL, 0));
       PetscCall(MSimSystemGatherTopology(sys, fixed, cells));
       PetscCall(MSimSystemGatherPositions(sys, 0.0, X, pos));
       for (PetscInt k = 0; k < nlow; k++) {

@@ -29,10 +29,9 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
+static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys)
 {
-  MSimSystem           sys = new _n_MSimSystem();
-  const MSimSceneData &S   = scene->data;
+  const MSimSceneData &S = scene->data;
   char                 partition[32];
   PetscBool            view_partition = PETSC_FALSE;
   PetscInt             order          = 0;
@@ -229,6 +228,22 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
   PetscCall(PetscLogStagePop());
   if (view_partition) PetscCall(MSimSystemViewPartition(sys, partition, L.cut, L.between_free));
   PetscCall(PetscLogEventEnd(MSIM_Setup, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
+{
+  MSimSystem sys = new _n_MSimSystem();
+
+  PetscFunctionBeginUser;
+  *out = NULL;
+  /* a refused scene frees what was built of it: a caller that goes on (a fuzzer, a library user
+     trying another scene) keeps no part of it */
+  PetscErrorCode ierr = SystemBuild(comm, scene, sys);
+  if (ierr) {
+    PetscCall(MSimSystemDestroy(&sys));
+    PetscCall(ierr);
+  }
   *out = sys;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

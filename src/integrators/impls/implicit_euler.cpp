@@ -385,6 +385,15 @@ static PetscErrorCode SetFromOptions_ImplicitEuler(MSimIntegrator integ)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static PetscErrorCode OpenFiles_ImplicitEuler(MSimIntegrator integ)
+{
+  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimConvergenceMonitorOpen(ie->conv, integ->first_step));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator integ)
 {
   ImplicitEuler *ie;
@@ -397,6 +406,7 @@ PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator integ)
   integ->ops.setup          = Setup_ImplicitEuler;
   integ->ops.step           = Step_ImplicitEuler;
   integ->ops.view           = View_ImplicitEuler;
+  integ->ops.openfiles      = OpenFiles_ImplicitEuler;
   integ->ops.destroy        = Destroy_ImplicitEuler;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
