@@ -10,6 +10,8 @@
 #include <msim/system.h>
 #include <cstdio>
 #include <cstring>
+#include <dirent.h>
+#include <set>
 #include <string>
 #include <unistd.h>
 
@@ -61,6 +63,18 @@ static void CutDown(void)
   if (!PetscOptionsGetString(NULL, NULL, "-msim_tetgen_switches", sw, sizeof sw, &set) && set && strpbrk(sw, "aqAS")) PetscOptionsSetValue(NULL, "-msim_tetgen_switches", "pY");
 }
 
+static std::set<int> OpenDescriptors(void)
+{
+  std::set<int> fds;
+  if (DIR *d = opendir("/proc/self/fd")) {
+    const int self = dirfd(d);
+    while (struct dirent *e = readdir(d))
+      if (e->d_name[0] != '.' && atoi(e->d_name) != self) fds.insert(atoi(e->d_name));
+    closedir(d);
+  }
+  return fds;
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
   const std::string file = dir + "/input.opts";
@@ -72,7 +86,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
   if (size && fwrite(data, 1, size, f) != size) abort();
   fclose(f);
   if (PetscOptionsClear(NULL)) abort();
-  if (PetscOptionsInsertFile(PETSC_COMM_SELF, NULL, file.c_str(), PETSC_TRUE)) return 0;
+  const std::set<int> open_before = OpenDescriptors();
+  if (PetscOptionsInsertFile(PETSC_COMM_SELF, NULL, file.c_str(), PETSC_TRUE)) {
+    /* PETSc 3.18 leaves the file open when it refuses a line (msim then exits): closed here, or
+       the fuzzer runs out of descriptors after a few thousand refusals */
+    for (int fd : OpenDescriptors())
+      if (!open_before.count(fd)) close(fd);
+    return 0;
+  }
   CutDown();
   int stage = 0; /* how far the input got: MSIM_FUZZ_VERBOSE prints it, to see what the seeds reach */
   if (!MSimSceneCreateFromOptions(PETSC_COMM_SELF, &scene) && ++stage && !MSimSystemCreate(PETSC_COMM_SELF, scene, &sys) && ++stage && !MSimIntegratorCreate(sys, &integ) &&

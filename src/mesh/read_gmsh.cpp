@@ -16,7 +16,7 @@ PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, s
    line is missing, never returns at the end of the file (runs/fuzz/findings/gmsh/timeout-*): so
    msim walks the sections first. Binary sections are skipped the same way, by searching for their
    end line; only the text between sections is required to be blank. */
-static PetscErrorCode GmshCheckSections(const char file[])
+static PetscErrorCode GmshCheckSections(const char file[], size_t *bytes)
 {
   std::string data;
 
@@ -30,6 +30,7 @@ static PetscErrorCode GmshCheckSections(const char file[])
     fclose(fp);
   }
   PetscCheck(!data.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
+  *bytes = data.size();
   size_t   pos = 0, sections = 0;
   PetscInt line = 1;
   auto     lines_to = [&](size_t end) {
@@ -71,17 +72,23 @@ PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m)
   const PetscScalar *xa;
 
   PetscFunctionBeginUser;
-  PetscCall(GmshCheckSections(file));
-  /* PETSc 3.18's reader crashes on some malformed files (runs/fuzz/open/gmsh): guarded */
+  size_t bytes, refused = 0;
+  PetscCall(GmshCheckSections(file, &bytes));
+  /* PETSc 3.18's reader crashes on some malformed files (runs/fuzz/findings/gmsh): guarded. It
+     also trusts counts and ids it reads: no one allocation may exceed 64 bytes per byte of the
+     file (plus 64 MB), so a 17 KB file cannot ask for gigabytes. */
   int            crash = 0;
   PetscErrorCode ierr  = MSimCaptureError(
     [&]() {
-      PetscErrorCode e = PETSC_SUCCESS;
-      crash            = MSimCallGuarded([&]() { e = DMPlexCreateFromFile(PETSC_COMM_SELF, file, "msim", PETSC_FALSE, &dm); });
-      return crash ? PETSC_SUCCESS : e; /* the guard inside the capture: its error handler is popped either way */
+      return MSimCallWithAllocationCap(64 * bytes + (64u << 20), &refused, [&]() {
+        PetscErrorCode e = PETSC_SUCCESS;
+        crash            = MSimCallGuarded([&]() { e = DMPlexCreateFromFile(PETSC_COMM_SELF, file, "msim", PETSC_FALSE, &dm); });
+        return crash ? PETSC_SUCCESS : e; /* the guard inside the capture: its error handler is popped either way */
+      });
     },
     why);
   PetscCheck(!crash, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: PETSc's Gmsh reader crashed on it (signal %d): a malformed .msh file", file, crash);
+  PetscCheck(!refused, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: PETSc's Gmsh reader asked for %.3g GB for a file of %.3g MB: a malformed .msh file (a count or id out of range)", file, refused / 1e9, bytes / 1e6);
   PetscCheck(!ierr, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: PETSc's Gmsh reader: %s", file, why.c_str());
   m->file      = file;
   m->cell_name = "element";
