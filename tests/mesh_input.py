@@ -60,6 +60,8 @@ CORPUS = [
     # an entity's node count cut from 7 to 5, so coordinates are read as tags: PETSc's reader
     # asked for 4 GB (runs/fuzz); msim caps its allocations by the file's size
     ("node_tags_shifted.msh", "tet", "node_tags_shifted.msh: PETSc's Gmsh reader asked for"),
+    # a physical name with one quote: PETSc's reader copied a negative length (runs/fuzz)
+    ("physical_name_unquoted.msh", "tet", "physical_name_unquoted.msh line 6: a physical name must be in double quotes"),
     ("comments_unclosed.msh", "tet", "comments_unclosed.msh line 15: section $Comments has no $EndComments line"),
     ("quadratic.ele", "tet", "line 2: 10 nodes per tet"),
     ("nan_binary.stl", "tet", "nan_binary.stl: facet 2 (binary, counting from 0): a coordinate is NaN"),

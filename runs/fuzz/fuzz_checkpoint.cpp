@@ -6,6 +6,7 @@
 #include <msim/output.h>
 #include <msim/scene.h>
 #include <msim/system.h>
+#include "fuzz_common.h"
 #include <cstdio>
 #include <string>
 #include <unistd.h>
@@ -16,25 +17,16 @@ static std::string dir;
 static MSimSystem  sys;
 static Vec         X, V;
 
-static PetscErrorCode Quiet(MPI_Comm, int, const char *, const char *, PetscErrorCode n, PetscErrorType, const char *, void *)
-{
-  return n; /* refusals are expected: nothing printed */
-}
-
 extern "C" int LLVMFuzzerInitialize(int *, char ***)
 {
-  static char  arg0[] = "fuzz", arg1[] = "-no_signal_handler";
-  static char *args[] = {arg0, arg1, nullptr};
-  int          argc   = 2;
-  char       **argv   = args;
   MSimScene    scene;
-  if (PetscInitialize(&argc, &argv, NULL, NULL) || MSimInitialize()) return 1;
+  if (MSimFuzzInitializePETSc() || MSimInitialize()) return 1;
   char tmpl[] = "/tmp/msim_fuzz_checkpoint_XXXXXX";
   dir         = mkdtemp(tmpl);
   if (PetscOptionsInsertString(NULL, scene_options) || PetscOptionsSetValue(NULL, "-msim_restart", (dir + "/input.ck").c_str())) return 1;
   if (MSimSceneCreateFromOptions(PETSC_COMM_SELF, &scene) || MSimSystemCreate(PETSC_COMM_SELF, scene, &sys) || MSimSceneDestroy(&scene)) return 1;
   if (VecDuplicate(sys->X0, &X) || VecDuplicate(sys->V0, &V)) return 1;
-  PetscPushErrorHandler(Quiet, NULL);
+  PetscPushErrorHandler(MSimFuzzQuiet, NULL);
   return 0;
 }
 

@@ -7,6 +7,7 @@
    Built with -fsanitize=fuzzer it is a fuzzer; without, standalone_main.cpp runs it over files
    (the seed corpus, in ctest). */
 #include <msim/mesh.h>
+#include "fuzz_common.h"
 #include <cstdio>
 #include <string>
 #include <unistd.h>
@@ -17,21 +18,10 @@
 
 static std::string dir;
 
-static PetscErrorCode Quiet(MPI_Comm, int, const char *, const char *, PetscErrorCode n, PetscErrorType, const char *, void *)
-{
-  return n; /* refusals are expected: nothing printed */
-}
-
 extern "C" int LLVMFuzzerInitialize(int *, char ***)
 {
-  /* PETSc's signal handler would catch a crash and abort before the sanitizer and libFuzzer
-     report it and keep the input */
-  static char  arg0[] = "fuzz", arg1[] = "-no_signal_handler";
-  static char *args[] = {arg0, arg1, nullptr};
-  int          argc   = 2;
-  char       **argv   = args;
-  if (PetscInitialize(&argc, &argv, NULL, NULL)) return 1;
-  PetscPushErrorHandler(Quiet, NULL);
+  if (MSimFuzzInitializePETSc()) return 1;
+  PetscPushErrorHandler(MSimFuzzQuiet, NULL);
   char tmpl[] = "/tmp/msim_fuzz_XXXXXX";
   dir         = mkdtemp(tmpl);
   return 0;

@@ -8,6 +8,7 @@
 #include <msim/integrator.h>
 #include <msim/scene.h>
 #include <msim/system.h>
+#include "fuzz_common.h"
 #include <cstdio>
 #include <cstring>
 #include <dirent.h>
@@ -17,19 +18,10 @@
 
 static std::string dir;
 
-static PetscErrorCode Quiet(MPI_Comm, int, const char *, const char *, PetscErrorCode n, PetscErrorType, const char *, void *)
-{
-  return n; /* refusals are expected: nothing printed */
-}
-
 extern "C" int LLVMFuzzerInitialize(int *, char ***)
 {
-  static char  arg0[] = "fuzz", arg1[] = "-no_signal_handler";
-  static char *args[] = {arg0, arg1, nullptr};
-  int          argc   = 2;
-  char       **argv   = args;
-  if (PetscInitialize(&argc, &argv, NULL, NULL) || MSimInitialize()) return 1;
-  PetscPushErrorHandler(Quiet, NULL);
+  if (MSimFuzzInitializePETSc() || MSimInitialize()) return 1;
+  PetscPushErrorHandler(MSimFuzzQuiet, NULL);
   char tmpl[] = "/tmp/msim_fuzz_options_XXXXXX";
   dir         = mkdtemp(tmpl);
   if (chdir(dir.c_str())) return 1;

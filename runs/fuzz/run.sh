@@ -25,9 +25,10 @@ MSIM_EXE=$PWD/build-fuzz/msim ASAN_OPTIONS=detect_leaks=0 /usr/bin/python3 runs/
 fuzz_one() {
   fmt=$1
   mkdir -p build-fuzz/corpus/$fmt build-fuzz/findings/$fmt
-  ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1 build-fuzz/runs/fuzz/$(target "$fmt") build-fuzz/corpus/$fmt build-fuzz/seeds/$fmt \
+  b=$PWD/build-fuzz # absolute: the options harness works in a scratch directory
+  ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1 UBSAN_OPTIONS=print_stacktrace=1 $b/runs/fuzz/$(target "$fmt") $b/corpus/$fmt $b/seeds/$fmt \
     -max_total_time="$each" -rss_limit_mb=2048 -malloc_limit_mb=1024 -timeout=20 -max_len=65536 \
-    -artifact_prefix=build-fuzz/findings/$fmt/ -print_final_stats=1 > build-fuzz/$fmt.log 2>&1 || true
+    -artifact_prefix=$b/findings/$fmt/ -print_final_stats=1 > build-fuzz/$fmt.log 2>&1 || true
   runs=$(grep -o "stat::number_of_executed_units: *[0-9]*" build-fuzz/$fmt.log | grep -o "[0-9]*$" || echo 0)
   found=$(ls build-fuzz/findings/$fmt | wc -l)
   corpus=$(ls build-fuzz/corpus/$fmt | wc -l)

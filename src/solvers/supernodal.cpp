@@ -30,7 +30,7 @@ void SupernodalFactor::Build(int n, const int *colptr, const int *row, const dou
   invdiag_.resize(n);
   for (int s = 0; s < nsn; s++) {
     const int c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
-    double   *D = &val_[vptr_[s]], *B = D + (size_t)w * (w - 1) / 2;
+    double   *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2; /* data(): val_ may be empty (a diagonal matrix) */
     for (int p = 0; p < m; p++) rows_[rptr_[s] + p] = row[colptr[c0] + w + p];
     for (int c = 0; c < w; c++) {
       const int off = colptr[c0 + c];
@@ -95,8 +95,8 @@ void SupernodalFactor::Forward(V4 *z, int ncols) const
   const int nsn = (int)start_.size() - 1;
   for (int s = 0; s < nsn && start_[s] < ncols; s++) {
     const int     c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
-    const double *D = &val_[vptr_[s]], *B = D + (size_t)w * (w - 1) / 2;
-    const int    *R = &rows_[rptr_[s]];
+    const double *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2;
+    const int    *R = rows_.data() + rptr_[s];
     V4           *y = z + c0;
     for (int c = 0; c < w; c++) /* the dense triangle */
       y[c] = RowSubtract(y[c], D + (size_t)c * (c - 1) / 2, y, c) * Splat(invdiag_[c0 + c]);
@@ -112,8 +112,8 @@ void SupernodalFactor::Backward(V4 *z, int ncols) const
   while (last >= 0 && start_[last] >= ncols) last--;
   for (int s = last; s >= 0; s--) {
     const int     c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
-    const double *D = &val_[vptr_[s]], *B = D + (size_t)w * (w - 1) / 2;
-    const int    *R = &rows_[rptr_[s]];
+    const double *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2;
+    const int    *R = rows_.data() + rptr_[s];
     V4           *y = z + c0;
     int           c = 0;
     for (; c + 4 <= w; c += 4) BackwardColumns<4, 2>(B, w, m, R, z, y, c);
