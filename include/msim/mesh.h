@@ -36,9 +36,12 @@ PetscErrorCode MSimMeshReadSTL(const char file[], MSimMesh *m); /* ASCII or bina
 /* TetGen .node/.ele pair; file names either (or their common stem). 0- or 1-based, attributes and
    boundary markers allowed. */
 PetscErrorCode MSimMeshReadTetGen(const char file[], MSimMesh *m);
-/* Gmsh .msh (2.2, 4.0, 4.1; ASCII or binary) through PETSc's DMPlex reader: the cells of the
-   highest dimension, tets (dim 3) or triangles (dim 2). */
+/* Gmsh .msh (2.2, 4.0, 4.1; ASCII or binary): the cells of the highest dimension, tets (dim 3) or
+   triangles (dim 2). Sections checked first; ASCII 2.2 and 4.1 by msim's reader, the others by
+   PETSc's DMPlex reader under a crash guard and an allocation cap. */
 PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m);
+/* Gmsh ASCII 2.2 and 4.1, msim's own reader (MSimMeshReadGmsh sends those files to it) */
+PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m);
 /* By extension: .off .obj .stl .node .ele .msh. want: 3 (a surface) or 4 (tets); a surface given
    where tets are wanted comes back as a surface (the caller tetrahedralizes it). */
 PetscErrorCode MSimMeshReadFile(const char file[], int want, MSimMesh *m);

@@ -1,0 +1,257 @@
+/* Gmsh ASCII .msh, versions 2.2 and 4.1, read by msim itself (binary files and 4.0 go to PETSc's
+   reader). Fuzzing found PETSc 3.18's reader crashing, hanging, overflowing a buffer and asking
+   for gigabytes on malformed files (runs/fuzz/README.md); this one checks every count, id and
+   token and names the file and line of a fault, as the other readers do.
+     2.2: $Nodes: n, then "id x y z"; $Elements: n, then "id type ntags tags... nodes...".
+     4.1: $Nodes: "blocks nodes min max", per block "dim entity parametric n", its n tags, then
+          its n coordinate lines "x y z [u v w]"; $Elements: "blocks elements min max", per
+          block "dim entity type n", then n lines "tag nodes...".
+   Other sections are skipped. msim keeps the elements of the highest dimension (tets of a volume
+   mesh, triangles of a surface mesh) and the nodes they use, in the file's order; tets keep
+   Gmsh's orientation. */
+#include <msim/mesh.h>
+#include "text_file.h"
+#include <unordered_map>
+
+namespace {
+/* Gmsh element types: nodes and dimension (0: a type msim does not know) */
+struct GmshType {
+  int nodes, dim;
+  const char *name;
+};
+GmshType TypeOf(int64_t t)
+{
+  switch (t) {
+  case 1: return {2, 1, "line"};
+  case 2: return {3, 2, "triangle"};
+  case 3: return {4, 2, "quadrangle"};
+  case 4: return {4, 3, "tetrahedron"};
+  case 5: return {8, 3, "hexahedron"};
+  case 6: return {6, 3, "prism"};
+  case 7: return {5, 3, "pyramid"};
+  case 15: return {1, 0, "point"};
+  default: return {0, 0, ""};
+  }
+}
+
+struct Reader {
+  MSimTextFile                           tf;
+  std::unordered_map<int64_t, PetscInt> index; /* node tag -> position in the file */
+  std::vector<PetscReal>                 x;
+  std::vector<PetscInt>                  xline;
+  int                                    top = -1; /* highest element dimension seen */
+  std::vector<int64_t>                   cells;    /* its elements' node tags */
+  std::vector<PetscInt>                  clines;
+  int                                    nper = 0;
+
+  PetscErrorCode Line(const char what[])
+  {
+    PetscFunctionBeginUser;
+    PetscCheck(tf.NextLine(0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends inside %s (truncated)", MSIM_AT(tf), what);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscErrorCode Node(int64_t tag, size_t first)
+  {
+    PetscFunctionBeginUser;
+    PetscCheck(index.emplace(tag, (PetscInt)(x.size() / 3)).second, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": node %lld appears twice", MSIM_AT(tf), (long long)tag);
+    for (int c = 0; c < 3; c++) {
+      PetscReal v;
+      PetscCall(tf.Real(first + c, "coordinate", &v));
+      x.push_back(v);
+    }
+    xline.push_back(tf.line);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  /* an element of type t whose node tags are tokens first ... */
+  PetscErrorCode Element(int64_t t, size_t first)
+  {
+    const GmshType g = TypeOf(t);
+
+    PetscFunctionBeginUser;
+    PetscCheck(g.nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": element type %lld (msim reads linear elements: tets, triangles and their edges and points)", MSIM_AT(tf), (long long)t);
+    PetscCall(tf.NeedTokens(first + g.nodes, first + g.nodes, "an element (its tag, then as many nodes as its type has)"));
+    if (g.dim < top) PetscFunctionReturn(PETSC_SUCCESS);
+    if (g.dim > top) { /* a higher dimension: what came before were its faces, edges or points */
+      top = g.dim;
+      cells.clear();
+      clines.clear();
+      nper = 0;
+    }
+    PetscCheck(g.dim < 2 || t == (g.dim == 3 ? 4 : 2), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a %s (msim reads %s)", MSIM_AT(tf), g.name, g.dim == 3 ? "tets" : "triangles");
+    nper = g.nodes;
+    for (int k = 0; k < g.nodes; k++) {
+      int64_t v;
+      PetscCall(tf.Int(first + k, "node", &v));
+      cells.push_back(v);
+    }
+    clines.push_back(tf.line);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscErrorCode Nodes(double version)
+  {
+    PetscInt blocks = 1, n;
+
+    PetscFunctionBeginUser;
+    PetscCall(Line("$Nodes"));
+    if (version < 3) {
+      PetscCall(tf.NeedTokens(1, 1, "the node count"));
+      PetscCall(tf.Count(0, "node count", &n));
+      x.reserve(3 * tf.Reserve(n, 8));
+      for (PetscInt v = 0; v < n; v++) {
+        int64_t tag;
+        PetscCall(Line("$Nodes (fewer nodes than its count)"));
+        PetscCall(tf.NeedTokens(4, 4, "a node (tag, x, y, z)"));
+        PetscCall(tf.Int(0, "node tag", &tag));
+        PetscCall(Node(tag, 1));
+      }
+    } else {
+      PetscInt total, seen = 0;
+      PetscCall(tf.NeedTokens(4, 4, "the $Nodes header (blocks, nodes, smallest and largest tag)"));
+      PetscCall(tf.Count(0, "block count", &blocks));
+      PetscCall(tf.Count(1, "node count", &total));
+      x.reserve(3 * tf.Reserve(total, 8));
+      for (PetscInt b = 0; b < blocks; b++) {
+        int64_t param, dim;
+        PetscCall(Line("$Nodes (fewer blocks than its count)"));
+        PetscCall(tf.NeedTokens(4, 4, "a node block header (dimension, entity, parametric, nodes)"));
+        PetscCall(tf.Int(0, "entity dimension", &dim));
+        PetscCall(tf.Int(2, "parametric flag", &param));
+        PetscCall(tf.Count(3, "nodes in the block", &n));
+        PetscCheck(dim >= 0 && dim <= 3 && (param == 0 || param == 1), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": entity dimension %lld and parametric flag %lld (0-3 and 0 or 1)", MSIM_AT(tf), (long long)dim, (long long)param);
+        PetscCheck(n <= total - seen, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the blocks hold more nodes than the %" PetscInt_FMT " the header announces", MSIM_AT(tf), total);
+        std::vector<int64_t> tags;
+        tags.reserve(tf.Reserve(n, 2));
+        for (PetscInt v = 0; v < n; v++) {
+          int64_t tag;
+          PetscCall(Line("a node block's tags"));
+          PetscCall(tf.NeedTokens(1, 1, "a node tag"));
+          PetscCall(tf.Int(0, "node tag", &tag));
+          tags.push_back(tag);
+        }
+        const size_t ncoord = 3 + (param ? (size_t)dim : 0);
+        for (PetscInt v = 0; v < n; v++) {
+          PetscCall(Line("a node block's coordinates"));
+          PetscCall(tf.NeedTokens(ncoord, ncoord, "a node's coordinates (x y z, and the parametric ones if the block has them)"));
+          PetscCall(Node(tags[v], 0));
+        }
+        seen += n;
+      }
+      PetscCheck(seen == total, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the blocks hold %" PetscInt_FMT " nodes, the header announces %" PetscInt_FMT, MSIM_AT(tf), seen, total);
+    }
+    PetscCall(End("$EndNodes"));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscErrorCode Elements(double version)
+  {
+    PetscInt n;
+
+    PetscFunctionBeginUser;
+    PetscCall(Line("$Elements"));
+    if (version < 3) {
+      PetscCall(tf.NeedTokens(1, 1, "the element count"));
+      PetscCall(tf.Count(0, "element count", &n));
+      for (PetscInt e = 0; e < n; e++) {
+        int64_t type, ntags;
+        PetscCall(Line("$Elements (fewer elements than its count)"));
+        PetscCall(tf.NeedTokens(3, 1000, "an element (tag, type, tag count, tags, nodes)"));
+        PetscCall(tf.Int(1, "element type", &type));
+        PetscCall(tf.Int(2, "tag count", &ntags));
+        PetscCheck(ntags >= 0 && ntags < 100, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": tag count %lld (0 to 99)", MSIM_AT(tf), (long long)ntags);
+        PetscCall(Element(type, 3 + (size_t)ntags));
+      }
+    } else {
+      PetscInt blocks, total, seen = 0;
+      PetscCall(tf.NeedTokens(4, 4, "the $Elements header (blocks, elements, smallest and largest tag)"));
+      PetscCall(tf.Count(0, "block count", &blocks));
+      PetscCall(tf.Count(1, "element count", &total));
+      for (PetscInt b = 0; b < blocks; b++) {
+        int64_t type;
+        PetscCall(Line("$Elements (fewer blocks than its count)"));
+        PetscCall(tf.NeedTokens(4, 4, "an element block header (dimension, entity, type, elements)"));
+        PetscCall(tf.Int(2, "element type", &type));
+        PetscCall(tf.Count(3, "elements in the block", &n));
+        PetscCheck(n <= total - seen, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the blocks hold more elements than the %" PetscInt_FMT " the header announces", MSIM_AT(tf), total);
+        for (PetscInt e = 0; e < n; e++) {
+          PetscCall(Line("an element block"));
+          PetscCall(Element(type, 1));
+        }
+        seen += n;
+      }
+      PetscCheck(seen == total, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the blocks hold %" PetscInt_FMT " elements, the header announces %" PetscInt_FMT, MSIM_AT(tf), seen, total);
+    }
+    PetscCall(End("$EndElements"));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscErrorCode End(const char word[])
+  {
+    PetscFunctionBeginUser;
+    PetscCall(Line(word));
+    PetscCheck(tf.tok.size() == 1 && tf.Is(0, word), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": '%s' where %s should be (a count is wrong)", MSIM_AT(tf), tf.Show(0).c_str(), word);
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+};
+} // namespace
+
+PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m)
+{
+  Reader    r;
+  PetscReal version = 0;
+  bool      nodes = false, elements = false;
+
+  PetscFunctionBeginUser;
+  PetscCall(r.tf.Load(file));
+  MSimTextFile &tf = r.tf;
+  while (tf.NextLine(0)) {
+    const std::string section(tf.tok[0].p, tf.tok[0].n);
+    if (section == "$MeshFormat") {
+      int64_t type;
+      PetscCall(r.Line("$MeshFormat"));
+      PetscCall(tf.NeedTokens(3, 3, "the format line (version, file type, data size)"));
+      PetscCall(tf.Real(0, "version", &version));
+      PetscCall(tf.Int(1, "file type", &type));
+      PetscCheck(type == 0 && (version == 2.2 || version == 4.1), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": an ASCII file of version 2.2 or 4.1 expected here", MSIM_AT(tf));
+      PetscCall(r.End("$EndMeshFormat"));
+    } else if (section == "$Nodes") {
+      PetscCheck(version > 0 && !nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": $Nodes %s", MSIM_AT(tf), version > 0 ? "a second time" : "before $MeshFormat");
+      PetscCall(r.Nodes(version));
+      nodes = true;
+    } else if (section == "$Elements") {
+      PetscCheck(nodes && !elements, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": $Elements %s", MSIM_AT(tf), nodes ? "a second time" : "before $Nodes");
+      PetscCall(r.Elements(version));
+      elements = true;
+    } else {
+      /* a section msim does not use ($PhysicalNames, $Entities, $Comments, ...): to its end */
+      PetscCheck(section.size() > 1 && section[0] == '$' && section.compare(0, 4, "$End"), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": '%s' where a section ($Name) should begin", MSIM_AT(tf), tf.Show(0).c_str());
+      const std::string end = "$End" + section.substr(1);
+      const PetscInt    at  = tf.line;
+      bool              closed = false;
+      while (!closed && tf.NextLine(0)) closed = tf.tok.size() == 1 && tf.tok[0].n == end.size() && !end.compare(0, end.size(), tf.tok[0].p, tf.tok[0].n);
+      PetscCheck(closed, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": section %s has no %s line", file, at, section.c_str(), end.c_str());
+    }
+  }
+  PetscCheck(elements, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no %s section", file, nodes ? "$Elements" : "$Nodes");
+  PetscCheck(r.top >= 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no tets or triangles (elements of dimension %d at most)", file, r.top);
+  /* the nodes the kept elements use, in the file's order */
+  const PetscInt        nall = (PetscInt)(r.x.size() / 3);
+  std::vector<PetscInt> to(nall, -1);
+  for (size_t k = 0; k < r.cells.size(); k++) {
+    auto it = r.index.find(r.cells[k]);
+    PetscCheck(it != r.index.end(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": node %lld is not in $Nodes", file, r.clines[k / r.nper], (long long)r.cells[k]);
+    to[it->second] = 0;
+  }
+  m->file      = file;
+  m->cell_name = "element";
+  m->nper      = r.nper;
+  m->nv        = 0;
+  for (PetscInt v = 0; v < nall; v++)
+    if (!to[v]) {
+      to[v] = m->nv++;
+      m->x.insert(m->x.end(), r.x.begin() + 3 * v, r.x.begin() + 3 * v + 3);
+      m->vline.push_back(r.xline[v]);
+    }
+  m->ncell = (PetscInt)r.clines.size();
+  m->cell.resize(r.cells.size());
+  for (size_t k = 0; k < r.cells.size(); k++) m->cell[k] = to[r.index[r.cells[k]]];
+  m->cline = r.clines;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
