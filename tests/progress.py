@@ -1,17 +1,20 @@
 #!/usr/bin/env python3
 """A long run says how far it is: with -msim_progress s, lines 'msim: step n of N (p%), t = ..., wall
 ..., ... steps/s, ETA ...' on stderr, from rank 0 only (no line twice at two ranks), steps rising,
-the percentage and simulated time matching the step; -msim_progress 0 prints none."""
+the percentage and simulated time matching the step; -msim_progress 0 prints none. A run restarted
+half way reports its own rate (steps since the restart over its wall time), not one inflated by the
+steps of the first run."""
 import os
 import re
 import subprocess
 import sys
+import tempfile
 
 MSIM = os.path.abspath(sys.argv[1])
 STEPS = 4000
 ARGS = ["-msim_cloth_n", "40", "-msim_integrator", "implicit_euler", "-msim_dt", "0.001", "-msim_steps", str(STEPS),
         "-snes_type", "pd", "-snes_max_it", "3", "-snes_pd_fixed"]
-LINE = re.compile(r"^msim: step (\d+) of (\d+) \((\d+)%\), t = (\S+) s, wall \S+, \S+ steps/s, ETA \S+$")
+LINE = re.compile(r"^msim: step (\d+) of (\d+) \((\d+)%\), t = (\S+) s, wall \S+, (\S+) steps/s, ETA \S+$")
 
 
 def run(np, extra):
@@ -35,6 +38,19 @@ def main():
         if not ok:
             failed += 1
             print(f"FAIL np={np}: rc {r.returncode}, stderr {lines[:4]!r}")
+    # a restart from step STEPS / 2: the same work per step, so about the same rate (the old rate
+    # counted every step from 0: twice or more at the restart's first lines)
+    with tempfile.TemporaryDirectory() as tmp:
+        ck = os.path.join(tmp, "state.ck")
+        first = run(1, ["-msim_progress", "0", "-msim_checkpoint", ck, "-msim_steps", str(STEPS // 2)])
+        fresh = [float(LINE.match(l).group(5)) for l in run(1, ["-msim_progress", "0.05"]).stderr.splitlines() if LINE.match(l)]
+        again = [float(LINE.match(l).group(5)) for l in run(1, ["-msim_progress", "0.05", "-msim_restart", ck]).stderr.splitlines() if LINE.match(l)]
+        ratio = max(again) / (sum(fresh) / len(fresh)) if fresh and again else 0
+        ok = first.returncode == 0 and 0.3 < ratio < 1.7
+        print(f"restart at step {STEPS // 2}: fastest reported rate {ratio:.2f}x the fresh run's mean")
+        if not ok:
+            failed += 1
+            print(f"FAIL restart rate: rc {first.returncode}, fresh {fresh[:3]}, restarted {again[:3]}")
     print("FAILED" if failed else "all passed")
     return 1 if failed else 0
 

@@ -54,11 +54,12 @@ PetscErrorCode MSimCheckpointDestroy(MSimCheckpoint *ck);
 typedef struct {
   PetscReal      interval;    /* s; 0: quiet */
   PetscInt       steps, decile;
+  PetscInt       first; /* the step the clock started at (a restarted run's checkpoint step) */
   PetscMPIInt    rank;
   PetscLogDouble start, last;
 } MSimProgress;
 PetscErrorCode MSimProgressCreate(MPI_Comm comm, PetscInt steps, MSimProgress *p);
-PetscErrorCode MSimProgressBegin(MSimProgress *p);
+PetscErrorCode MSimProgressBegin(MSimProgress *p, PetscInt first);
 PetscErrorCode MSimProgressUpdate(MSimProgress *p, PetscInt step, PetscReal t);
 
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon);

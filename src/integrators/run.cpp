@@ -142,7 +142,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(PetscLogStagePop());
     return PETSC_SUCCESS;
   };
-  PetscCall(MSimProgressBegin(&progress));
+  PetscCall(MSimProgressBegin(&progress, step0));
   PetscCall(MSimStopSignalBegin(sys->comm, &stop));
   PetscCall(PetscLogStagePush(MSIM_StageStep));
   for (PetscInt n = step0 + 1; n <= integ->steps; n++) {

@@ -18,10 +18,13 @@ PetscErrorCode MSimProgressCreate(MPI_Comm comm, PetscInt steps, MSimProgress *p
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* the clock starts with the first step */
-PetscErrorCode MSimProgressBegin(MSimProgress *p)
+/* the clock starts with the first step; first: the steps done before it (a restart's), which the
+   rate and the ETA leave out */
+PetscErrorCode MSimProgressBegin(MSimProgress *p, PetscInt first)
 {
   PetscFunctionBeginUser;
+  p->first  = first;
+  p->decile = (PetscInt)((10 * (PetscInt64)first) / p->steps);
   PetscCall(PetscTime(&p->start));
   p->last = p->start;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -50,8 +53,9 @@ PetscErrorCode MSimProgressUpdate(MSimProgress *p, PetscInt step, PetscReal t)
   p->last   = now;
   char elapsed[32], eta[32];
   Clock(wall, elapsed, sizeof(elapsed));
-  Clock(wall * (p->steps - step) / step, eta, sizeof(eta));
-  fprintf(stderr, "msim: step %" PetscInt_FMT " of %" PetscInt_FMT " (%.0f%%), t = %g s, wall %s, %.3g steps/s, ETA %s\n", step, p->steps, 100.0 * step / p->steps, (double)t, elapsed, step / wall, eta);
+  const double rate = (step - p->first) / wall; /* this run's steps, not a restart's earlier ones */
+  Clock(rate > 0 ? (p->steps - step) / rate : 0, eta, sizeof(eta));
+  fprintf(stderr, "msim: step %" PetscInt_FMT " of %" PetscInt_FMT " (%.0f%%), t = %g s, wall %s, %.3g steps/s, ETA %s\n", step, p->steps, 100.0 * step / p->steps, (double)t, elapsed, rate, eta);
   fflush(stderr);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
