@@ -37,8 +37,8 @@ PetscErrorCode MSimMeshReadSTL(const char file[], MSimMesh *m); /* ASCII or bina
    boundary markers allowed. */
 PetscErrorCode MSimMeshReadTetGen(const char file[], MSimMesh *m);
 /* Gmsh .msh (2.2, 4.0, 4.1; ASCII or binary): the cells of the highest dimension, tets (dim 3) or
-   triangles (dim 2). Sections checked first; ASCII 2.2 and 4.1 by msim's reader, the others by
-   PETSc's DMPlex reader under a crash guard and an allocation cap. */
+   triangles (dim 2). ASCII 2.2 and 4.1 by msim's reader; the others by PETSc's DMPlex reader,
+   after a check of their sections, under a crash guard and an allocation cap. */
 PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m);
 /* Gmsh ASCII 2.2 and 4.1, msim's own reader (MSimMeshReadGmsh sends those files to it) */
 PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m);

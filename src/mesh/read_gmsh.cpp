@@ -1,6 +1,6 @@
-/* Gmsh .msh: every file's sections are checked first; ASCII 2.2 and 4.1 then go to msim's own
-   reader (read_gmsh_ascii.cpp), the others (binary, 4.0) to PETSc's (DMPlexCreateFromFile), on
-   one process, guarded. For PETSc's: msim keeps the cells of the mesh's dimension (tets of a volume mesh,
+/* Gmsh .msh: ASCII 2.2 and 4.1 go to msim's own reader (read_gmsh_ascii.cpp), the others (binary,
+   4.0) to PETSc's (DMPlexCreateFromFile), on one process, after a check of their sections, guarded.
+   For PETSc's: msim keeps the cells of the mesh's dimension (tets of a volume mesh,
    triangles of a surface mesh) and the vertices in the order PETSc numbers them, which is the
    order of the file's nodes. PETSc stores a tet with the opposite orientation to Gmsh's: msim swaps
    its first two vertices back. The reader gives no line numbers: faults name the element. */
@@ -12,12 +12,13 @@
 
 PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, std::string &message);
 
-/* Every section "$Name" must close with "$EndName" before the next one opens. PETSc's reader
+/* For PETSc's reader (binary files, 4.0): every section "$Name" must close with "$EndName" before
+   the next one opens. PETSc's reader
    skips a section it does not know ($Comments, ...) by reading until its end line and, when that
    line is missing, never returns at the end of the file (runs/fuzz/findings/gmsh/timeout-*): so
-   msim walks the sections first. Binary sections are skipped the same way, by searching for their
+   msim walks the sections first (msim's ASCII reader checks them as it reads). Binary sections are skipped the same way, by searching for their
    end line; only the text between sections is required to be blank. */
-static PetscErrorCode GmshCheckSections(const char file[], size_t *bytes, bool *ascii)
+static PetscErrorCode GmshCheckSections(const char file[], size_t *bytes)
 {
   std::string data;
 
@@ -32,7 +33,6 @@ static PetscErrorCode GmshCheckSections(const char file[], size_t *bytes, bool *
   }
   PetscCheck(!data.empty(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
   *bytes = data.size();
-  *ascii  = false;
   size_t   pos = 0;
   PetscInt line = 1;
   auto     lines_to = [&](size_t end) {
@@ -49,11 +49,6 @@ static PetscErrorCode GmshCheckSections(const char file[], size_t *bytes, bool *
     for (char &c : shown)
       if (!isprint((unsigned char)c)) c = '?';
     PetscCheck(name.size() > 1 && name[0] == '$' && name.compare(0, 4, "$End") != 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": '%s' where a section ($Name) should begin", file, line, shown.c_str());
-    if (name == "$MeshFormat") { /* "version file-type data-size": msim reads ASCII 2.2 and 4.1 itself */
-      double v = 0;
-      int    type = -1;
-      if (sscanf(data.c_str() + eol, "%lf %d", &v, &type) == 2) *ascii = type == 0 && (v == 2.2 || v == 4.1);
-    }
     const std::string end = "\n$End" + name.substr(1);
     size_t            at  = eol;
     while ((at = data.find(end, at)) != std::string::npos) {
@@ -86,6 +81,27 @@ static PetscErrorCode GmshCheckSections(const char file[], size_t *bytes, bool *
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Whether msim's reader takes the file: its $MeshFormat line (after any $Comments) says ASCII
+   ("version 0 data-size") of version 2.2 or 4.1. Reads no further than that line. */
+static PetscErrorCode GmshIsASCII(const char file[], bool *ascii)
+{
+  FILE *fp = fopen(file, "rb");
+  char  line[256];
+
+  PetscFunctionBeginUser;
+  PetscCheck(fp, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "%s: cannot open (%s)", file, strerror(errno));
+  *ascii = false;
+  while (fgets(line, sizeof line, fp))
+    if (!strncmp(line, "$MeshFormat", 11)) {
+      double v    = 0;
+      int    type = -1;
+      *ascii      = fgets(line, sizeof line, fp) && sscanf(line, "%lf %d", &v, &type) == 2 && type == 0 && (v == 2.2 || v == 4.1);
+      break;
+    }
+  fclose(fp);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m)
 {
   DM                 dm = NULL;
@@ -98,11 +114,12 @@ PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m)
   PetscFunctionBeginUser;
   size_t bytes, refused = 0;
   bool   ascii;
-  PetscCall(GmshCheckSections(file, &bytes, &ascii));
-  if (ascii) {
+  PetscCall(GmshIsASCII(file, &ascii));
+  if (ascii) { /* msim's reader checks its sections itself, as it reads them */
     PetscCall(MSimMeshReadGmshASCII(file, m));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  PetscCall(GmshCheckSections(file, &bytes));
   /* PETSc 3.18's reader crashes on some malformed files (runs/fuzz/findings/gmsh): guarded. It
      also trusts counts and ids it reads: no one allocation may exceed 64 bytes per byte of the
      file (plus 64 MB), so a 17 KB file cannot ask for gigabytes. */

@@ -225,7 +225,15 @@ PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m)
       const std::string end = "$End" + section.substr(1);
       const PetscInt    at  = tf.line;
       bool              closed = false;
-      while (!closed && tf.NextLine(0)) closed = tf.tok.size() == 1 && tf.tok[0].n == end.size() && !end.compare(0, end.size(), tf.tok[0].p, tf.tok[0].n);
+      while (!closed && tf.NextLine(0)) {
+        closed = tf.tok.size() == 1 && tf.tok[0].n == end.size() && !end.compare(0, end.size(), tf.tok[0].p, tf.tok[0].n);
+        if (!closed && section == "$PhysicalNames" && tf.line > at + 1) {
+          /* "dim tag "name"": msim does not use the names, but a file that breaks them is malformed */
+          const std::string text(tf.tok.front().p, tf.tok.back().p + tf.tok.back().n);
+          const size_t      q0 = text.find('"'), q1 = text.rfind('"');
+          PetscCheck(q0 != std::string::npos && q1 > q0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a physical name must be in double quotes", MSIM_AT(tf));
+        }
+      }
       PetscCheck(closed, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": section %s has no %s line", file, at, section.c_str(), end.c_str());
     }
   }
