@@ -19,6 +19,7 @@ Usage: mesh_input.py path/to/msim corpus|valid [--no-tetgen]"""
 import os
 import re
 import shutil
+import struct
 import subprocess
 import sys
 import tempfile
@@ -64,6 +65,12 @@ CORPUS = [
     # reader msim uses for ASCII files refuses it too
     ("physical_name_unquoted.msh", "tet", "physical_name_unquoted.msh line 6: a physical name must be in double quotes"),
     ("comments_unclosed.msh", "tet", "comments_unclosed.msh line 15: section $Comments has no $EndComments line"),
+    # binary Gmsh (made from make_gmsh_binary.py's cube5; PETSc's reader corrupted the heap on
+    # malformed binary files, runs/fuzz): offsets counted from the format's layout
+    ("binary_truncated.msh", "tet", "binary_truncated.msh byte 183: node count 8 is more than the rest of the file holds"),
+    ("binary_count_huge.msh", "tet", "binary_count_huge.msh byte 183: node count 1099511627776 is more than the rest of the file holds"),
+    ("binary_byte_order.msh", "tet", "binary_byte_order.msh byte 20: the byte-order mark is 2, not 1"),
+    ("binary_missing_node.msh", "tet", "binary_missing_node.msh byte 420: node 9 is not in $Nodes"),
     ("quadratic.ele", "tet", "line 2: 10 nodes per tet"),
     ("nan_binary.stl", "tet", "nan_binary.stl: facet 2 (binary, counting from 0): a coordinate is NaN"),
 ]
@@ -138,7 +145,7 @@ def test_corpus(tmp):
 
 
 def test_valid():
-    cube5 = ["cube5.node", "cube5.ele", "cube5_1based.ele", "cube5.msh", "cube5_41.msh", "cube5_41bin.msh"]
+    cube5 = ["cube5.node", "cube5.ele", "cube5_1based.ele", "cube5.msh", "cube5_41.msh", "cube5_41bin.msh", "cube5_22bin.msh", "cube5_41bin_swapped.msh"]
     for f in cube5:
         for np in (1, 2):
             got, text = scene_view(["-msim_scene", "tet", "-msim_mesh_file", os.path.join(GOOD, f), "-msim_mass", "2.5"], np)
@@ -161,6 +168,14 @@ def test_valid():
     got, text = scene_view(["-msim_scene", "tet", "-msim_mesh_file", beam])
     check(got is not None and got[:2] == (nodes, tets) and abs(got[3] - 0.4 * 0.1 * 0.1) < 1e-15,
           f"beam.msh: want {nodes} vertices, {tets} tets, volume 0.004; got {got} {text if got is None else ''}")
+    # the same mesh written here as binary 4.1 (both byte orders, 27 node blocks of points, lines,
+    # triangles and tets): the same scene, to the last bit of its volume
+    with tempfile.TemporaryDirectory() as tmp:
+        for order in "<>":
+            path = os.path.join(tmp, "beam_bin.msh")
+            open(path, "wb").write(gmsh41_binary(beam, order))
+            bgot, text = scene_view(["-msim_scene", "tet", "-msim_mesh_file", path])
+            check(bgot == got, f"beam.msh as binary ({order}): want {got}, got {bgot} {text if bgot is None else ''}")
 
 
 def gmsh41_counts(path):
@@ -174,6 +189,39 @@ def gmsh41_counts(path):
         tets += n if etype == 4 else 0
         k += 1 + n
     return nodes, tets
+
+
+def gmsh41_binary(path, order):
+    """An ASCII 4.1 file's $Nodes and $Elements as a binary 4.1 file (8-byte size_t)"""
+    text = open(path).read()
+
+    def section(name):
+        return [int(t) if "." not in t and "e" not in t.lower() else float(t) for t in text.split("$" + name + "\n")[1].split("$End" + name)[0].split()]
+
+    q, i, d = order + "Q", order + "i", order + "d"
+    out = b"$MeshFormat\n4.1 1 8\n" + struct.pack(i, 1) + b"\n$EndMeshFormat\n$Nodes\n"
+    t = section("Nodes")
+    out += struct.pack(order + "4Q", *t[:4])
+    k = 4
+    for _ in range(t[0]):
+        dim, tag, param, n = t[k:k + 4]
+        out += struct.pack(order + "3iQ", dim, tag, param, n)
+        out += struct.pack(order + "%dQ" % n, *t[k + 4:k + 4 + n])
+        ncoord = n * (3 + (dim if param else 0))
+        out += struct.pack(order + "%dd" % ncoord, *map(float, t[k + 4 + n:k + 4 + n + ncoord]))
+        k += 4 + n + ncoord
+    out += b"\n$EndNodes\n$Elements\n"
+    t = section("Elements")
+    out += struct.pack(order + "4Q", *t[:4])
+    k = 4
+    per = {1: 2, 2: 3, 4: 4, 15: 1}
+    for _ in range(t[0]):
+        dim, tag, etype, n = t[k:k + 4]
+        out += struct.pack(order + "3iQ", dim, tag, etype, n)
+        m = n * (1 + per[etype])
+        out += struct.pack(order + "%dQ" % m, *t[k + 4:k + 4 + m])
+        k += 4 + m
+    return out + b"\n$EndElements\n"
 
 
 def test_bunny(tmp):

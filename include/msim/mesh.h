@@ -21,7 +21,7 @@ typedef struct _n_MSimMesh {
   PetscInt               ncell = 0;
   std::vector<PetscInt>  cell;       /* nper ncell vertex ids */
   /* where each vertex and cell came from, for messages: a line of the file (> 0), or 0 where
-     the reader has no lines (binary STL, PETSc's Gmsh reader, TetGen's output): then the
+     the reader has no lines (binary STL and Gmsh, TetGen's output): then the
      message names the index */
   std::vector<PetscInt>  vline, cline;
   const char            *cell_name = "cell"; /* "face", "tet", "element", "facet" */
@@ -36,12 +36,12 @@ PetscErrorCode MSimMeshReadSTL(const char file[], MSimMesh *m); /* ASCII or bina
 /* TetGen .node/.ele pair; file names either (or their common stem). 0- or 1-based, attributes and
    boundary markers allowed. */
 PetscErrorCode MSimMeshReadTetGen(const char file[], MSimMesh *m);
-/* Gmsh .msh (2.2, 4.0, 4.1; ASCII or binary): the cells of the highest dimension, tets (dim 3) or
-   triangles (dim 2). ASCII 2.2 and 4.1 by msim's reader; the others by PETSc's DMPlex reader,
-   after a check of their sections, under a crash guard and an allocation cap. */
+/* Gmsh .msh (2.2 and 4.1; ASCII or binary): the cells of the highest dimension, tets (dim 3) or
+   triangles (dim 2), by msim's own readers, one per encoding (MSimMeshReadGmsh picks by the
+   file's $MeshFormat line). */
 PetscErrorCode MSimMeshReadGmsh(const char file[], MSimMesh *m);
-/* Gmsh ASCII 2.2 and 4.1, msim's own reader (MSimMeshReadGmsh sends those files to it) */
 PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m);
+PetscErrorCode MSimMeshReadGmshBinary(const char file[], MSimMesh *m);
 /* By extension: .off .obj .stl .node .ele .msh. want: 3 (a surface) or 4 (tets); a surface given
    where tets are wanted comes back as a surface (the caller tetrahedralizes it). */
 PetscErrorCode MSimMeshReadFile(const char file[], int want, MSimMesh *m);

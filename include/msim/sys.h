@@ -59,9 +59,6 @@ PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, con
    returns here as that signal's number (0: fn returned). For third-party calls on bad input. */
 #include <functional>
 int MSimCallGuarded(const std::function<void(void)> &fn);
-/* runs fn with every PETSc allocation inside it capped at cap bytes (a larger one fails as out of
-   memory); *refused: the largest request refused (0: none). Rank 0 only, single-threaded. */
-PetscErrorCode MSimCallWithAllocationCap(size_t cap, size_t *refused, const std::function<PetscErrorCode(void)> &fn);
 
 /* stop_signal.cpp: SIGINT/SIGTERM noted during stepping; every rank stops after the same step */
 #include <csignal>

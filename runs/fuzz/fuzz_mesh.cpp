@@ -1,6 +1,6 @@
 /* A libFuzzer harness for msim's mesh readers: the input is written to a file and read by one
    reader (chosen at compile time by MSIM_FUZZ_FORMAT: 0 OFF, 1 OBJ, 2 STL, 3 TetGen, 4 Gmsh
-   through PETSc), then validated as msim validates every mesh (MSimMeshCheck). A reader may
+   ASCII or binary), then validated as msim validates every mesh (MSimMeshCheck). A reader may
    refuse an input (an error code: the one-line message users see); it must never crash, read or
    write out of bounds, overflow, or ask for memory the file cannot justify. TetGen's input is a
    .node and an .ele file: the fuzz input holds both, split at the first line "#ele".

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
-# Fuzzes each of msim's mesh readers (OFF, OBJ, STL, TetGen, Gmsh through PETSc), the options-to-scene
+# Fuzzes each of msim's mesh readers (OFF, OBJ, STL, TetGen, Gmsh ASCII and binary), the options-to-scene
 # path (an options file) and the checkpoint reader with libFuzzer,
 # AddressSanitizer and UndefinedBehaviorSanitizer for SECONDS each (default 600), from the seed
 # corpus of runs/fuzz/seeds.py. Builds build-fuzz/ with clang. Findings (crash-*, oom-*, timeout-*)
 # go to build-fuzz/findings/<format>/; each run's statistics to build-fuzz/<format>.log and a line
-# per format to runs/fuzz/results.csv. allocator_may_return_null: an absurd request (a negative size in
-# PETSc's Gmsh reader) fails as it does outside ASan, and the reader reports it; libFuzzer's
+# per format to runs/fuzz/results.csv. allocator_may_return_null: an absurd request (a negative size in a
+# third-party reader) fails as it does outside ASan, and the reader reports it; libFuzzer's
 # -malloc_limit_mb still catches any request over 1 GB.
 # Usage: bash runs/fuzz/run.sh [SECONDS] [formats...]   (MSIM_FUZZ_JOBS: harnesses at once, default nproc)
 set -euo pipefail

@@ -1,48 +1,20 @@
-/* Gmsh ASCII .msh, versions 2.2 and 4.1, read by msim itself (binary files and 4.0 go to PETSc's
-   reader). Fuzzing found PETSc 3.18's reader crashing, hanging, overflowing a buffer and asking
+/* Gmsh ASCII .msh, versions 2.2 and 4.1, read by msim itself (binary ones: read_gmsh_binary.cpp).
+   Fuzzing found PETSc 3.18's reader crashing, hanging, overflowing a buffer and asking
    for gigabytes on malformed files (runs/fuzz/README.md); this one checks every count, id and
    token and names the file and line of a fault, as the other readers do.
      2.2: $Nodes: n, then "id x y z"; $Elements: n, then "id type ntags tags... nodes...".
      4.1: $Nodes: "blocks nodes min max", per block "dim entity parametric n", its n tags, then
           its n coordinate lines "x y z [u v w]"; $Elements: "blocks elements min max", per
           block "dim entity type n", then n lines "tag nodes...".
-   Other sections are skipped. msim keeps the elements of the highest dimension (tets of a volume
-   mesh, triangles of a surface mesh) and the nodes they use, in the file's order; tets keep
-   Gmsh's orientation. */
+   Other sections are skipped; what is kept of the nodes and elements: gmsh_mesh.h. */
 #include <msim/mesh.h>
+#include "gmsh_mesh.h"
 #include "text_file.h"
-#include <unordered_map>
 
 namespace {
-/* Gmsh element types: nodes and dimension (0: a type msim does not know) */
-struct GmshType {
-  int nodes, dim;
-  const char *name;
-};
-GmshType TypeOf(int64_t t)
-{
-  switch (t) {
-  case 1: return {2, 1, "line"};
-  case 2: return {3, 2, "triangle"};
-  case 3: return {4, 2, "quadrangle"};
-  case 4: return {4, 3, "tetrahedron"};
-  case 5: return {8, 3, "hexahedron"};
-  case 6: return {6, 3, "prism"};
-  case 7: return {5, 3, "pyramid"};
-  case 15: return {1, 0, "point"};
-  default: return {0, 0, ""};
-  }
-}
-
 struct Reader {
-  MSimTextFile                           tf;
-  std::unordered_map<int64_t, PetscInt> index; /* node tag -> position in the file */
-  std::vector<PetscReal>                 x;
-  std::vector<PetscInt>                  xline;
-  int                                    top = -1; /* highest element dimension seen */
-  std::vector<int64_t>                   cells;    /* its elements' node tags */
-  std::vector<PetscInt>                  clines;
-  int                                    nper = 0;
+  MSimTextFile tf;
+  MSimGmshMesh mesh{true};
 
   PetscErrorCode Line(const char what[])
   {
@@ -52,39 +24,24 @@ struct Reader {
   }
   PetscErrorCode Node(int64_t tag, size_t first)
   {
+    PetscReal x[3];
+
     PetscFunctionBeginUser;
-    PetscCheck(index.emplace(tag, (PetscInt)(x.size() / 3)).second, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": node %lld appears twice", MSIM_AT(tf), (long long)tag);
-    for (int c = 0; c < 3; c++) {
-      PetscReal v;
-      PetscCall(tf.Real(first + c, "coordinate", &v));
-      x.push_back(v);
-    }
-    xline.push_back(tf.line);
+    for (int c = 0; c < 3; c++) PetscCall(tf.Real(first + c, "coordinate", &x[c]));
+    PetscCheck(mesh.AddNode(tag, x, tf.line), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": node %lld appears twice", MSIM_AT(tf), (long long)tag);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   /* an element of type t whose node tags are tokens first ... */
   PetscErrorCode Element(int64_t t, size_t first)
   {
-    const GmshType g = TypeOf(t);
+    const MSimGmshType g = MSimGmshTypeOf(t);
+    int64_t            v[8];
 
     PetscFunctionBeginUser;
     PetscCheck(g.nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": element type %lld (msim reads linear elements: tets, triangles and their edges and points)", MSIM_AT(tf), (long long)t);
     PetscCall(tf.NeedTokens(first + g.nodes, first + g.nodes, "an element (its tag, then as many nodes as its type has)"));
-    if (g.dim < top) PetscFunctionReturn(PETSC_SUCCESS);
-    if (g.dim > top) { /* a higher dimension: what came before were its faces, edges or points */
-      top = g.dim;
-      cells.clear();
-      clines.clear();
-      nper = 0;
-    }
-    PetscCheck(g.dim < 2 || t == (g.dim == 3 ? 4 : 2), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a %s (msim reads %s)", MSIM_AT(tf), g.name, g.dim == 3 ? "tets" : "triangles");
-    nper = g.nodes;
-    for (int k = 0; k < g.nodes; k++) {
-      int64_t v;
-      PetscCall(tf.Int(first + k, "node", &v));
-      cells.push_back(v);
-    }
-    clines.push_back(tf.line);
+    for (int k = 0; k < g.nodes; k++) PetscCall(tf.Int(first + k, "node", &v[k]));
+    PetscCheck(mesh.AddElement(t, v, tf.line), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a %s (msim reads %s)", MSIM_AT(tf), g.name, g.dim == 3 ? "tets" : "triangles");
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscErrorCode Nodes(double version)
@@ -96,7 +53,6 @@ struct Reader {
     if (version < 3) {
       PetscCall(tf.NeedTokens(1, 1, "the node count"));
       PetscCall(tf.Count(0, "node count", &n));
-      x.reserve(3 * tf.Reserve(n, 8));
       for (PetscInt v = 0; v < n; v++) {
         int64_t tag;
         PetscCall(Line("$Nodes (fewer nodes than its count)"));
@@ -109,7 +65,6 @@ struct Reader {
       PetscCall(tf.NeedTokens(4, 4, "the $Nodes header (blocks, nodes, smallest and largest tag)"));
       PetscCall(tf.Count(0, "block count", &blocks));
       PetscCall(tf.Count(1, "node count", &total));
-      x.reserve(3 * tf.Reserve(total, 8));
       for (PetscInt b = 0; b < blocks; b++) {
         int64_t param, dim;
         PetscCall(Line("$Nodes (fewer blocks than its count)"));
@@ -209,7 +164,7 @@ PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m)
       PetscCall(tf.NeedTokens(3, 3, "the format line (version, file type, data size)"));
       PetscCall(tf.Real(0, "version", &version));
       PetscCall(tf.Int(1, "file type", &type));
-      PetscCheck(type == 0 && (version == 2.2 || version == 4.1), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": an ASCII file of version 2.2 or 4.1 expected here", MSIM_AT(tf));
+      PetscCheck(type == 0 && (version == 2.2 || version == 4.1), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": an ASCII file of version 2.2 or 4.1 expected here (Gmsh writes 4.1 with -format msh41)", MSIM_AT(tf));
       PetscCall(r.End("$EndMeshFormat"));
     } else if (section == "$Nodes") {
       PetscCheck(version > 0 && !nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": $Nodes %s", MSIM_AT(tf), version > 0 ? "a second time" : "before $MeshFormat");
@@ -238,28 +193,6 @@ PetscErrorCode MSimMeshReadGmshASCII(const char file[], MSimMesh *m)
     }
   }
   PetscCheck(elements, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no %s section", file, nodes ? "$Elements" : "$Nodes");
-  PetscCheck(r.top >= 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no tets or triangles (elements of dimension %d at most)", file, r.top);
-  /* the nodes the kept elements use, in the file's order */
-  const PetscInt        nall = (PetscInt)(r.x.size() / 3);
-  std::vector<PetscInt> to(nall, -1);
-  for (size_t k = 0; k < r.cells.size(); k++) {
-    auto it = r.index.find(r.cells[k]);
-    PetscCheck(it != r.index.end(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": node %lld is not in $Nodes", file, r.clines[k / r.nper], (long long)r.cells[k]);
-    to[it->second] = 0;
-  }
-  m->file      = file;
-  m->cell_name = "element";
-  m->nper      = r.nper;
-  m->nv        = 0;
-  for (PetscInt v = 0; v < nall; v++)
-    if (!to[v]) {
-      to[v] = m->nv++;
-      m->x.insert(m->x.end(), r.x.begin() + 3 * v, r.x.begin() + 3 * v + 3);
-      m->vline.push_back(r.xline[v]);
-    }
-  m->ncell = (PetscInt)r.clines.size();
-  m->cell.resize(r.cells.size());
-  for (size_t k = 0; k < r.cells.size(); k++) m->cell[k] = to[r.index[r.cells[k]]];
-  m->cline = r.clines;
+  PetscCall(r.mesh.Finish(file, m));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,7 +1,7 @@
-/* Third-party code that crashes on bad input (TetGen on some faulty surfaces, PETSc's Gmsh reader
-   on some malformed files, found by fuzzing) must not take msim down without its one-line error:
-   a crash signal inside the call jumps back to it, and the caller reports the input as bad. The
-   library's state is abandoned, not reused: msim exits with the error. */
+/* Third-party code that crashes on bad input (TetGen on some faulty surfaces, found by fuzzing)
+   must not take msim down without its one-line error: a crash signal inside the call jumps back
+   to it, and the caller reports the input as bad. The library's state is abandoned, not reused:
+   msim exits with the error. */
 #include <msim/sys.h>
 #include <csetjmp>
 #include <csignal>
@@ -29,34 +29,4 @@ int MSimCallGuarded(const std::function<void(void)> &fn)
   else fn();
   for (int k = 0; k < 5; k++) sigaction(sigs[k], &old[k], NULL);
   return crashed;
-}
-
-/* PETSc's allocations with a cap on the size of any one of them: a reader that trusts a count in
-   a malformed file (PETSc's Gmsh reader asked for 4.4 GB on a 17 KB file, found by fuzzing) then
-   fails with PETSc's out-of-memory error instead of taking the machine's memory. Delegates to
-   the allocator in place (PETSc's, or -malloc_debug's), so frees are unchanged. */
-static size_t MSimAllocationCap;
-static size_t MSimAllocationRefused;
-static PetscErrorCode (*MSimAllocationInner)(size_t, PetscBool, int, const char[], const char[], void **);
-
-static PetscErrorCode MSimCappedMalloc(size_t n, PetscBool clear, int line, const char fn[], const char file[], void **p)
-{
-  if (n > MSimAllocationCap) {
-    *p = NULL;
-    if (n > MSimAllocationRefused) MSimAllocationRefused = n;
-    return PETSC_ERR_MEM;
-  }
-  return MSimAllocationInner(n, clear, line, fn, file, p);
-}
-
-PetscErrorCode MSimCallWithAllocationCap(size_t cap, size_t *refused, const std::function<PetscErrorCode(void)> &fn)
-{
-  MSimAllocationCap     = cap;
-  MSimAllocationRefused = 0;
-  MSimAllocationInner   = PetscTrMalloc;
-  PetscTrMalloc         = MSimCappedMalloc;
-  const PetscErrorCode ierr = fn();
-  PetscTrMalloc = MSimAllocationInner;
-  *refused      = MSimAllocationRefused;
-  return ierr;
 }

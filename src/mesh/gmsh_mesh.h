@@ -1,0 +1,42 @@
+/* What msim's two Gmsh readers (read_gmsh_ascii.cpp, read_gmsh_binary.cpp) share: Gmsh's element
+   types, and the nodes and elements gathered while reading, turned into an MSimMesh at the end.
+   msim keeps the elements of the highest dimension (tets of a volume mesh, triangles of a surface
+   mesh; the edges and points before them are their boundaries) and the nodes those use, in the
+   file's order; tets keep Gmsh's orientation. */
+#pragma once
+#include <msim/mesh.h>
+#include <cstdint>
+#include <unordered_map>
+#include <vector>
+
+/* A Gmsh element type: its nodes and dimension (nodes 0: a type msim does not read) */
+struct MSimGmshType {
+  int         nodes, dim;
+  const char *name;
+};
+MSimGmshType MSimGmshTypeOf(int64_t type);
+
+class MSimGmshMesh {
+public:
+  /* where: the file line of the record (ASCII) or its byte offset (binary), for messages */
+  explicit MSimGmshMesh(bool lines) : lines_(lines) { }
+  /* False when the tag was seen before. */
+  bool AddNode(int64_t tag, const PetscReal x[3], PetscInt where);
+  /* An element of a type msim reads (MSimGmshTypeOf(type).nodes > 0) with its node tags. False
+     when it is of the highest dimension so far but neither a tet nor a triangle (msim reads no
+     other cells). */
+  bool AddElement(int64_t type, const int64_t *nodes, PetscInt where);
+  /* The kept elements and the nodes they use, into m; faults (no tets or triangles, a node not in
+     $Nodes) name the file and the line or byte. */
+  PetscErrorCode Finish(const char file[], MSimMesh *m);
+
+private:
+  bool                                   lines_;
+  std::unordered_map<int64_t, PetscInt> index_; /* node tag -> position in the file */
+  std::vector<PetscReal>                 x_;
+  std::vector<PetscInt>                  xwhere_;
+  int                                    top_ = -1; /* highest element dimension seen */
+  int                                    nper_ = 0;
+  std::vector<int64_t>                   cells_; /* node tags of the elements of dimension top_ */
+  std::vector<PetscInt>                  cwhere_;
+};
