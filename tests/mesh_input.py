@@ -71,6 +71,7 @@ CORPUS = [
     ("binary_count_huge.msh", "tet", "binary_count_huge.msh byte 183: node count 1099511627776 is more than the rest of the file holds"),
     ("binary_byte_order.msh", "tet", "binary_byte_order.msh byte 20: the byte-order mark is 2, not 1"),
     ("binary_missing_node.msh", "tet", "binary_missing_node.msh byte 420: node 9 is not in $Nodes"),
+    ("version40.msh", "tet", "version40.msh line 2: an ASCII file of version 2.2 or 4.1 expected here"),
     ("quadratic.ele", "tet", "line 2: 10 nodes per tet"),
     ("nan_binary.stl", "tet", "nan_binary.stl: facet 2 (binary, counting from 0): a coordinate is NaN"),
 ]

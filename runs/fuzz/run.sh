@@ -21,7 +21,7 @@ for fmt in $formats; do targets+=" $(target "$fmt")"; done
 cmake --build build-fuzz -j"$(nproc)" --target $targets > /dev/null
 MSIM_EXE=$PWD/build-fuzz/msim ASAN_OPTIONS=detect_leaks=0 /usr/bin/python3 runs/fuzz/seeds.py build-fuzz/seeds $formats > /dev/null
 . tools/env.sh
-# one harness per core at once (each is single-threaded); results.csv in the order given
+# one harness per core at once (each is single-threaded)
 fuzz_one() {
   fmt=$1
   mkdir -p build-fuzz/corpus/$fmt build-fuzz/findings/$fmt
@@ -41,5 +41,13 @@ for fmt in $formats; do
   fuzz_one "$fmt" &
 done
 wait
-echo "format,seconds,executions,corpus,findings" > runs/fuzz/results.csv
-for fmt in $formats; do cat build-fuzz/$fmt.result >> runs/fuzz/results.csv; done
+# results.csv: this run's rows replace those of the same harnesses, the others' rows stay
+old=$(tail -n +2 runs/fuzz/results.csv 2>/dev/null || true)
+{
+  echo "format,seconds,executions,corpus,findings"
+  for fmt in $formats; do cat build-fuzz/$fmt.result; done
+  echo "$old" | while IFS= read -r row; do
+    if [ -n "$row" ] && ! grep -qx "${row%%,*}" <(printf '%s\n' $formats); then echo "$row"; fi
+  done
+} > runs/fuzz/results.csv.new
+mv runs/fuzz/results.csv.new runs/fuzz/results.csv

@@ -3,6 +3,7 @@
 setup cost, and a performance model past this machine (reading in runs/scaling/README.md).
 
 Usage: /usr/bin/python3 runs/scaling/study.py [ranks, default 1,2] [--skip-memory] [--skip-model]
+       [--only-memory: the memory and setup part alone, about 6 minutes]
 Runs unchanged at any rank count (the ranks list is what mpirun gets). Writes runs/scaling/
 {strong,weak,memory,partitions,pingpong,model}.csv and {speedup,model,edgecut}.png.
 
@@ -24,7 +25,6 @@ Runs unchanged at any rank count (the ranks list is what mpirun gets). Writes ru
   shared-memory node and over InfiniBand; checked against the box's and the bunny's measured
   runs at every rank count of the study."""
 import csv
-import math
 import os
 import re
 import subprocess
@@ -135,17 +135,20 @@ def weak(ranks):
 def memory():
     rows = []
     ft = first_touch()
-    print(f"first touch here: {ft['4k'][0] / 1e9:.2f} GB/s with 4 KiB pages, {ft['thp'][0] / 1e9:.2f} GB/s with huge pages; rewriting mapped pages {ft['thp'][1] / 1e9:.1f} GB/s", flush=True)
+    print(f"first touch here: {ft['4k'][0] / 1e9:.2f} GB/s with 4 KiB pages, {ft['thp'][0] / 1e9:.2f} GB/s with huge pages new to the process, "
+          f"{ft['thp'][1] / 1e9:.2f} GB/s on huge pages it had freed; rewriting mapped pages {ft['thp'][2] / 1e9:.1f} GB/s", flush=True)
     for target in (1e5, 1e6, 4e6, 3e7):
         n, scene = box(target)
         for method in (METHODS if target < 1e7 else ["explicit"]):
             r = run(scene, method, 1)
             r["box_n"] = n
-            # the least setup can cost here: fault in (zero) the peak resident memory once
-            r["first_touch_floor_s"] = r["max_memory_total_b"] / ft["thp"][0]
+            # the least setup can cost here: fault in (zero) the peak resident memory once, on
+            # pages new to the process (a fresh run) or on pages it had freed (the best case)
+            r["first_touch_floor_cold_s"] = r["max_memory_total_b"] / ft["thp"][0]
+            r["first_touch_floor_s"] = r["max_memory_total_b"] / ft["thp"][1]
             rows.append(r)
             print(f"memory {method:9s} box {n}^3, {r['springs']} springs: {r['bytes_per_spring']:.0f} B/spring, setup {r['setup_total_s']:.2f} s "
-                  f"(first-touch floor {r['first_touch_floor_s']:.2f} s), step {r['step_s'] * 1e3:.2f} ms", flush=True)
+                  f"(first-touch floor {r['first_touch_floor_s']:.2f} s warm, {r['first_touch_floor_cold_s']:.2f} s cold), step {r['step_s'] * 1e3:.2f} ms", flush=True)
     return rows
 
 
@@ -183,14 +186,15 @@ def predict(part, t_spring, t_vertex, latency, link_bw, mem_bw_core, cache_core)
 
 
 def first_touch():
-    """GB/s at which fresh pages are written the first time (runs/bench/first_touch.cpp): with
-    4 KiB pages, with transparent huge pages, and rewriting pages already mapped"""
+    """GB/s at which fresh pages are written the first time (runs/bench/first_touch.cpp), per page
+    size (4 KiB, transparent huge pages): pages new to the process (cold), pages it had freed
+    (warm), and rewriting pages already mapped"""
     exe = "/tmp/msim_first_touch"
     subprocess.run(["g++", "-O2", os.path.join(ROOT, "runs", "bench", "first_touch.cpp"), "-o", exe], check=True)
     out = {}
     for line in subprocess.run([exe], capture_output=True, text=True, check=True).stdout.splitlines():
-        kind, first, second = line.split()
-        out[kind] = (float(first) * 1e9, float(second) * 1e9)
+        kind, cold, warm, second = line.split()
+        out[kind] = (float(cold) * 1e9, float(warm) * 1e9, float(second) * 1e9)
     return out
 
 
@@ -317,6 +321,9 @@ def charts(strong_rows, weak_rows, model_rows, prow, boxruns):
 
 def main():
     ranks = [int(x) for x in sys.argv[1].split(",")] if len(sys.argv) > 1 and not sys.argv[1].startswith("--") else [1, 2]
+    if "--only-memory" in sys.argv:
+        write("memory.csv", memory())
+        return
     s = strong(ranks)
     write("strong.csv", s)
     w = weak(ranks)

@@ -49,17 +49,28 @@ static void BoxSprings(MSimSceneData *s, const PetscInt n[3], const PetscReal si
     p[1] = size[1] * j / n[1];
     p[2] = size[2] * l / n[2];
   };
+  int tets_with[8][8]; /* TetsWith, once: the loop below asks it 60 times per vertex */
+  for (int a = 0; a < 8; a++)
+    for (int b = 0; b < 8; b++) tets_with[a][b] = TetsWith(a, b);
   s->share.assign(last - first, 0.0);
   for (auto *v : {&s->si, &s->sj}) v->reserve(7 * (size_t)(last - first));
   for (auto *v : {&s->sk, &s->sL}) v->reserve(7 * (size_t)(last - first));
+  /* a vertex with all 8 cubes around it has the same tets around it and along each direction as
+     every other such vertex: counted once (the boundary's are counted cube by cube) */
+  int inner_around = 0, inner_tets[7] = {0, 0, 0, 0, 0, 0, 0};
+  for (int m = 0; m < 8; m++) inner_around += tets_with[m][m];
+  for (int q = 0; q < 7; q++)
+    for (int m = 0; m < 8; m++)
+      if (!(m & order[q])) inner_tets[q] += tets_with[m][m | order[q]];
   for (PetscInt v = first; v < last; v++) {
-    const PetscInt c[3] = {v % nx, (v / nx) % ny, v / (nx * ny)};
+    const PetscInt c[3]  = {v % nx, (v / nx) % ny, v / (nx * ny)};
+    const bool     inner = c[0] >= 1 && c[0] < n[0] && c[1] >= 1 && c[1] < n[1] && c[2] >= 1 && c[2] < n[2];
     /* tets around v: over the cubes that hold it, at cube-local corner m */
-    int around = 0;
-    for (int m = 0; m < 8; m++) {
+    int around = inner ? inner_around : 0;
+    for (int m = 0; m < 8 && !inner; m++) {
       bool in = true;
       for (int d = 0; d < 3; d++) in = in && c[d] - ((m >> d) & 1) >= 0 && c[d] - ((m >> d) & 1) < n[d];
-      if (in) around += TetsWith(m, m);
+      if (in) around += tets_with[m][m];
     }
     s->share[v - first] = around * vt / 4.0;
     for (int q = 0; q < 7; q++) {
@@ -71,12 +82,12 @@ static void BoxSprings(MSimSceneData *s, const PetscInt n[3], const PetscReal si
         ok   = ok && e[d] <= n[d];
       }
       if (!ok) continue;
-      int tets = 0;
-      for (int m = 0; m < 8; m++) { /* the cube whose local corner m is v */
-        if (m & dm) continue;        /* v + d must stay in the cube */
+      int tets = inner ? inner_tets[q] : 0;
+      for (int m = 0; m < 8 && !inner; m++) { /* the cube whose local corner m is v */
+        if (m & dm) continue;                  /* v + d must stay in the cube */
         bool in = true;
         for (int d = 0; d < 3; d++) in = in && c[d] - ((m >> d) & 1) >= 0 && c[d] - ((m >> d) & 1) < n[d];
-        if (in) tets += TetsWith(m, m | dm);
+        if (in) tets += tets_with[m][m | dm];
       }
       if (!tets) continue; /* the other diagonals: no tet has them */
       PetscReal a[3], b[3];

@@ -30,8 +30,6 @@ static inline PetscInt MSimRingStride(PetscInt W)
 
 PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, const std::vector<PetscInt> &b, const std::vector<PetscReal> &k, const std::vector<PetscReal> &L, MSimSlices *sl, std::vector<PetscInt> &rest)
 {
-  std::vector<std::vector<PetscInt>> lower(nvert);
-
   PetscFunctionBeginUser;
   sl->nslice = nvert / 4;
   sl->cptr.assign(1, 0);
@@ -40,12 +38,29 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
   sl->sk.clear();
   sl->sL.clear();
   rest.clear();
+  /* the springs of each vertex of a full slice whose higher end it is, in input order: one array
+     with offsets (a vector per vertex cost a heap block each, 6 x 10^5 of them on a 4 M-spring box) */
+  const PetscInt        nlane = 4 * sl->nslice;
+  std::vector<PetscInt> ptr(nlane + 1, 0), lanes;
   for (PetscInt s = 0; s < (PetscInt)a.size(); s++) {
     const PetscInt hi = PetscMax(a[s], b[s]);
     PetscCheck(a[s] != b[s] && a[s] >= 0 && b[s] >= 0 && hi < nvert, PETSC_COMM_SELF, PETSC_ERR_PLIB, "spring %" PetscInt_FMT " joins %" PetscInt_FMT " and %" PetscInt_FMT " of %" PetscInt_FMT " vertices", s, a[s], b[s], nvert);
-    if (hi < 4 * sl->nslice) lower[hi].push_back(s);
+    if (hi < nlane) ptr[hi + 1]++;
     else rest.push_back(s);
   }
+  for (PetscInt v = 0; v < nlane; v++) ptr[v + 1] += ptr[v];
+  lanes.resize(ptr[nlane]);
+  {
+    std::vector<PetscInt> next(ptr.begin(), ptr.end() - 1);
+    for (PetscInt s = 0; s < (PetscInt)a.size(); s++) {
+      const PetscInt hi = PetscMax(a[s], b[s]);
+      if (hi < nlane) lanes[next[hi]++] = s;
+    }
+  }
+  /* room for every spring and some padding: growing by doubling would touch (fault in) up to
+     twice the memory, the dearest part of setup */
+  for (auto *v : {&sl->sk, &sl->sL}) v->reserve(a.size() + a.size() / 4 + 16);
+  sl->sj.reserve(a.size() + a.size() / 4 + 16);
   auto other = [&](PetscInt s, PetscInt v) { return a[s] == v ? b[s] : a[s]; };
   auto put   = [&](PetscInt j, PetscReal kk, PetscReal LL) {
     sl->sj.push_back(j);
@@ -53,10 +68,15 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
     sl->sL.push_back(LL);
   };
   for (PetscInt c = 0; c < sl->nslice; c++) {
-    std::vector<PetscInt> *lane = &lower[4 * c];
-    PetscInt               slots = 0;
+    PetscInt *lane[4];
+    size_t    n[4];
+    PetscInt  slots = 0;
+    for (PetscInt l = 0; l < 4; l++) {
+      lane[l] = lanes.data() + ptr[4 * c + l];
+      n[l]    = (size_t)(ptr[4 * c + l + 1] - ptr[4 * c + l]);
+    }
     /* shifted slots: an offset every lane has (the first spring with it in each lane) */
-    for (size_t q0 = 0; q0 < lane[0].size(); q0++) {
+    for (size_t q0 = 0; q0 < n[0]; q0++) {
       const PetscInt off = other(lane[0][q0], 4 * c) - 4 * c;
       PetscInt       pick[4];
       PetscBool      all = (PetscBool)(-off <= MSIM_SHIFT_SPAN_MAX && k[lane[0][q0]] != 0);
@@ -64,7 +84,7 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
       for (PetscInt l = 1; l < 4 && all; l++) {
         const PetscInt v = 4 * c + l;
         pick[l]          = -1;
-        for (size_t q = 0; q < lane[l].size() && pick[l] < 0; q++)
+        for (size_t q = 0; q < n[l] && pick[l] < 0; q++)
           if (lane[l][q] >= 0 && other(lane[l][q], v) - v == off && k[lane[l][q]] != 0) pick[l] = (PetscInt)q; /* -1: taken by an earlier slot */
         all = (PetscBool)(pick[l] >= 0);
       }
@@ -78,13 +98,13 @@ PetscErrorCode MSimSlicesCreate(PetscInt nvert, const std::vector<PetscInt> &a, 
     }
     sl->cmid.push_back(sl->cptr.back() + slots);
     /* gathered slots: the rest of each lane in input order */
-    for (PetscInt l = 0; l < 4; l++) lane[l].erase(std::remove(lane[l].begin(), lane[l].end(), (PetscInt)-1), lane[l].end());
+    for (PetscInt l = 0; l < 4; l++) n[l] = (size_t)(std::remove(lane[l], lane[l] + n[l], (PetscInt)-1) - lane[l]);
     size_t gathered = 0;
-    for (PetscInt l = 0; l < 4; l++) gathered = PetscMax(gathered, lane[l].size());
+    for (PetscInt l = 0; l < 4; l++) gathered = PetscMax(gathered, n[l]);
     for (size_t q = 0; q < gathered; q++)
       for (PetscInt l = 0; l < 4; l++) {
         const PetscInt v = 4 * c + l;
-        if (q < lane[l].size()) put(other(lane[l][q], v), k[lane[l][q]], L[lane[l][q]]);
+        if (q < n[l]) put(other(lane[l][q], v), k[lane[l][q]], L[lane[l][q]]);
         else put(v, 0.0, 0.0); /* padding: the vertex itself, k = 0 */
       }
     sl->cptr.push_back(sl->cptr.back() + slots + (PetscInt)gathered);

@@ -98,19 +98,25 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     /* owned-owned springs into slices (those of vertices past the last full slice into the
        arrays), then the springs with a ghost or fixed end; by input ids otherwise */
     MSimSprings           &sp = sys->springs;
-    std::vector<PetscInt>  ia, ja, rest, other;
-    std::vector<PetscReal> ka, La;
-    for (size_t q = 0; q < L.owned.size(); q++) {
-      const MSimRoutedSpring &r = L.owned[q];
-      const PetscInt          a = slot(r.ga, r.va), b = slot(r.gb, r.vb);
-      if (a < sys->nown && b < sys->nown) {
-        ia.push_back(a);
-        ja.push_back(b);
-        ka.push_back(r.k);
-        La.push_back(r.L);
-      } else other.push_back((PetscInt)q);
+    std::vector<PetscInt>  ia, ja, rest, oi, oj;
+    std::vector<PetscReal> ka, La, ok, oL;
+    /* reserved whole: growing by doubling would touch (fault in) up to twice the memory, the
+       dearest part of setup; the routed springs are freed before the slices are built */
+    for (auto *v : {&ia, &ja}) v->reserve(L.owned.size());
+    for (auto *v : {&ka, &La}) v->reserve(L.owned.size());
+    for (const MSimRoutedSpring &r : L.owned) {
+      const PetscInt a = slot(r.ga, r.va), b = slot(r.gb, r.vb);
+      const bool     inner = a < sys->nown && b < sys->nown;
+      (inner ? ia : oi).push_back(a);
+      (inner ? ja : oj).push_back(b);
+      (inner ? ka : ok).push_back(r.k);
+      (inner ? La : oL).push_back(r.L);
     }
+    L.owned.clear();
+    L.owned.shrink_to_fit();
     PetscCall(MSimSlicesCreate(sys->nown, ia, ja, ka, La, &sp.slices, rest));
+    for (auto *v : {&sp.i, &sp.j}) v->reserve(rest.size() + oi.size());
+    for (auto *v : {&sp.k, &sp.L}) v->reserve(rest.size() + oi.size());
     for (PetscInt q : rest) {
       sp.i.push_back(ia[q]);
       sp.j.push_back(ja[q]);
@@ -118,15 +124,12 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
       sp.L.push_back(La[q]);
     }
     sp.ninner = (PetscInt)sp.i.size();
-    for (PetscInt q : other) {
-      const MSimRoutedSpring &r = L.owned[q];
-      sp.i.push_back(slot(r.ga, r.va));
-      sp.j.push_back(slot(r.gb, r.vb));
-      sp.k.push_back(r.k);
-      sp.L.push_back(r.L);
-    }
+    sp.i.insert(sp.i.end(), oi.begin(), oi.end());
+    sp.j.insert(sp.j.end(), oj.begin(), oj.end());
+    sp.k.insert(sp.k.end(), ok.begin(), ok.end());
+    sp.L.insert(sp.L.end(), oL.begin(), oL.end());
     sp.n     = (PetscInt)sp.i.size();
-    sp.total = (PetscInt)(ia.size() + other.size());
+    sp.total = (PetscInt)(ia.size() + oi.size());
     /* the halo: springs of another rank with an owned end (the other end is then free: it
        decided the owner), stored from the owned end */
     for (const MSimRoutedSpring &r : L.halo) {
@@ -136,8 +139,6 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
       sp.hk.push_back(r.k);
       sp.hL.push_back(r.L);
     }
-    L.owned.clear();
-    L.owned.shrink_to_fit();
     L.halo.clear();
     L.halo.shrink_to_fit();
     PetscCall(MSimSweepScratchSetUp(&sp.slices, (PetscBool)(sys->damping > 0), &sys->sweep));
