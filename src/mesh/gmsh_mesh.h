@@ -20,6 +20,13 @@ class MSimGmshMesh {
 public:
   /* where: the file line of the record (ASCII) or its byte offset (binary), for messages */
   explicit MSimGmshMesh(bool lines) : lines_(lines) { }
+  /* Room for n more nodes (n bounded by what the rest of the file can hold) */
+  void ReserveNodes(size_t n)
+  {
+    x_.reserve(x_.size() + 3 * n);
+    xwhere_.reserve(xwhere_.size() + n);
+    index_.reserve(index_.size() + n);
+  }
   /* False when the tag was seen before. */
   bool AddNode(int64_t tag, const PetscReal x[3], PetscInt where);
   /* An element of a type msim reads (MSimGmshTypeOf(type).nodes > 0) with its node tags. False

@@ -53,6 +53,7 @@ struct Reader {
     if (version < 3) {
       PetscCall(tf.NeedTokens(1, 1, "the node count"));
       PetscCall(tf.Count(0, "node count", &n));
+      mesh.ReserveNodes(tf.Reserve(n, 8));
       for (PetscInt v = 0; v < n; v++) {
         int64_t tag;
         PetscCall(Line("$Nodes (fewer nodes than its count)"));
@@ -65,6 +66,7 @@ struct Reader {
       PetscCall(tf.NeedTokens(4, 4, "the $Nodes header (blocks, nodes, smallest and largest tag)"));
       PetscCall(tf.Count(0, "block count", &blocks));
       PetscCall(tf.Count(1, "node count", &total));
+      mesh.ReserveNodes(tf.Reserve(total, 8));
       for (PetscInt b = 0; b < blocks; b++) {
         int64_t param, dim;
         PetscCall(Line("$Nodes (fewer blocks than its count)"));

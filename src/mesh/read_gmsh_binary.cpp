@@ -203,6 +203,7 @@ struct Reader {
       const size_t at = in.pos;
       PetscCall(TextCount("node count", &n));
       PetscCall(in.Count(at, (uint64_t)n, 28, "node count", &n));
+      mesh.ReserveNodes((size_t)n);
       for (PetscInt v = 0; v < n; v++) {
         int64_t      tag = 0;
         const size_t at = in.pos;
@@ -217,6 +218,7 @@ struct Reader {
       for (uint64_t &h : head) PetscCall(in.Size("the $Nodes header", &h));
       PetscCall(in.Count(at, head[0], 12 + in.size_t_, "block count", &blocks));
       PetscCall(in.Count(at + in.size_t_, head[1], in.size_t_ + 24, "node count", &total));
+      mesh.ReserveNodes((size_t)total);
       for (PetscInt b = 0; b < blocks; b++) {
         int64_t      dim = 0, entity, param = 0;
         uint64_t     count = 0;
