@@ -169,14 +169,15 @@ def test_valid():
     got, text = scene_view(["-msim_scene", "tet", "-msim_mesh_file", beam])
     check(got is not None and got[:2] == (nodes, tets) and abs(got[3] - 0.4 * 0.1 * 0.1) < 1e-15,
           f"beam.msh: want {nodes} vertices, {tets} tets, volume 0.004; got {got} {text if got is None else ''}")
-    # the same mesh written here as binary 4.1 (both byte orders, 27 node blocks of points, lines,
-    # triangles and tets): the same scene, to the last bit of its volume
+    # the same mesh written here as binary 4.1 (both byte orders, size_t of 8 bytes and of 4 as a
+    # 32-bit Gmsh writes it; 27 node blocks of points, lines, triangles and tets): the same scene,
+    # to the last bit of its volume
     with tempfile.TemporaryDirectory() as tmp:
-        for order in "<>":
+        for order, size in (("<", 8), (">", 8), ("<", 4)):
             path = os.path.join(tmp, "beam_bin.msh")
-            open(path, "wb").write(gmsh41_binary(beam, order))
+            open(path, "wb").write(gmsh41_binary(beam, order, size))
             bgot, text = scene_view(["-msim_scene", "tet", "-msim_mesh_file", path])
-            check(bgot == got, f"beam.msh as binary ({order}): want {got}, got {bgot} {text if bgot is None else ''}")
+            check(bgot == got, f"beam.msh as binary ({order}, size_t of {size} bytes): want {got}, got {bgot} {text if bgot is None else ''}")
 
 
 def gmsh41_counts(path):
@@ -192,35 +193,35 @@ def gmsh41_counts(path):
     return nodes, tets
 
 
-def gmsh41_binary(path, order):
-    """An ASCII 4.1 file's $Nodes and $Elements as a binary 4.1 file (8-byte size_t)"""
+def gmsh41_binary(path, order, size):
+    """An ASCII 4.1 file's $Nodes and $Elements as a binary 4.1 file (size_t of `size` bytes)"""
     text = open(path).read()
 
     def section(name):
         return [int(t) if "." not in t and "e" not in t.lower() else float(t) for t in text.split("$" + name + "\n")[1].split("$End" + name)[0].split()]
 
-    q, i, d = order + "Q", order + "i", order + "d"
-    out = b"$MeshFormat\n4.1 1 8\n" + struct.pack(i, 1) + b"\n$EndMeshFormat\n$Nodes\n"
+    z = "Q" if size == 8 else "I"
+    out = b"$MeshFormat\n4.1 1 %d\n" % size + struct.pack(order + "i", 1) + b"\n$EndMeshFormat\n$Nodes\n"
     t = section("Nodes")
-    out += struct.pack(order + "4Q", *t[:4])
+    out += struct.pack(order + "4" + z, *t[:4])
     k = 4
     for _ in range(t[0]):
         dim, tag, param, n = t[k:k + 4]
-        out += struct.pack(order + "3iQ", dim, tag, param, n)
-        out += struct.pack(order + "%dQ" % n, *t[k + 4:k + 4 + n])
+        out += struct.pack(order + "3i" + z, dim, tag, param, n)
+        out += struct.pack(order + "%d%s" % (n, z), *t[k + 4:k + 4 + n])
         ncoord = n * (3 + (dim if param else 0))
         out += struct.pack(order + "%dd" % ncoord, *map(float, t[k + 4 + n:k + 4 + n + ncoord]))
         k += 4 + n + ncoord
     out += b"\n$EndNodes\n$Elements\n"
     t = section("Elements")
-    out += struct.pack(order + "4Q", *t[:4])
+    out += struct.pack(order + "4" + z, *t[:4])
     k = 4
     per = {1: 2, 2: 3, 4: 4, 15: 1}
     for _ in range(t[0]):
         dim, tag, etype, n = t[k:k + 4]
-        out += struct.pack(order + "3iQ", dim, tag, etype, n)
+        out += struct.pack(order + "3i" + z, dim, tag, etype, n)
         m = n * (1 + per[etype])
-        out += struct.pack(order + "%dQ" % m, *t[k + 4:k + 4 + m])
+        out += struct.pack(order + "%d%s" % (m, z), *t[k + 4:k + 4 + m])
         k += 4 + m
     return out + b"\n$EndElements\n"
 
