@@ -1,8 +1,12 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
    with wall time. Energies: kinetic, potential (springs + gravity), total. */
 #include <msim/output.h>
+#include <algorithm>
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <string>
+#include <unistd.h>
 
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
 {
@@ -42,34 +46,55 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Rank 0: PATH's header and its rows whose first field (the step) is <= last, written back
-   atomically; *kept: whether PATH existed with its header */
+/* Rank 0: PATH keeps its header and its rows whose first field (the step) is <= last; *kept:
+   whether PATH existed with its header. Rows come in step order, so the rows to drop are the
+   file's tail: it is read backward from the end, as far as the last row to keep (a checkpoint's
+   interval of rows, not a 10-hour run's whole history), and cut there with one ftruncate, which a
+   kill either does whole or not at all. A row cut short by a kill, the last one, goes too. */
 PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept)
 {
-  FILE       *fp = fopen(path, "r");
-  std::string text, line;
-  char        buf[4096];
+  FILE *fp = fopen(path, "r+b");
+  char  head[4096];
 
   PetscFunctionBeginUser;
   *kept = PETSC_FALSE;
   if (!fp) PetscFunctionReturn(PETSC_SUCCESS);
-  bool header = true;
-  while (fgets(buf, sizeof(buf), fp)) {
-    line = buf;
-    if (line.empty() || line.back() != '\n') break; /* a row cut by a kill */
-    if (header) {
-      text += line;
-      header = false;
-      continue;
-    }
-    char *end;
-    long  step = strtol(line.c_str(), &end, 10);
-    if (end == line.c_str() || *end != ',') break;
-    if (step <= last) text += line;
+  const bool header = fgets(head, sizeof(head), fp) && head[0] && head[strlen(head) - 1] == '\n';
+  const long first  = header ? ftell(fp) : -1;
+  if (!header || first < 0 || fseek(fp, 0, SEEK_END) != 0) {
+    fclose(fp); /* no complete header: the caller writes the file anew */
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
+  const long  size = ftell(fp);
+  std::string tail; /* the file's bytes [from, size) */
+  long        from = size;
+  bool        io   = size >= first;
+  /* the byte at p (first <= p < size), reading further back in doubling chunks */
+  auto at = [&](long p) -> char {
+    while (io && p < from) {
+      const long n = std::min(from - first, std::max(65536L, (long)tail.size()));
+      std::string more((size_t)n, '\0');
+      io   = fseek(fp, from - n, SEEK_SET) == 0 && fread(&more[0], 1, (size_t)n, fp) == (size_t)n;
+      tail = more + tail;
+      from -= n;
+    }
+    return io ? tail[(size_t)(p - from)] : '\n';
+  };
+  long end = size; /* rows [first, end) stay */
+  while (end > first && at(end - 1) != '\n') end--; /* a row cut by a kill */
+  while (end > first && io) {
+    long start = end - 1;
+    while (start > first && at(start - 1) != '\n') start--;
+    std::string row;
+    for (long p = start; p < end - 1 && row.size() < 24; p++) row += at(p);
+    char      *stop;
+    const long step = strtol(row.c_str(), &stop, 10);
+    if (stop != row.c_str() && *stop == ',' && step <= last) break;
+    end = start;
+  }
+  const bool cut = io && (end == size || ftruncate(fileno(fp), end) == 0);
   fclose(fp);
-  if (header) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MSimWriteFileAtomic(path, text.data(), text.size()));
+  PetscCheck(cut, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "%s: cannot drop the rows after step %" PetscInt_FMT " (%s)", path, last, strerror(errno));
   *kept = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
