@@ -65,6 +65,8 @@ PetscErrorCode MSimProgressUpdate(MSimProgress *p, PetscInt step, PetscReal t);
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon);
 /* resume_step >= 0: a restarted run, keeping an existing file's rows up to that step */
 PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step);
+/* Rank 0: a CSV file whose rows start with their step keeps its header and its rows up to step
+   `last` (the tail cut off in place); *kept: whether it existed with a header */
 PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
 /* phi: the implicit step's incremental potential at its result (0 for explicit methods) */
