@@ -15,7 +15,7 @@ MSimGmshType MSimGmshTypeOf(int64_t t)
   }
 }
 
-bool MSimGmshMesh::AddNode(int64_t tag, const PetscReal x[3], PetscInt where)
+bool MSimGmshMesh::AddNode(int64_t tag, const PetscReal x[3], int64_t where)
 {
   if (!index_.emplace(tag, (PetscInt)xwhere_.size()).second) return false;
   x_.insert(x_.end(), x, x + 3);
@@ -23,7 +23,7 @@ bool MSimGmshMesh::AddNode(int64_t tag, const PetscReal x[3], PetscInt where)
   return true;
 }
 
-bool MSimGmshMesh::AddElement(int64_t type, const int64_t *nodes, PetscInt where)
+bool MSimGmshMesh::AddElement(int64_t type, const int64_t *nodes, int64_t where)
 {
   const MSimGmshType g = MSimGmshTypeOf(type);
 
@@ -51,7 +51,7 @@ PetscErrorCode MSimGmshMesh::Finish(const char file[], MSimMesh *m)
   std::vector<PetscInt> to(nall, -1), at(cells_.size());
   for (size_t k = 0; k < cells_.size(); k++) {
     auto it = index_.find(cells_[k]);
-    PetscCheck(it != index_.end(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s %s %" PetscInt_FMT ": node %lld is not in $Nodes", file, unit, cwhere_[k / nper_], (long long)cells_[k]);
+    PetscCheck(it != index_.end(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s %s %lld: node %lld is not in $Nodes", file, unit, (long long)cwhere_[k / nper_], (long long)cells_[k]);
     at[k]          = it->second;
     to[it->second] = 0;
   }
@@ -65,12 +65,13 @@ PetscErrorCode MSimGmshMesh::Finish(const char file[], MSimMesh *m)
     if (!to[v]) {
       to[v] = m->nv++;
       m->x.insert(m->x.end(), x_.begin() + 3 * v, x_.begin() + 3 * v + 3);
-      m->vline.push_back(lines_ ? xwhere_[v] : 0); /* 0: no line to name (mesh.h) */
+      m->vline.push_back(lines_ ? (PetscInt)xwhere_[v] : 0); /* 0: no line to name (mesh.h) */
     }
   m->ncell = (PetscInt)cwhere_.size();
   m->cell.resize(cells_.size());
   for (size_t k = 0; k < cells_.size(); k++) m->cell[k] = to[at[k]];
   m->cline.assign(m->ncell, 0);
-  if (lines_) m->cline = cwhere_;
+  if (lines_)
+    for (PetscInt c = 0; c < m->ncell; c++) m->cline[c] = (PetscInt)cwhere_[c];
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -28,11 +28,11 @@ public:
     index_.reserve(index_.size() + n);
   }
   /* False when the tag was seen before. */
-  bool AddNode(int64_t tag, const PetscReal x[3], PetscInt where);
+  bool AddNode(int64_t tag, const PetscReal x[3], int64_t where);
   /* An element of a type msim reads (MSimGmshTypeOf(type).nodes > 0) with its node tags. False
      when it is of the highest dimension so far but neither a tet nor a triangle (msim reads no
      other cells). */
-  bool AddElement(int64_t type, const int64_t *nodes, PetscInt where);
+  bool AddElement(int64_t type, const int64_t *nodes, int64_t where);
   /* The kept elements and the nodes they use, into m; faults (no tets or triangles, a node not in
      $Nodes) name the file and the line or byte. */
   PetscErrorCode Finish(const char file[], MSimMesh *m);
@@ -41,9 +41,9 @@ private:
   bool                                   lines_;
   std::unordered_map<int64_t, PetscInt> index_; /* node tag -> position in the file */
   std::vector<PetscReal>                 x_;
-  std::vector<PetscInt>                  xwhere_;
+  std::vector<int64_t>                   xwhere_;
   int                                    top_ = -1; /* highest element dimension seen */
   int                                    nper_ = 0;
   std::vector<int64_t>                   cells_; /* node tags of the elements of dimension top_ */
-  std::vector<PetscInt>                  cwhere_;
+  std::vector<int64_t>                   cwhere_;
 };

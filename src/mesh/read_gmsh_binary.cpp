@@ -16,6 +16,7 @@
 #include <msim/mesh.h>
 #include "gmsh_mesh.h"
 #include "text_file.h"
+#include <cerrno>
 #include <cmath>
 #include <cstring>
 
@@ -136,7 +137,7 @@ struct Reader {
   PetscErrorCode Node(int64_t tag, size_t at, const PetscReal x[3])
   {
     PetscFunctionBeginUser;
-    PetscCheck(mesh.AddNode(tag, x, (PetscInt)at), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: node %lld appears twice", in.file, at, (long long)tag);
+    PetscCheck(mesh.AddNode(tag, x, (int64_t)at), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: node %lld appears twice", in.file, at, (long long)tag);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscErrorCode Element(int64_t type, const int64_t *v, size_t at)
@@ -144,7 +145,7 @@ struct Reader {
     const MSimGmshType g = MSimGmshTypeOf(type);
 
     PetscFunctionBeginUser;
-    PetscCheck(mesh.AddElement(type, v, (PetscInt)at), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: a %s (msim reads %s)", in.file, at, g.name, g.dim == 3 ? "tets" : "triangles");
+    PetscCheck(mesh.AddElement(type, v, (int64_t)at), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: a %s (msim reads %s)", in.file, at, g.name, g.dim == 3 ? "tets" : "triangles");
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscErrorCode Type(int64_t type, size_t at, MSimGmshType *g)
