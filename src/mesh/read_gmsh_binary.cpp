@@ -110,13 +110,7 @@ struct Bytes {
     if (pos < data.size()) pos++;
   }
   /* a text line shown safely in a message */
-  static std::string Show(const std::string &s)
-  {
-    std::string t = s.substr(0, 32);
-    for (char &c : t)
-      if (!isprint((unsigned char)c)) c = '?';
-    return t;
-  }
+  static std::string Show(const std::string &s) { return MSimShowBytes(s.data(), s.size()); }
   PetscErrorCode End(const char word[])
   {
     std::string s;

@@ -56,12 +56,11 @@ bool MSimTextFile::NextLine(char comment)
   return false;
 }
 
-std::string MSimTextFile::Show(size_t k) const
+std::string MSimShowBytes(const char *p, size_t n)
 {
   std::string s;
-  if (k >= tok.size()) return "(nothing)";
-  for (size_t i = 0; i < tok[k].n && s.size() < 32; i++) {
-    unsigned char c = (unsigned char)tok[k].p[i];
+  for (size_t i = 0; i < n && s.size() < 32; i++) {
+    unsigned char c = (unsigned char)p[i];
     if (c >= 32 && c < 127) s += (char)c;
     else {
       char hex[8];
@@ -69,8 +68,13 @@ std::string MSimTextFile::Show(size_t k) const
       s += hex;
     }
   }
-  if (tok[k].n > 32) s += "...";
+  if (n > 32) s += "...";
   return s;
+}
+
+std::string MSimTextFile::Show(size_t k) const
+{
+  return k < tok.size() ? MSimShowBytes(tok[k].p, tok[k].n) : "(nothing)";
 }
 
 bool MSimTextFile::Is(size_t k, const char word[]) const

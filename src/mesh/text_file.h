@@ -48,5 +48,9 @@ private:
   size_t pos = 0;
 };
 
+/* n bytes from p printed safely for a message: control and other bytes as \xNN, at most 32
+   characters, "..." after a longer run */
+std::string MSimShowBytes(const char *p, size_t n);
+
 /* "FILE line N" for messages */
 #define MSIM_AT(tf) (tf).name.c_str(), (tf).line
