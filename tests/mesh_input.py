@@ -19,7 +19,6 @@ Usage: mesh_input.py path/to/msim corpus|valid [--no-tetgen]"""
 import os
 import re
 import shutil
-import struct
 import subprocess
 import sys
 import tempfile
@@ -30,6 +29,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 BAD = os.path.join(HERE, "data", "bad")
 GOOD = os.path.join(HERE, "data", "meshes")
+sys.path.insert(0, GOOD)
+import make_gmsh_binary as gmsh_binary  # noqa: E402  (its 4.1 binary writer)
 
 # file (in tests/data/bad), scene, what the one error line must say (file and line are added)
 CORPUS = [
@@ -200,30 +201,19 @@ def gmsh41_binary(path, order, size):
     def section(name):
         return [int(t) if "." not in t and "e" not in t.lower() else float(t) for t in text.split("$" + name + "\n")[1].split("$End" + name)[0].split()]
 
-    z = "Q" if size == 8 else "I"
-    out = b"$MeshFormat\n4.1 1 %d\n" % size + struct.pack(order + "i", 1) + b"\n$EndMeshFormat\n$Nodes\n"
-    t = section("Nodes")
-    out += struct.pack(order + "4" + z, *t[:4])
-    k = 4
+    nodes, t, k = [], section("Nodes"), 4
     for _ in range(t[0]):
-        dim, tag, param, n = t[k:k + 4]
-        out += struct.pack(order + "3i" + z, dim, tag, param, n)
-        out += struct.pack(order + "%d%s" % (n, z), *t[k + 4:k + 4 + n])
+        dim, entity, param, n = t[k:k + 4]
         ncoord = n * (3 + (dim if param else 0))
-        out += struct.pack(order + "%dd" % ncoord, *map(float, t[k + 4 + n:k + 4 + n + ncoord]))
+        nodes.append((dim, entity, param, t[k + 4:k + 4 + n], t[k + 4 + n:k + 4 + n + ncoord]))
         k += 4 + n + ncoord
-    out += b"\n$EndNodes\n$Elements\n"
-    t = section("Elements")
-    out += struct.pack(order + "4" + z, *t[:4])
-    k = 4
-    per = {1: 2, 2: 3, 4: 4, 15: 1}
+    elements, t, k = [], section("Elements"), 4
     for _ in range(t[0]):
-        dim, tag, etype, n = t[k:k + 4]
-        out += struct.pack(order + "3i" + z, dim, tag, etype, n)
-        m = n * (1 + per[etype])
-        out += struct.pack(order + "%d%s" % (m, z), *t[k + 4:k + 4 + m])
+        dim, entity, etype, n = t[k:k + 4]
+        m = n * (1 + gmsh_binary.PER[etype])
+        elements.append((dim, entity, etype, t[k + 4:k + 4 + m]))
         k += 4 + m
-    return out + b"\n$EndElements\n"
+    return gmsh_binary.v41_blocks(nodes, elements, order, size)
 
 
 def test_bunny(tmp):
