@@ -35,6 +35,10 @@ typedef struct _n_MSimSceneData {
   std::string            name;         /* scene type, for messages */
   std::string            source;       /* where a mesh came from, for views */
   PetscBool              options_only = PETSC_FALSE; /* -help: read the options, build nothing */
+  /* nothing after the generator reads the cells (no refinement, nothing drawn): a generator that
+     makes its springs itself may count its cells instead of storing them */
+  PetscBool              cells_wanted = PETSC_TRUE;
+  PetscInt               cells_not_stored = 0; /* cells made here and not stored */
 
   /* the directory, after MSimSceneCreateFromOptions: this rank's block of input ids */
   MSimBlockLayout        dir;
@@ -57,6 +61,8 @@ struct _n_MSimScene {
 };
 
 typedef PetscErrorCode (*MSimSceneGenerator)(MPI_Comm, MSimSceneData *);
+/* Whether output draws the scene's cells (a series, mode shapes): only then are they kept past setup */
+PetscErrorCode MSimSceneCellsDrawn(PetscBool *drawn);
 PetscErrorCode MSimSceneRegister(const char name[], MSimSceneGenerator gen);
 PetscErrorCode MSimSceneRegisterAll(void);
 PetscErrorCode MSimSceneFinalizePackage(void);

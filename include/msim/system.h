@@ -72,8 +72,9 @@ struct _n_MSimSystem {
      with b(t) at the fixed vertices of each block. Output, spectra and -msim_view_final go
      through it; nothing is gathered whole unless a serial .vtu series asks for it. */
   MSimBlockLayout       dir;
-  Vec                   natural;       /* 3 nv, block size 3 */
-  VecScatter            to_natural;    /* free global -> natural */
+  Vec                   natural;       /* 3 nv, block size 3; made on first use (MSimSystemNaturalSetUp) */
+  VecScatter            to_natural;    /* free global -> natural; likewise */
+  std::vector<PetscInt> nat_gnum;      /* the block's global free numbers (-1: fixed), until then */
   std::vector<PetscInt> nat_fixed;     /* the fixed vertices of this rank's block (local index) ... */
   std::vector<PetscReal> nat_b0;       /* ... and their positions at t = 0 */
   std::vector<char>     nat_fixed_flag; /* every vertex of the block */
@@ -87,7 +88,9 @@ struct _n_MSimSystem {
   std::string           scene_name;
 };
 
-/* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition). */
+/* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition).
+   Takes the scene's springs (its spring lists are empty afterwards: one system per scene; at scale
+   they are the largest part of setup's memory). */
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *sys);
 PetscErrorCode MSimSystemDestroy(MSimSystem *sys);
 /* -msim_partition_view: the scene's counts, the edge cut (springs between free vertices of two
@@ -124,6 +127,8 @@ PetscErrorCode MSimSystemSpringSweep(MSimSystem sys, PetscReal t, Vec X, Vec F, 
 /* Sum of spring energies only (for the incremental potential). */
 PetscErrorCode MSimSystemSpringEnergy(MSimSystem sys, PetscReal t, Vec X, PetscReal *E);
 
+/* Makes sys->natural and sys->to_natural if not yet made. Collective. */
+PetscErrorCode MSimSystemNaturalSetUp(MSimSystem sys);
 /* Positions of all nv vertices in input order into sys->natural (b(t) at fixed vertices), or a
    displacement-like Vec (zero at fixed vertices). Collective. */
 PetscErrorCode MSimSystemNaturalPositions(MSimSystem sys, PetscReal t, Vec X);

@@ -195,6 +195,7 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   }
   /* a vector the file's size admits but VecLoad refuses still closes the file */
   PetscErrorCode load = PETSC_SUCCESS;
+  PetscCall(MSimSystemNaturalSetUp(sys));
   for (Vec target : {X, V}) {
     if ((load = VecLoad(sys->natural, v))) break;
     PetscCall(VecScatterBegin(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));

@@ -94,7 +94,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   char               type[64] = "cloth";
   MSimSceneGenerator gen;
   PetscReal          mass = 1.0, density = 0, k = 1000.0;
-  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set;
+  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set, keep_cells = PETSC_FALSE;
   PetscInt           refine = 0;
 
   PetscFunctionBeginUser;
@@ -114,6 +114,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
   PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
   PetscCall(MSimOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
+  PetscCall(PetscOptionsBool("-msim_scene_keep_cells", "Keep the scene's cells when nothing draws or refines them (for code that reads them)", NULL, keep_cells, &keep_cells, NULL));
   PetscOptionsEnd();
   PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
   PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
@@ -126,6 +127,11 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscFunctionListFind(MSimSceneList, type, &gen));
   PetscCheck(gen, comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_scene %s is not a known scene", type);
   sc->data.name = type;
+  {
+    PetscBool drawn;
+    PetscCall(MSimSceneCellsDrawn(&drawn));
+    sc->data.cells_wanted = (PetscBool)(drawn || refine > 0 || keep_cells);
+  }
   /* the Read stage holds reading a file or generating the scene's blocks */
   PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall((*gen)(comm, &sc->data));
@@ -176,7 +182,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscLogStagePush(MSIM_StageDistribute));
   if (S.cell_size && !S.springs_made) PetscCall(MSimSceneCellSprings(comm, &S));
   {
-    PetscInt n[2] = {(PetscInt)S.si.size(), S.cell_size ? (PetscInt)(S.cells.size() / S.cell_size) : 0};
+    PetscInt n[2] = {(PetscInt)S.si.size(), S.cell_size ? (PetscInt)(S.cells.size() / S.cell_size) + S.cells_not_stored : 0};
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, n, 2, MPIU_INT, MPI_SUM, comm));
     S.nspring = n[0];
     S.ncell   = n[1];
@@ -210,6 +216,17 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscLogStagePop());
   if (view) PetscCall(MSimSceneView(comm, &sc->data));
   *scene = owner.release();
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneCellsDrawn(PetscBool *drawn)
+{
+  PetscBool series, modes;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_output", &series));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_spectrum_modes", &modes));
+  *drawn = (PetscBool)(series || modes);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -31,7 +31,7 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
 
 static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys)
 {
-  const MSimSceneData &S = scene->data;
+  MSimSceneData       &S = scene->data;
   char                 partition[32];
   PetscBool            view_partition = PETSC_FALSE;
   PetscInt             order          = 0;
@@ -61,6 +61,20 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   /* grids, chains and boxes come in an order whose regular offsets the sliced sweep exploits; a
      mesh file's order is whatever its maker chose, a refined mesh's is poor (MortonOrder) */
   const PetscBool morton = (PetscBool)(order == 2 || (order == 0 && (S.name == "tet" || S.name == "mesh")));
+  /* the cells output draws: a mesh's cells held here, or the springs held here as lines (taken
+     now: the distribution consumes the scene's springs); none (and the scene's topology freed
+     with the scene) when no option writes a series or modes */
+  PetscBool drawn;
+  PetscCall(MSimSceneCellsDrawn(&drawn));
+  sys->out_cell_size = S.cell_size ? S.cell_size : 2;
+  if (drawn && S.cell_size) sys->out_cells = S.cells;
+  else if (drawn) {
+    sys->out_cells.resize(2 * S.si.size());
+    for (size_t q = 0; q < S.si.size(); q++) {
+      sys->out_cells[2 * q]     = S.si[q];
+      sys->out_cells[2 * q + 1] = S.sj[q];
+    }
+  }
   PetscCall(MSimSystemDistribute(comm, S, partition, morton, L));
   PetscCall(PetscLogStagePush(MSIM_StageSetup));
   sys->nfree          = L.nfree;
@@ -185,46 +199,17 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     }
   }
 
-  /* natural order: this rank's block of input ids, free ones scattered from their global rows */
+  /* natural order: the fixed vertices of this rank's block now, the Vec and its scatter on first
+     use (MSimSystemNaturalSetUp): a run that writes nothing never builds them */
   {
-    const PetscInt        count = S.dir.Count(sys->rank), start = S.dir.Start(sys->rank);
-    std::vector<PetscInt> from, to;
-    IS                    isf, ist;
-    PetscCall(VecCreateMPI(comm, 3 * count, 3 * S.nv, &sys->natural));
-    PetscCall(VecSetBlockSize(sys->natural, 3));
-    PetscCall(PetscObjectSetName((PetscObject)sys->natural, "positions"));
-    sys->nat_fixed_flag = S.fixed;
-    for (PetscInt v = 0; v < count; v++) {
-      if (L.dir_gnum[v] >= 0) {
-        from.push_back(L.dir_gnum[v]);
-        to.push_back(start + v);
-      } else {
+    const PetscInt count = S.dir.Count(sys->rank);
+    sys->nat_fixed_flag  = S.fixed;
+    for (PetscInt v = 0; v < count; v++)
+      if (L.dir_gnum[v] < 0) {
         sys->nat_fixed.push_back(v);
         for (int c = 0; c < 3; c++) sys->nat_b0.push_back(scene->prestretch * S.x0[3 * v + c]);
       }
-    }
-    PetscCall(ISCreateBlock(comm, 3, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &isf));
-    PetscCall(ISCreateBlock(comm, 3, (PetscInt)to.size(), to.data(), PETSC_COPY_VALUES, &ist));
-    PetscCall(VecScatterCreate(sys->X0, isf, sys->natural, ist, &sys->to_natural));
-    PetscCall(ISDestroy(&isf));
-    PetscCall(ISDestroy(&ist));
-  }
-  /* the cells output draws: a mesh's cells held here, or the springs held here as lines; none
-     (and the scene's topology freed with the scene) when no option writes a series or modes */
-  PetscBool drawn, modes;
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_output", &drawn));
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_spectrum_modes", &modes));
-  if (!drawn && !modes) sys->out_cell_size = S.cell_size ? S.cell_size : 2;
-  else if (S.cell_size) {
-    sys->out_cell_size = S.cell_size;
-    sys->out_cells     = S.cells;
-  } else {
-    sys->out_cell_size = 2;
-    sys->out_cells.resize(2 * S.si.size());
-    for (size_t q = 0; q < S.si.size(); q++) {
-      sys->out_cells[2 * q]     = S.si[q];
-      sys->out_cells[2 * q + 1] = S.sj[q];
-    }
+    sys->nat_gnum = std::move(L.dir_gnum);
   }
   PetscCall(PetscLogStagePop());
   if (view_partition) PetscCall(MSimSystemViewPartition(sys, partition, L.cut, L.between_free));
@@ -246,6 +231,31 @@ PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *out)
     PetscCall(ierr);
   }
   *out = sys;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemNaturalSetUp(MSimSystem sys)
+{
+  std::vector<PetscInt> from, to;
+  IS                    isf, ist;
+
+  PetscFunctionBeginUser;
+  if (sys->natural) PetscFunctionReturn(PETSC_SUCCESS);
+  const PetscInt count = sys->dir.Count(sys->rank), start = sys->dir.Start(sys->rank);
+  PetscCall(VecCreateMPI(sys->comm, 3 * count, 3 * sys->nv, &sys->natural));
+  PetscCall(VecSetBlockSize(sys->natural, 3));
+  PetscCall(PetscObjectSetName((PetscObject)sys->natural, "positions"));
+  for (PetscInt v = 0; v < count; v++)
+    if (sys->nat_gnum[v] >= 0) {
+      from.push_back(sys->nat_gnum[v]);
+      to.push_back(start + v);
+    }
+  PetscCall(ISCreateBlock(sys->comm, 3, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &isf));
+  PetscCall(ISCreateBlock(sys->comm, 3, (PetscInt)to.size(), to.data(), PETSC_COPY_VALUES, &ist));
+  PetscCall(VecScatterCreate(sys->X0, isf, sys->natural, ist, &sys->to_natural));
+  PetscCall(ISDestroy(&isf));
+  PetscCall(ISDestroy(&ist));
+  std::vector<PetscInt>().swap(sys->nat_gnum);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -29,14 +29,47 @@ struct Position {
 };
 } // namespace
 
-/* The distinct ends of the springs held here, and each spring's two ends as indices into them
-   (spring s: ends[at[s]] and ends[at[ns + s]]) */
-static void SpringEnds(const MSimSceneData &S, std::vector<PetscInt> &ends, std::vector<PetscInt> &at)
-{
-  std::vector<PetscInt> both(S.si);
-  both.insert(both.end(), S.sj.begin(), S.sj.end());
-  MSimCompactIds(both, ends, at);
-}
+/* The distinct ends of the springs held here (ascending) and where each spring's two ends are
+   among them. Where the ids span a range no wider than twice the springs (a generator's block, a
+   rank's part of a mesh) a table over that range answers, with no array per spring end (64 MB at
+   4 M springs: the pair list and the indices); otherwise the ends of spring s are at[s] and
+   at[ns + s]. */
+namespace {
+struct SpringEnds {
+  std::vector<PetscInt> ends, pos, at;
+  PetscInt              lo = 0;
+  size_t                ns = 0;
+
+  void Build(const MSimSceneData &S)
+  {
+    ns = S.si.size();
+    if (!ns) return;
+    const auto     a = std::minmax_element(S.si.begin(), S.si.end()), b = std::minmax_element(S.sj.begin(), S.sj.end());
+    const PetscInt hi = std::max(*a.second, *b.second);
+    lo                = std::min(*a.first, *b.first);
+    if ((size_t)(hi - lo) < 2 * ns + 1024) {
+      pos.assign(hi - lo + 1, -1);
+      for (const auto *list : {&S.si, &S.sj})
+        for (PetscInt v : *list) pos[v - lo] = 0;
+      for (PetscInt k = 0; k <= hi - lo; k++)
+        if (!pos[k]) {
+          pos[k] = (PetscInt)ends.size();
+          ends.push_back(lo + k);
+        }
+    } else {
+      std::vector<PetscInt> both(S.si);
+      both.insert(both.end(), S.sj.begin(), S.sj.end());
+      MSimCompactIds(both, ends, at);
+    }
+  }
+  PetscInt First(const MSimSceneData &S, size_t s) const { return pos.empty() ? at[s] : pos[S.si[s] - lo]; }
+  PetscInt Second(const MSimSceneData &S, size_t s) const { return pos.empty() ? at[ns + s] : pos[S.sj[s] - lo]; }
+  void     Free()
+  {
+    for (auto *v : {&ends, &pos, &at}) std::vector<PetscInt>().swap(*v);
+  }
+};
+} // namespace
 
 /* The owned vertices along a Z-order (Morton) curve through their rest positions, ties by input
    id: neighbours in space get nearby rows, so the spring sweep reads few cache lines per vertex.
@@ -69,10 +102,11 @@ static PetscErrorCode MortonOrder(std::vector<Migrant> &v)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L)
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L)
 {
   PetscMPIInt           rank, size;
-  std::vector<PetscInt> ends, at, fid, xadj, adjncy;
+  std::vector<PetscInt> fid, xadj, adjncy;
+  SpringEnds            E;
   std::vector<PetscMPIInt> part, dest;
 
   PetscFunctionBeginUser;
@@ -106,17 +140,16 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
   /* the graph: each spring between free vertices is a row entry of both, sent where the row is
      (natural blocks and one rank need none) */
   PetscCall(PetscLogStagePush(MSIM_StagePartition));
-  SpringEnds(S, ends, at);
-  const size_t ns = S.si.size();
+  E.Build(S);
   PetscBool natural;
   PetscCall(PetscStrcmp(partition, "natural", &natural));
   xadj.assign(nfl + 1, 0);
   if (!natural && size > 1) {
     std::vector<PetscInt>  efid;
     std::vector<Adjacency> send, got;
-    PetscCall(MSimFetch(comm, S.dir, fid, ends, efid));
+    PetscCall(MSimFetch(comm, S.dir, fid, E.ends, efid));
     for (size_t s = 0; s < S.si.size(); s++) {
-      const PetscInt a = efid[at[s]], b = efid[at[ns + s]];
+      const PetscInt a = efid[E.First(S, s)], b = efid[E.Second(S, s)];
       if (a < 0 || b < 0) continue;
       send.push_back({a, b});
       dest.push_back(S.dir.Owner(S.si[s]));
@@ -207,35 +240,41 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
     std::vector<VertexInfo>   info;
     std::vector<MSimRoutedSpring> send, got;
     PetscInt                  counts[3] = {0, 0, 0}; /* springs with a free end, between free vertices, cut */
-    PetscCall(MSimFetch(comm, S.dir, table, ends, info));
+    PetscCall(MSimFetch(comm, S.dir, table, E.ends, info));
+    /* one rank keeps everything: no destinations (16 MB of fresh memory at 4 M springs) */
+    const bool route = size > 1;
     dest.clear();
-    dest.reserve(S.si.size());
+    if (route) dest.reserve(S.si.size());
     send.reserve(S.si.size());
     for (size_t s = 0; s < S.si.size(); s++) {
-      const VertexInfo &a = info[at[s]], &b = info[at[ns + s]];
+      const VertexInfo &a = info[E.First(S, s)], &b = info[E.Second(S, s)];
       if (a.owner < 0 && b.owner < 0) continue; /* both ends fixed: no effect on the motion */
       MSimRoutedSpring r;
       r.va = S.si[s];
       r.vb = S.sj[s];
       r.ga = a.gnum;
       r.gb = b.gnum;
-      r.k    = S.sk[s];
-      r.L    = S.sL[s];
-      r.halo = 0;
+      r.k = S.sk[s];
+      r.L = S.sL[s];
       const PetscMPIInt o = a.owner >= 0 ? a.owner : b.owner;
       send.push_back(r);
-      dest.push_back(o);
+      if (route) dest.push_back(o);
       counts[0]++;
       if (a.owner >= 0 && b.owner >= 0) {
         counts[1]++;
         if (a.owner != b.owner) {
           counts[2]++;
-          r.halo = 1;
           send.push_back(r);
           dest.push_back(b.owner);
         }
       }
     }
+    /* the scene's springs are all in send now: freed before anything else is allocated (at
+       4 M springs 96 MB, reused by what setup builds next) */
+    for (auto *v : {&S.si, &S.sj}) std::vector<PetscInt>().swap(*v);
+    for (auto *v : {&S.sk, &S.sL}) std::vector<PetscReal>().swap(*v);
+    E.Free();
+    std::vector<VertexInfo>().swap(info);
     PetscCall(MSimExchange(comm, dest, std::move(send), got));
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, counts, 3, MPIU_INT, MPI_SUM, comm));
     L.nspring_moving = counts[0];
@@ -253,7 +292,8 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const
        dearest part of setup), the few halo ones copied out */
     size_t nown = 0;
     for (size_t q = 0; q < got.size(); q++) {
-      if (got[q].halo) L.halo.push_back(got[q]);
+      const PetscInt first = got[q].ga >= 0 ? got[q].ga : got[q].gb; /* decided the owner */
+      if (first < L.rstart || first >= L.rstart + L.nown) L.halo.push_back(got[q]);
       else got[nown++] = got[q];
     }
     got.resize(nown);

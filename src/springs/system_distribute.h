@@ -2,12 +2,12 @@
 #pragma once
 #include <msim/system.h>
 
-/* A spring as its owner (or, halo, the owner of its other end) receives it: ends by global free
-   number (-1: fixed) and input id. */
+/* A spring as its owner (or, a halo copy, the owner of its other end) receives it: ends by global
+   free number (-1: fixed) and input id. 32 bytes: whether a copy is the halo one follows from who
+   owns its first free end, so it is not sent. */
 struct MSimRoutedSpring {
   PetscInt  va, vb, ga, gb;
   PetscReal k, L;
-  PetscInt  halo;
 };
 
 struct MSimLocalPart {
@@ -22,5 +22,6 @@ struct MSimLocalPart {
   PetscInt               nspring_moving = 0, between_free = 0, cut = 0;
 };
 
-/* morton: number each rank's vertices along a Z-order curve (else in input order) */
-PetscErrorCode MSimSystemDistribute(MPI_Comm comm, const MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L);
+/* morton: number each rank's vertices along a Z-order curve (else in input order). The scene's
+   spring lists (si, sj, sk, sL) are handed over: empty on return. */
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L);

@@ -126,6 +126,7 @@ static PetscErrorCode MSimSystemNatural(MSimSystem sys, PetscReal t, PetscBool p
   PetscScalar *n;
 
   PetscFunctionBeginUser;
+  PetscCall(MSimSystemNaturalSetUp(sys));
   PetscCall(VecScatterBegin(sys->to_natural, X, sys->natural, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecScatterEnd(sys->to_natural, X, sys->natural, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArray(sys->natural, &n));

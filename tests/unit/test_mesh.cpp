@@ -29,6 +29,15 @@ static PetscErrorCode TestBoxGeometry(void)
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsClear(NULL));
   PetscCall(PetscOptionsInsertString(NULL, kScenes[0][1]));
+  /* nothing draws or refines this box: it counts its tets and stores none */
+  PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
+  {
+    PetscInt held = (PetscInt)scene->data.cells.size();
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &held, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+    CHECK(held == 0 && scene->data.ncell == 6 * nx * ny * nz, "a box nothing draws holds %" PetscInt_FMT " cell corners and counts %" PetscInt_FMT " tets", held, scene->data.ncell);
+  }
+  PetscCall(MSimSceneDestroy(&scene));
+  PetscCall(PetscOptionsInsertString(NULL, "-msim_scene_keep_cells"));
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
   const MSimSceneData  &s = scene->data;
   std::vector<PetscReal> x;
