@@ -107,7 +107,7 @@ def strong(ranks):
     rows = []
     for method in METHODS:
         for np_ in ranks:
-            r = run(BUNNY_R3, method, np_)
+            r = run(BUNNY_R3, method, np_, repeat=3)  # the ratios are the headline: one more run against this machine's noise
             rows.append(r)
             print(f"strong {method:9s} {np_} ranks: {r['step_s'] * 1e3:9.2f} ms/step, setup {r['setup_total_s']:.2f} s, {r['bytes_per_spring']:.0f} B/spring", flush=True)
     base = {r["method"]: r["step_s"] for r in rows if r["ranks"] == min(ranks)}
@@ -140,7 +140,7 @@ def memory():
     for target in (1e5, 1e6, 4e6, 3e7):
         n, scene = box(target)
         for method in (METHODS if target < 1e7 else ["explicit"]):
-            r = run(scene, method, 1)
+            r = run(scene, method, 1, repeat=3)  # setup is the headline here, and the most at the host's mercy
             r["box_n"] = n
             # the least setup can cost here: fault in (zero) the peak resident memory once, on
             # pages new to the process (a fresh run) or on pages it had freed (the best case)
