@@ -35,8 +35,9 @@ typedef struct _n_MSimSceneData {
   std::string            name;         /* scene type, for messages */
   std::string            source;       /* where a mesh came from, for views */
   PetscBool              options_only = PETSC_FALSE; /* -help: read the options, build nothing */
-  /* nothing after the generator reads the cells (no refinement, nothing drawn): a generator that
-     makes its springs itself may count its cells instead of storing them */
+  /* false when nothing after the generator reads the cells (no refinement, nothing drawn, no
+     -msim_scene_keep_cells): a generator that makes its springs itself then counts its cells
+     instead of storing them */
   PetscBool              cells_wanted = PETSC_TRUE;
   PetscInt               cells_not_stored = 0; /* cells made here and not stored */
 
