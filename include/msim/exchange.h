@@ -9,6 +9,7 @@
 #pragma once
 #include <msim/sys.h>
 #include <algorithm>
+#include <initializer_list>
 #include <vector>
 
 struct MSimBlockLayout {
@@ -145,25 +146,45 @@ PetscErrorCode MSimFetch(MPI_Comm comm, const MSimBlockLayout &layout, const std
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The distinct ids of some lists (ascending, into unique) and a table over their range: pos[v - lo]
+   is id v's index among them (-1: absent). Built only where the range is at most max_span wide
+   (returns false otherwise, with nothing built): a marker array over the range then replaces
+   sorting and binary search. */
+inline bool MSimIdTable(std::initializer_list<const std::vector<PetscInt> *> lists, size_t max_span, PetscInt &lo, std::vector<PetscInt> &pos, std::vector<PetscInt> &unique)
+{
+  PetscInt hi = PETSC_MIN_INT;
+  lo          = PETSC_MAX_INT;
+  unique.clear();
+  pos.clear();
+  for (const auto *l : lists)
+    if (!l->empty()) {
+      const auto mm = std::minmax_element(l->begin(), l->end());
+      lo            = std::min(lo, *mm.first);
+      hi            = std::max(hi, *mm.second);
+    }
+  if (hi < lo || (size_t)(hi - lo) + 1 > max_span) return false;
+  pos.assign(hi - lo + 1, -1);
+  for (const auto *l : lists)
+    for (PetscInt v : *l) pos[v - lo] = 0;
+  for (PetscInt k = 0; k <= hi - lo; k++)
+    if (pos[k] == 0) {
+      pos[k] = (PetscInt)unique.size();
+      unique.push_back(lo + k);
+    }
+  return true;
+}
+
 /* The distinct ids of a list (ascending) and each entry's index among them. Where the ids span a
    range not much wider than the list (the common case: a rank's cells name vertices near its
-   block) a marker array over that range replaces sorting and binary search. */
+   block) the table of MSimIdTable answers; otherwise sorting and binary search. */
 inline void MSimCompactIds(const std::vector<PetscInt> &list, std::vector<PetscInt> &unique, std::vector<PetscInt> &index)
 {
-  unique.clear();
+  std::vector<PetscInt> pos;
+  PetscInt              lo;
+
   index.resize(list.size());
-  if (list.empty()) return;
-  const auto     mm = std::minmax_element(list.begin(), list.end());
-  const PetscInt lo = *mm.first, span = *mm.second - lo + 1;
-  if ((size_t)span <= 4 * list.size() + 1024) {
-    std::vector<PetscInt> at(span, -1);
-    for (PetscInt v : list) at[v - lo] = 0;
-    for (PetscInt k = 0; k < span; k++)
-      if (at[k] == 0) {
-        at[k] = (PetscInt)unique.size();
-        unique.push_back(lo + k);
-      }
-    for (size_t q = 0; q < list.size(); q++) index[q] = at[list[q] - lo];
+  if (MSimIdTable({&list}, 4 * list.size() + 1024, lo, pos, unique)) {
+    for (size_t q = 0; q < list.size(); q++) index[q] = pos[list[q] - lo];
   } else {
     unique = list;
     std::sort(unique.begin(), unique.end());

@@ -31,9 +31,9 @@ struct Position {
 
 /* The distinct ends of the springs held here (ascending) and where each spring's two ends are
    among them. Where the ids span a range no wider than twice the springs (a generator's block, a
-   rank's part of a mesh) a table over that range answers, with no array per spring end (64 MB at
-   4 M springs: the pair list and the indices); otherwise the ends of spring s are at[s] and
-   at[ns + s]. */
+   rank's part of a mesh) a table over that range (MSimIdTable) answers, with no array per spring
+   end (64 MB at 4 M springs: the pair list and the indices); otherwise the ends of spring s are
+   at[s] and at[ns + s]. */
 namespace {
 struct SpringEnds {
   std::vector<PetscInt> ends, pos, at;
@@ -43,24 +43,10 @@ struct SpringEnds {
   void Build(const MSimSceneData &S)
   {
     ns = S.si.size();
-    if (!ns) return;
-    const auto     a = std::minmax_element(S.si.begin(), S.si.end()), b = std::minmax_element(S.sj.begin(), S.sj.end());
-    const PetscInt hi = std::max(*a.second, *b.second);
-    lo                = std::min(*a.first, *b.first);
-    if ((size_t)(hi - lo) < 2 * ns + 1024) {
-      pos.assign(hi - lo + 1, -1);
-      for (const auto *list : {&S.si, &S.sj})
-        for (PetscInt v : *list) pos[v - lo] = 0;
-      for (PetscInt k = 0; k <= hi - lo; k++)
-        if (!pos[k]) {
-          pos[k] = (PetscInt)ends.size();
-          ends.push_back(lo + k);
-        }
-    } else {
-      std::vector<PetscInt> both(S.si);
-      both.insert(both.end(), S.sj.begin(), S.sj.end());
-      MSimCompactIds(both, ends, at);
-    }
+    if (!ns || MSimIdTable({&S.si, &S.sj}, 2 * ns + 1024, lo, pos, ends)) return;
+    std::vector<PetscInt> both(S.si);
+    both.insert(both.end(), S.sj.begin(), S.sj.end());
+    MSimCompactIds(both, ends, at);
   }
   PetscInt First(const MSimSceneData &S, size_t s) const { return pos.empty() ? at[s] : pos[S.si[s] - lo]; }
   PetscInt Second(const MSimSceneData &S, size_t s) const { return pos.empty() ? at[ns + s] : pos[S.sj[s] - lo]; }
