@@ -12,6 +12,11 @@ PetscErrorCode PCCreate_MSimLLT(PC pc);
 /* x = A^-1 b for nrhs <= 4 columns stored interleaved (row i's values together, as in a Vec of
    block size nrhs), without copies; sets the PC up if needed. Errors unless pc is msimllt. */
 PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
+/* This rank's sparse factor after set-up: stored entries (explicit zeros of merged supernodes
+   included) and supernodes. Options -pc_msimllt_relax r (default 0.3) and -pc_msimllt_max_width w
+   (16) merge neighbouring supernodes while the stored entries grow by at most the fraction r and
+   none is wider than w columns: fewer, wider dense blocks for the solves. */
+PetscErrorCode PCMSimLLTGetFactorSize(PC pc, PetscInt64 *entries, PetscInt *supernodes);
 
 /* Phi carries roundoff from its spring terms' cancellation (l - L): changes below this fraction of
    |Phi| are not resolved, and Newton's line search and the trust region judge a step by |g| there. */

@@ -26,6 +26,8 @@ typedef struct {
   std::vector<msim::V4>  z;      /* work: n rows of 4 lanes */
   PetscInt               n;      /* rows */
   msim::SchurCholesky   *schur;  /* several ranks */
+  PetscReal              relax;     /* supernode amalgamation (supernodal.h) */
+  PetscInt               max_width;
 } PC_LLT;
 
 /* PCShellGet/SetContext only act on a PC whose type name is "shell", so the data hangs on the PC
@@ -56,9 +58,17 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   PetscMPIInt        size;
   const PetscInt    *cols;
   const PetscScalar *vals;
+  const char        *prefix;
 
   PetscFunctionBeginUser;
   PetscCall(PCLLTGetContext(pc, &ctx));
+  PetscCall(PCGetOptionsPrefix(pc, &prefix));
+  PetscOptionsBegin(PetscObjectComm((PetscObject)pc), prefix, "msimllt: supernodal Cholesky", "PC");
+  PetscCall(PetscOptionsReal("-pc_msimllt_relax", "Merge neighbouring supernodes while the stored entries, zeros included, grow by at most this fraction", "", ctx->relax, &ctx->relax, NULL));
+  PetscCall(PetscOptionsInt("-pc_msimllt_max_width", "Widest merged supernode (columns)", "", ctx->max_width, &ctx->max_width, NULL));
+  PetscOptionsEnd();
+  PetscCheck(ctx->relax >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-pc_msimllt_relax must be >= 0 (got %g)", (double)ctx->relax);
+  PetscCheck(ctx->max_width >= 1, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-pc_msimllt_max_width must be >= 1 (got %" PetscInt_FMT ")", ctx->max_width);
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &size));
   PetscCall(PCGetOperators(pc, NULL, &A));
   PetscCall(MatGetLocalSize(A, &n, NULL));
@@ -67,9 +77,9 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   if (size > 1) {
     delete ctx->schur;
     ctx->schur = new msim::SchurCholesky();
-    PetscCall(ctx->schur->SetUp(A));
+    PetscCall(ctx->schur->SetUp(A, ctx->relax, (int)ctx->max_width));
     PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
-    PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT ", %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->InterfaceSize()));
+    PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT " in %d supernodes, %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->LocalSupernodes(), ctx->schur->InterfaceSize()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   std::vector<Eigen::Triplet<double, int>> t;
@@ -87,7 +97,7 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     LLT llt(S);
     PetscCheck(llt.info() == Eigen::Success, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite");
     const SpMat &L = llt.matrixL().nestedExpression();
-    ctx->factor.Build((int)n, L.outerIndexPtr(), L.innerIndexPtr(), L.valuePtr());
+    ctx->factor.Build((int)n, L.outerIndexPtr(), L.innerIndexPtr(), L.valuePtr(), -1, ctx->relax, (int)ctx->max_width);
     ctx->perm.assign(llt.permutationP().indices().data(), llt.permutationP().indices().data() + n);
   } /* Eigen's column storage goes: only the supernodal copy stays */
   PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
@@ -102,19 +112,30 @@ static PetscErrorCode LLTSolveStrided(PC_LLT *c, PetscInt nrhs, PetscInt bs, con
   msim::V4 *z = c->z.data();
 
   PetscFunctionBeginUser;
-  for (PetscInt i = 0; i < c->n; i++) {
-    msim::V4 v = {0, 0, 0, 0};
-    for (PetscInt r = 0; r < nrhs; r++) v[r] = PetscRealPart(b[i * bs + r * ldb]);
-    z[c->perm[i]] = v;
-  }
+  if (nrhs == 3 && bs == 3 && ldb == 1) /* PD's x, y, z: a loop the compiler unrolls */
+    for (PetscInt i = 0; i < c->n; i++) z[c->perm[i]] = msim::V4{b[3 * i], b[3 * i + 1], b[3 * i + 2], 0};
+  else
+    for (PetscInt i = 0; i < c->n; i++) {
+      msim::V4 v = {0, 0, 0, 0};
+      for (PetscInt r = 0; r < nrhs; r++) v[r] = PetscRealPart(b[i * bs + r * ldb]);
+      z[c->perm[i]] = v;
+    }
   /* MSimLLTSweep: the forward and backward sweeps alone, the yardstick of the PD global step
      (runs/bench/suite.py); its flops, 4 per factor entry and column, give the entry count */
   PetscCall(PetscLogEventBegin(MSIM_LLTSweep, 0, 0, 0, 0));
   c->factor.Solve(z);
   PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->factor.Entries()));
   PetscCall(PetscLogEventEnd(MSIM_LLTSweep, 0, 0, 0, 0));
-  for (PetscInt i = 0; i < c->n; i++)
-    for (PetscInt r = 0; r < nrhs; r++) x[i * bs + r * ldx] = z[c->perm[i]][r];
+  if (nrhs == 3 && bs == 3 && ldx == 1)
+    for (PetscInt i = 0; i < c->n; i++) {
+      const msim::V4 v = z[c->perm[i]];
+      x[3 * i]         = v[0];
+      x[3 * i + 1]     = v[1];
+      x[3 * i + 2]     = v[2];
+    }
+  else
+    for (PetscInt i = 0; i < c->n; i++)
+      for (PetscInt r = 0; r < nrhs; r++) x[i * bs + r * ldx] = z[c->perm[i]][r];
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -124,6 +145,18 @@ static PetscErrorCode LLTSolveLocal(PC_LLT *c, PetscInt nrhs, const PetscScalar 
   PetscFunctionBeginUser;
   if (c->schur) PetscCall(c->schur->Solve(nrhs, b, x));
   else PetscCall(LLTSolveStrided(c, nrhs, nrhs, b, 1, x, 1));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode PCMSimLLTGetFactorSize(PC pc, PetscInt64 *entries, PetscInt *supernodes)
+{
+  PC_LLT *c;
+
+  PetscFunctionBeginUser;
+  PetscCall(PCSetUp(pc));
+  PetscCall(PCLLTGetContext(pc, &c));
+  *entries    = c->schur ? c->schur->LocalEntries() : c->factor.Entries();
+  *supernodes = c->schur ? c->schur->LocalSupernodes() : c->factor.Supernodes();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -195,7 +228,10 @@ PetscErrorCode PCCreate_MSimLLT(PC pc)
   PetscFunctionBeginUser;
   PetscCall(PCCreate_Shell(pc));
   PetscCall(PetscContainerCreate(PetscObjectComm((PetscObject)pc), &c));
-  PetscCall(PetscContainerSetPointer(c, new PC_LLT()));
+  PC_LLT *ctx    = new PC_LLT();
+  ctx->relax     = 0.3; /* runs/bench/README.md: 5-8% off the sweep of the benchmark cloth's factor */
+  ctx->max_width = 16;
+  PetscCall(PetscContainerSetPointer(c, ctx));
   PetscCall(PetscContainerSetUserDestroy(c, PCLLTDestroyContext));
   PetscCall(PetscObjectCompose((PetscObject)pc, "MSimLLT", (PetscObject)c));
   PetscCall(PetscContainerDestroy(&c));

@@ -13,11 +13,13 @@
 namespace msim {
 class SchurCholesky {
 public:
-  /* Collective. A: MPIAIJ, symmetric positive definite. */
-  PetscErrorCode SetUp(Mat A);
+  /* Collective. A: MPIAIJ, symmetric positive definite. relax, max_width: the local factor's
+     supernode amalgamation (supernodal.h). */
+  PetscErrorCode SetUp(Mat A, double relax, int max_width);
   /* x = A^-1 b for the owned rows of nrhs <= 4 columns stored interleaved. Collective. */
   PetscErrorCode Solve(PetscInt nrhs, const PetscScalar *b, PetscScalar *x);
   int64_t        LocalEntries() const { return local_.Entries(); }
+  int            LocalSupernodes() const { return local_.Supernodes(); }
   PetscInt       InterfaceSize() const { return ntotal_; }
 
 private:

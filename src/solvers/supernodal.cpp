@@ -4,43 +4,78 @@
    where the build enables AVX2 (CMake's MSIM_ARCH), two SSE instructions otherwise. */
 #include "supernodal.h"
 #include <algorithm>
+#include <iterator>
 
 namespace msim {
 
-void SupernodalFactor::Build(int n, const int *colptr, const int *row, const double *val, int split)
+void SupernodalFactor::Build(int n, const int *colptr, const int *row, const double *val, int split, double relax, int max_width)
 {
   n_ = n;
-  start_.assign(1, 0);
+  /* the fundamental supernodes: column j+1 continues one when its structure is column j's
+     without row j */
+  std::vector<int> fund(1, 0);
   for (int j = 0; j + 1 < n; j++) {
     const int cj = colptr[j + 1] - colptr[j], cj1 = colptr[j + 2] - colptr[j + 1];
-    /* column j+1 continues the supernode when its structure is column j's without row j */
-    if (!(cj >= 2 && row[colptr[j] + 1] == j + 1 && cj == cj1 + 1) || j + 1 == split) start_.push_back(j + 1);
+    if (!(cj >= 2 && row[colptr[j] + 1] == j + 1 && cj == cj1 + 1) || j + 1 == split) fund.push_back(j + 1);
   }
+  fund.push_back(n);
+  /* relaxed amalgamation, left to right: the next fundamental supernode joins the current group
+     when the group's stored entries, zeros now included, stay within (1 + relax) of what the
+     parts store apart. Rows below the group are the union of its columns' rows. */
+  auto stored = [](int64_t w, int64_t m) { return w * (w - 1) / 2 + m * w; };
+  std::vector<int>              rows_below, merged, tail;
+  std::vector<std::vector<int>> group_rows;
+  start_.assign(1, 0);
+  int64_t apart = 0;
+  for (size_t f = 0; f + 1 < fund.size(); f++) {
+    const int t0 = fund[f], t1 = fund[f + 1], wt = t1 - t0, mt = colptr[t0 + 1] - colptr[t0] - wt;
+    tail.assign(row + colptr[t0] + wt, row + colptr[t0 + 1]);
+    const int g0 = start_.back(), wg = t0 - g0;
+    if (wg > 0) {
+      merged.clear();
+      std::set_union(std::upper_bound(rows_below.begin(), rows_below.end(), t1 - 1), rows_below.end(), tail.begin(), tail.end(), std::back_inserter(merged));
+      const int64_t w = t1 - g0, together = stored(w, (int64_t)merged.size()), parts = apart + stored(wt, mt);
+      if (t0 != split && w <= max_width && together <= (1 + relax) * parts) {
+        rows_below.swap(merged);
+        apart = parts;
+        continue;
+      }
+      group_rows.push_back(rows_below);
+      start_.push_back(t0);
+    }
+    rows_below.swap(tail);
+    apart = stored(wt, mt);
+  }
+  group_rows.push_back(rows_below);
   start_.push_back(n);
   const int nsn = (int)start_.size() - 1;
   rptr_.assign(nsn + 1, 0);
   vptr_.assign(nsn + 1, 0);
   for (int s = 0; s < nsn; s++) {
-    const int c0 = start_[s], w = start_[s + 1] - c0, m = colptr[c0 + 1] - colptr[c0] - w;
+    const int w = start_[s + 1] - start_[s], m = (int)group_rows[s].size();
     rptr_[s + 1] = rptr_[s] + m;
-    vptr_[s + 1] = vptr_[s] + (int64_t)w * (w - 1) / 2 + (int64_t)m * w;
+    vptr_[s + 1] = vptr_[s] + stored(w, m);
   }
   rows_.resize(rptr_[nsn]);
   val_.assign(vptr_[nsn], 0.0);
   invdiag_.resize(n);
+  std::vector<int> pos(n, -1); /* a row's place among the rows below the current supernode */
   for (int s = 0; s < nsn; s++) {
-    const int c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
+    const int c0 = start_[s], c1 = start_[s + 1], w = c1 - c0, m = (int)group_rows[s].size();
     double   *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2; /* data(): val_ may be empty (a diagonal matrix) */
-    for (int p = 0; p < m; p++) rows_[rptr_[s] + p] = row[colptr[c0] + w + p];
+    for (int p = 0; p < m; p++) pos[rows_[rptr_[s] + p] = group_rows[s][p]] = p;
+    std::vector<int>().swap(group_rows[s]);
     for (int c = 0; c < w; c++) {
       const int off = colptr[c0 + c];
       invdiag_[c0 + c] = 1.0 / val[off];
-      for (int r = c + 1; r < w; r++) D[(size_t)r * (r - 1) / 2 + c] = val[off + (r - c)];
-      for (int p = 0; p < m; p++) B[(size_t)p * w + c] = val[off + (w - c) + p];
+      for (int q = off + 1; q < colptr[c0 + c + 1]; q++) {
+        const int r = row[q] - c0;
+        if (row[q] < c1) D[(size_t)r * (r - 1) / 2 + c] = val[q];
+        else B[(size_t)pos[row[q]] * w + c] = val[q];
+      }
     }
   }
 }
-
 
 /* z(R[p .. p+U)) -= B[p .. p+U, :] y: U rows of the block below a supernode together, so each y[c]
    is loaded once for all of them; two sums per row */

@@ -2,10 +2,11 @@
    plus the dense interface Schur complement) solves (M + h^2 L) x = b for the x, y and z columns
    as MUMPS's Cholesky does, to 1e-10 relative, through each of its entry points (the interleaved
    fast path PD uses, PCApply on one column, PCMatApply on several), on cloths and a chain, at any
-   rank count (ctest runs it at 1, 2 and 3). */
+   rank count (ctest runs it at 1, 2 and 3), with the supernodes as they come, merged by the
+   default rule, and merged far beyond it (the solves then carry many explicit zeros). */
 #include "harness.h"
 
-static PetscErrorCode CompareWithMUMPS(const char *scene)
+static PetscErrorCode CompareWithMUMPS(const char *scene, PetscInt64 *entries, PetscInt *supernodes)
 {
   TestSim      s;
   MSimImplicit imp;
@@ -22,6 +23,7 @@ static PetscErrorCode CompareWithMUMPS(const char *scene)
   imp->h = 1.0 / 30;
   PetscCall(MSimImplicitPDSetUp(imp));
   PetscCall(KSPGetPC(imp->pdksp, &llt));
+  PetscCall(PCMSimLLTGetFactorSize(llt, entries, supernodes));
   PetscCall(KSPCreate(PETSC_COMM_WORLD, &ref));
   PetscCall(KSPSetOperators(ref, imp->A, imp->A));
   PetscCall(KSPSetType(ref, KSPPREONLY));
@@ -99,10 +101,26 @@ static PetscErrorCode CompareWithMUMPS(const char *scene)
 
 static PetscErrorCode TestPDFactor(void)
 {
+  const char *scenes[] = {"-msim_cloth_n 31 -msim_integrator implicit_euler", "-msim_cloth_n 24 -msim_fix edge -msim_damping 0.5 -msim_drag 0.01 -msim_integrator implicit_euler",
+                          "-msim_scene chain -msim_chain_n 40 -msim_fix corners -msim_integrator implicit_euler"};
+  /* supernodes as they come, the default merging, and merging far beyond it */
+  const char *merging[] = {" -pd_pc_msimllt_relax 0", "", " -pd_pc_msimllt_relax 3 -pd_pc_msimllt_max_width 64"};
+  char        opts[512];
+
   PetscFunctionBeginUser;
-  PetscCall(CompareWithMUMPS("-msim_cloth_n 31 -msim_integrator implicit_euler"));
-  PetscCall(CompareWithMUMPS("-msim_cloth_n 24 -msim_fix edge -msim_damping 0.5 -msim_drag 0.01 -msim_integrator implicit_euler"));
-  PetscCall(CompareWithMUMPS("-msim_scene chain -msim_chain_n 40 -msim_fix corners -msim_integrator implicit_euler"));
+  for (int sc = 0; sc < 3; sc++) {
+    PetscInt64 entries[3];
+    PetscInt   supernodes[3];
+    for (int m = 0; m < 3; m++) {
+      PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s%s", scenes[sc], merging[m]));
+      PetscCall(CompareWithMUMPS(opts, &entries[m], &supernodes[m]));
+    }
+    NOTE("%s: rank 0's factor: %" PetscInt64_FMT " / %" PetscInt64_FMT " / %" PetscInt64_FMT " entries in %" PetscInt_FMT " / %" PetscInt_FMT " / %" PetscInt_FMT " supernodes (unmerged / default / far)\n", scenes[sc], entries[0], entries[1], entries[2], supernodes[0], supernodes[1], supernodes[2]);
+    /* a cloth's factor has narrow supernodes to merge; a chain's has columns of one or two
+       entries, where only merging far beyond the default pays for its zeros */
+    if (sc < 2) CHECK(supernodes[2] < supernodes[1] && supernodes[1] < supernodes[0], "%s: merging did not reduce the supernodes (%" PetscInt_FMT ", %" PetscInt_FMT ", %" PetscInt_FMT ")", scenes[sc], supernodes[0], supernodes[1], supernodes[2]);
+    CHECK(entries[0] <= entries[1] && entries[1] <= (PetscInt64)(1.3 * entries[0]) + 1, "%s: the default merging stored %" PetscInt64_FMT " entries, beyond 1.3 x %" PetscInt64_FMT, scenes[sc], entries[1], entries[0]);
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
