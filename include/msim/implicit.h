@@ -17,6 +17,7 @@ struct _n_MSimImplicit {
   /* projective dynamics: scalar matrix A = M + h c I + sum_s (h^2 k_s + h kd) L_s over free
      vertices, factored once (KSP prefix pd_), three columns solved together */
   Mat        A;
+  Mat        A3;              /* A kron I3 on block-size-3 Vecs (MAIJ), made on first use */
   KSP        pdksp;
   Mat        B, Xd;           /* dense nown x 3: right-hand sides and solutions */
   PetscBool  pd_direct;       /* preonly + msimllt: solve the interleaved Vec arrays directly */

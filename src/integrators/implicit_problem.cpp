@@ -26,6 +26,7 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
   PetscCall(VecDestroy(&(*imp)->Y));
   PetscCall(VecDestroy(&(*imp)->rhs));
   PetscCall(MatDestroy(&(*imp)->A));
+  PetscCall(MatDestroy(&(*imp)->A3));
   PetscCall(MatDestroy(&(*imp)->B));
   PetscCall(MatDestroy(&(*imp)->Xd));
   PetscCall(VecDestroy(&(*imp)->pdb));
