@@ -137,6 +137,20 @@ def main():
             else:
                 failed += 1
                 print(f"FAIL np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}, history {rows[:2]!r}")
+        # options of a solver set up in the first implicit step (the PD factor's merging): one line
+        # naming the option as typed, with its prefix
+        late = [(["-pd_pc_msimllt_relax", "-1"], "-pd_pc_msimllt_relax must be >= 0"),
+                (["-pd_pc_msimllt_relax", "abc"], "-pd_pc_msimllt_relax: 'abc' is not a number"),
+                (["-pd_pc_msimllt_max_width", "0"], "-pd_pc_msimllt_max_width must be >= 1")]
+        for np in (1, 2):
+            for args, message in late:
+                r = run(implicit + ["-snes_type", "pd", "-msim_output", os.path.join(tmp, f"late_{np}")] + args, tmp, np)
+                lines = [l for l in r.stderr.splitlines() if l.strip()]
+                if r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: ") and message in lines[0]:
+                    passed += 1
+                else:
+                    failed += 1
+                    print(f"FAIL np={np} {' '.join(args)}: rc {r.returncode}, stderr {lines!r}")
         # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
         out = os.path.join(tmp, "diverged")
         r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)

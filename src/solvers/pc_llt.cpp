@@ -64,11 +64,11 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   PetscCall(PCLLTGetContext(pc, &ctx));
   PetscCall(PCGetOptionsPrefix(pc, &prefix));
   PetscOptionsBegin(PetscObjectComm((PetscObject)pc), prefix, "msimllt: supernodal Cholesky", "PC");
-  PetscCall(PetscOptionsReal("-pc_msimllt_relax", "Merge neighbouring supernodes while the stored entries, zeros included, grow by at most this fraction", "", ctx->relax, &ctx->relax, NULL));
-  PetscCall(PetscOptionsInt("-pc_msimllt_max_width", "Widest merged supernode (columns)", "", ctx->max_width, &ctx->max_width, NULL));
+  PetscCall(MSimOptionsReal("-pc_msimllt_relax", "Merge neighbouring supernodes while the stored entries, zeros included, grow by at most this fraction", "", ctx->relax, &ctx->relax, NULL));
+  PetscCall(MSimOptionsInt("-pc_msimllt_max_width", "Widest merged supernode (columns)", "", ctx->max_width, &ctx->max_width, NULL));
   PetscOptionsEnd();
-  PetscCheck(ctx->relax >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-pc_msimllt_relax must be >= 0 (got %g)", (double)ctx->relax);
-  PetscCheck(ctx->max_width >= 1, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-pc_msimllt_max_width must be >= 1 (got %" PetscInt_FMT ")", ctx->max_width);
+  PetscCheck(ctx->relax >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-%spc_msimllt_relax must be >= 0", prefix ? prefix : "");
+  PetscCheck(ctx->max_width >= 1, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-%spc_msimllt_max_width must be >= 1 (got %" PetscInt_FMT ")", prefix ? prefix : "", ctx->max_width);
   PetscCallMPI(MPI_Comm_size(PetscObjectComm((PetscObject)pc), &size));
   PetscCall(PCGetOperators(pc, NULL, &A));
   PetscCall(MatGetLocalSize(A, &n, NULL));

@@ -40,6 +40,8 @@ static PetscErrorCode MSimOptionsCheck(PetscOptionItems *PetscOptionsObject, con
   if (!set || !value || !value[0]) PetscFunctionReturn(PETSC_SUCCESS); /* no value: PETSc says so */
   const MPI_Comm    comm = PetscOptionsObject->comm;
   const std::string all(value);
+  /* the name as typed: with the options block's prefix (-pd_pc_msimllt_relax, not -pc_...) */
+  const std::string typed = "-" + std::string(PetscOptionsObject->prefix ? PetscOptionsObject->prefix : "") + (name + 1);
   size_t            at = 0;
   while (true) {
     const size_t      comma = list ? all.find(',', at) : std::string::npos;
@@ -50,12 +52,12 @@ static PetscErrorCode MSimOptionsCheck(PetscOptionItems *PetscOptionsObject, con
         const size_t dash  = list ? t.find('-', 1) : std::string::npos;
         std::string  fault = IntegerFault(dash == std::string::npos ? t : t.substr(0, dash));
         if (fault.empty() && dash != std::string::npos) fault = IntegerFault(t.substr(dash + 1));
-        PetscCheck(fault.empty(), comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: '%s' %s", name, t.c_str(), fault.c_str());
+        PetscCheck(fault.empty(), comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: '%s' %s", typed.c_str(), t.c_str(), fault.c_str());
       } else {
         char *end = NULL;
         double v  = t.empty() ? 0 : strtod(t.c_str(), &end);
-        PetscCheck(!t.empty() && !*end, comm, PETSC_ERR_ARG_WRONG, "%s: '%s' is not a number", name, t.c_str());
-        PetscCheck(std::isfinite(v), comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: '%s' is not a finite number", name, t.c_str());
+        PetscCheck(!t.empty() && !*end, comm, PETSC_ERR_ARG_WRONG, "%s: '%s' is not a number", typed.c_str(), t.c_str());
+        PetscCheck(std::isfinite(v), comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: '%s' is not a finite number", typed.c_str(), t.c_str());
       }
     }
     if (comma == std::string::npos) break;
