@@ -30,7 +30,7 @@ private:
   SupernodalFactor         local_;                   /* interior columns first, interface last */
   std::vector<PetscMPIInt> counts_, displs_;         /* interface rows per rank, in doubles (4 lanes) */
   std::vector<double>      schur_, schurT_;          /* dense Cholesky factor L of the Schur complement and
-                                                        L^T, row-major */
+                                                        L^T, row-major, each its triangle only */
   std::vector<V4>          z_, c_;
 };
 } // namespace msim
