@@ -106,36 +106,18 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* x = A^-1 b for nrhs <= 4 columns of the whole matrix; column r of row i is at b[i * bs + r * ld]. */
-static PetscErrorCode LLTSolveStrided(PC_LLT *c, PetscInt nrhs, PetscInt bs, const PetscScalar *b, PetscInt ldb, PetscScalar *x, PetscInt ldx)
+/* x = A^-1 b for nrhs <= 4 interleaved columns of the whole matrix (one rank). */
+static PetscErrorCode LLTSolveSerial(PC_LLT *c, PetscInt nrhs, const PetscScalar *b, PetscScalar *x)
 {
-  msim::V4 *z = c->z.data();
-
   PetscFunctionBeginUser;
-  if (nrhs == 3 && bs == 3 && ldb == 1) /* PD's x, y, z: a loop the compiler unrolls */
-    for (PetscInt i = 0; i < c->n; i++) z[c->perm[i]] = msim::V4{b[3 * i], b[3 * i + 1], b[3 * i + 2], 0};
-  else
-    for (PetscInt i = 0; i < c->n; i++) {
-      msim::V4 v = {0, 0, 0, 0};
-      for (PetscInt r = 0; r < nrhs; r++) v[r] = PetscRealPart(b[i * bs + r * ldb]);
-      z[c->perm[i]] = v;
-    }
+  msim::LoadPermuted(c->n, c->perm.data(), nrhs, b, c->z.data());
   /* MSimLLTSweep: the forward and backward sweeps alone, the yardstick of the PD global step
      (runs/bench/suite.py); its flops, 4 per factor entry and column, give the entry count */
   PetscCall(PetscLogEventBegin(MSIM_LLTSweep, 0, 0, 0, 0));
-  c->factor.Solve(z);
+  c->factor.Solve(c->z.data());
   PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->factor.Entries()));
   PetscCall(PetscLogEventEnd(MSIM_LLTSweep, 0, 0, 0, 0));
-  if (nrhs == 3 && bs == 3 && ldx == 1)
-    for (PetscInt i = 0; i < c->n; i++) {
-      const msim::V4 v = z[c->perm[i]];
-      x[3 * i]         = v[0];
-      x[3 * i + 1]     = v[1];
-      x[3 * i + 2]     = v[2];
-    }
-  else
-    for (PetscInt i = 0; i < c->n; i++)
-      for (PetscInt r = 0; r < nrhs; r++) x[i * bs + r * ldx] = z[c->perm[i]][r];
+  msim::StorePermuted(c->n, c->perm.data(), nrhs, c->z.data(), x);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -144,7 +126,7 @@ static PetscErrorCode LLTSolveLocal(PC_LLT *c, PetscInt nrhs, const PetscScalar 
 {
   PetscFunctionBeginUser;
   if (c->schur) PetscCall(c->schur->Solve(nrhs, b, x));
-  else PetscCall(LLTSolveStrided(c, nrhs, nrhs, b, 1, x, 1));
+  else PetscCall(LLTSolveSerial(c, nrhs, b, x));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -169,7 +151,7 @@ PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar
   PetscCall(PCSetUp(pc));
   PetscCall(PCLLTGetContext(pc, &c));
   PetscCall(LLTSolveLocal(c, nrhs, b, x));
-  if (c->schur) PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->schur->LocalEntries())); /* serial: in LLTSolveStrided */
+  if (c->schur) PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->schur->LocalEntries())); /* serial: in LLTSolveSerial */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -200,7 +182,7 @@ static PetscErrorCode PCMatApply_LLT(PC pc, Mat B, Mat X)
   }
   PetscCall(MatDenseRestoreArrayRead(B, &b));
   PetscCall(MatDenseRestoreArrayWrite(X, &x));
-  if (c->schur) PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->schur->LocalEntries())); /* serial: in LLTSolveStrided */
+  if (c->schur) PetscCall(PetscLogFlops(4.0 * nrhs * (double)c->schur->LocalEntries())); /* serial: in LLTSolveSerial */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -217,7 +199,7 @@ static PetscErrorCode PCApply_LLT(PC pc, Vec b, Vec x)
   PetscCall(LLTSolveLocal(c, 1, ba, xa));
   PetscCall(VecRestoreArrayWrite(x, &xa));
   PetscCall(VecRestoreArrayRead(b, &ba));
-  if (c->schur) PetscCall(PetscLogFlops(4.0 * (double)c->schur->LocalEntries())); /* serial: in LLTSolveStrided */
+  if (c->schur) PetscCall(PetscLogFlops(4.0 * (double)c->schur->LocalEntries())); /* serial: in LLTSolveSerial */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -150,14 +150,7 @@ PetscErrorCode SchurCholesky::Solve(PetscInt nrhs, const PetscScalar *b, PetscSc
   V4            *z = z_.data(), *c = c_.data();
 
   PetscFunctionBeginUser;
-  if (nrhs == 3) /* PD's x, y, z: a loop the compiler unrolls */
-    for (PetscInt i = 0; i < nlocal_; i++) z[perm_[i]] = V4{b[3 * i], b[3 * i + 1], b[3 * i + 2], 0};
-  else
-    for (PetscInt i = 0; i < nlocal_; i++) {
-      V4 v = {0, 0, 0, 0};
-      for (PetscInt r = 0; r < nrhs; r++) v[r] = PetscRealPart(b[nrhs * i + r]);
-      z[perm_[i]] = v;
-    }
+  LoadPermuted(nlocal_, perm_.data(), nrhs, b, z);
   local_.Forward(z, (int)ninterior_);
   PetscCallMPI(MPI_Allgatherv(z + ninterior_, 4 * (PetscMPIInt)ninterface_, MPI_DOUBLE, c, counts_.data(), displs_.data(), MPI_DOUBLE, comm_));
   /* the dense Schur system, every rank the whole of it: L y = c, then L^T x = y */
@@ -171,16 +164,7 @@ PetscErrorCode SchurCholesky::Solve(PetscInt nrhs, const PetscScalar *b, PetscSc
   }
   for (PetscInt k = 0; k < ninterface_; k++) z[ninterior_ + k] = c[offset_ + k];
   local_.Backward(z, (int)ninterior_);
-  if (nrhs == 3)
-    for (PetscInt i = 0; i < nlocal_; i++) {
-      const V4 v   = z[perm_[i]];
-      x[3 * i]     = v[0];
-      x[3 * i + 1] = v[1];
-      x[3 * i + 2] = v[2];
-    }
-  else
-    for (PetscInt i = 0; i < nlocal_; i++)
-      for (PetscInt r = 0; r < nrhs; r++) x[nrhs * i + r] = z[perm_[i]][r];
+  StorePermuted(nlocal_, perm_.data(), nrhs, z, x);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 } // namespace msim
