@@ -98,7 +98,7 @@ def solve_step(scene, opts, step, checkpoint):
         return None
     with open(path) as f:
         it = [(int(x["iteration"]), float(x["wall_s"]), float(x["phi"]), float(x["gnorm"])) for x in csv.DictReader(f) if int(x["step"]) == step]
-    _, setup = event(open(log).read(), "MSimPDSetUp") if os.path.exists(log) else (0, 0.0)
+    _, setup = event(open(log).read(), "MSimPDSetUp", "Stepping") if os.path.exists(log) else (0, 0.0)
     return [(i, max(t - (setup if i > 0 else 0), 0.0), p, g) for i, t, p, g in it]
 
 

@@ -11,7 +11,11 @@ ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIR
 BENCH_CLOTH = "-msim_cloth_n 101 -msim_integrator implicit_euler -msim_dt 0.0333333333333333"
 
 
-def event(log, name):
-    """(count, max time in s) of a -log_view event, (0, 0.0) where the run did not log it"""
-    m = re.search(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
-    return (int(m.group(1)), float(m.group(2))) if m else (0, 0.0)
+def event(log, name, stage=None):
+    """(count, max time in s) of a -log_view event, summed over msim's stages or only in the named
+    one ("Setup", "Stepping"); (0, 0.0) where the run did not log it"""
+    if stage:
+        m = re.search(rf"^--- Event Stage \d+: {stage}\s*$(.*?)(?=^--- Event Stage|\Z)", log, re.M | re.S)
+        log = m.group(1) if m else ""
+    hits = re.findall(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
+    return (sum(int(c) for c, _ in hits), sum(float(t) for _, t in hits))

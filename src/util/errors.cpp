@@ -8,9 +8,10 @@
 #include <sstream>
 #include <string>
 
-/* The options whose value is `value`, as "-a, -b" ("" if none): PETSc's conversion errors name the
-   value only ("Input string abc has no numeric value"); the line should name the option. */
-static std::string MSimOptionsWithValue(const std::string &value)
+/* The options whose value is `value` (and whose name ends in `suffix`), as "-a, -b" ("" if none):
+   PETSc's conversion and type errors name the value only ("Input string abc has no numeric value",
+   "Unable to find requested KSP type abc"); the line should name the option. */
+static std::string MSimOptionsWithValue(const std::string &value, const std::string &suffix = "")
 {
   char             *all = NULL;
   std::string       names, prev, tok;
@@ -19,7 +20,8 @@ static std::string MSimOptionsWithValue(const std::string &value)
   if (PetscOptionsGetAll(NULL, &all) || !all) return names;
   ss << all;
   while (ss >> tok) {
-    if (tok == value && prev.size() > 1 && prev[0] == '-') names += (names.empty() ? "" : ", ") + prev;
+    const bool ends = prev.size() >= suffix.size() && !prev.compare(prev.size() - suffix.size(), suffix.size(), suffix);
+    if (tok == value && prev.size() > 1 && prev[0] == '-' && ends) names += (names.empty() ? "" : ", ") + prev;
     prev = tok;
   }
   (void)PetscFree(all);
@@ -30,8 +32,17 @@ static std::string MSimOptionsWithValue(const std::string &value)
 static std::string MSimNameTheOption(const char *mess, PetscBool *named)
 {
   const std::string m(mess);
-  const char       *in = "Input string ", *lg = "Unknown logical value: ";
+  const char       *in = "Input string ", *lg = "Unknown logical value: ", *ty = "Unable to find requested ";
   std::string       value, what;
+
+  if (!m.compare(0, strlen(ty), ty) && m.find(" type ") != std::string::npos) {
+    /* "Unable to find requested KSP type abc": a solver type chosen with some -..._type option */
+    const size_t at    = m.find(" type ");
+    const std::string kind = m.substr(strlen(ty), at - strlen(ty)), name = m.substr(at + 6);
+    const std::string names = MSimOptionsWithValue(name, "_type");
+    *named                  = (PetscBool)!names.empty();
+    return names.empty() ? m : names + ": '" + name + "' is not a " + kind + " type (-help lists them)";
+  }
 
   if (!m.compare(0, strlen(in), in) && m.find(" has no ") != std::string::npos) {
     value = m.substr(strlen(in), m.find(" has no ") - strlen(in));

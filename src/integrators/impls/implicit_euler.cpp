@@ -295,6 +295,21 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
     if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
   }
+  {
+    /* pd, alone or as the NPC, would build its global step in the first solve; build it here
+       instead, so that a bad -pd_ksp_* / -pd_pc_* option stops the run before any output is
+       written and -log_view counts the factorization in the setup stage */
+    PetscBool uses_pd = (PetscBool)(type && !strcmp(type, SNESPD)), has_npc;
+    PetscCall(SNESHasNPC(ie->snes, &has_npc));
+    if (!uses_pd && has_npc) {
+      SNES     npc;
+      SNESType npc_type;
+      PetscCall(SNESGetNPC(ie->snes, &npc));
+      PetscCall(SNESGetType(npc, &npc_type));
+      uses_pd = (PetscBool)(npc_type && !strcmp(npc_type, SNESPD));
+    }
+    if (uses_pd) PetscCall(MSimImplicitPDSetUp(ie->imp));
+  }
   PetscCall(SetUpInertia(ie, type, sys->size));
   if (ie->inertia_correction) {
     PetscCheck(ie->inertia, integ->comm, PETSC_ERR_ARG_INCOMP, "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS: -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps (and, in parallel, -mat_mumps_icntl_13 1)");
