@@ -23,6 +23,7 @@ energy_loss.png. 3. Median over steps 1 ... 30 of the cloth, each from the tight
    1e-6 for the fastest methods, the median and the worst step.
 Writes also median_steps.csv, median_summary.csv.
 Usage: /usr/bin/python3 runs/speed_accuracy/study.py [part: steps|median|trajectory|plot] [scenes]
+(or part hessian [steps]: L-BFGS with the PD matrix or the PSD-projected Hessian as initial Hessian)
 (scenes: cloth, rope, solid; default all. Rows of the scenes named replace theirs in the CSVs, the
 others' stay. One rank for every timed run; the tight reference solves run on 2 ranks)."""
 import csv
@@ -144,17 +145,24 @@ MEDIAN_METHODS = [
 ]
 
 
-def median_steps():
-    """the cloth's steps 1 ... 30, each from the tight trajectory's state before it: time to a
-    relative energy of 1e-4 and 1e-6 per method; median and worst step"""
+def tight_states(last):
+    """the tight trajectory of the cloth up to step `last`, a checkpoint after each step
+    (cloth_all_ck{k}); returns its Phi at each step"""
     phi_tight = {}
-    for k in range(1, MEDIAN_STEPS + 1):
+    for k in range(1, last + 1):
         ck, mon = f"{TMP}/cloth_all_ck{k}", f"{TMP}/cloth_all_ck{k}.csv"
         if not os.path.exists(ck):
             restart = f" -msim_restart {TMP}/cloth_all_ck{k - 1}" if k > 1 else ""
             msim(f"{SCENES['cloth']} -msim_dt {H} {TIGHT} -msim_steps {k} -msim_checkpoint {ck} -msim_monitor_csv {mon}{restart}", np_=2)
         with open(mon) as f:
             phi_tight[k] = [float(x["phi"]) for x in csv.DictReader(f) if int(x["step"]) == k][0]
+    return phi_tight
+
+
+def median_steps():
+    """the cloth's steps 1 ... 30, each from the tight trajectory's state before it: time to a
+    relative energy of 1e-4 and 1e-6 per method; median and worst step"""
+    phi_tight = tight_states(MEDIAN_STEPS)
     rows = []
     for k in range(1, MEDIAN_STEPS + 1):
         data = {}
@@ -194,6 +202,30 @@ def median_steps():
         summary.append(out)
         print(out, flush=True)
     write(os.path.join(HERE, "median_summary.csv"), summary)
+
+
+INITIAL_HESSIANS = [
+    ("PD matrix", f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it 1500"),
+    ("PSD-projected Hessian, MUMPS", f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 -ksp_type preonly -pc_type cholesky "
+                                     f"-pc_factor_mat_solver_type mumps {LOOSE} -snes_max_it 300"),
+]
+
+
+def initial_hessian(steps):
+    """L-BFGS with two initial Hessians on some of the cloth's steps (from the tight trajectory):
+    iterations and ms to 1e-6 of the lowest Phi and of the method's own lowest Phi (printed only)"""
+    phi_tight = tight_states(max(steps))
+    for k in steps:
+        data = {name: solve_step("cloth", opts, k, f"{TMP}/cloth_all_ck{k - 1}" if k > 1 else None) for name, opts in INITIAL_HESSIANS}
+        phi_star = min([phi_tight[k]] + [p for it in data.values() if it for _, _, p, _ in it])
+        for name, it in data.items():
+            if not it:
+                continue
+            phi0, own = it[0][2], min(p for _, _, p, _ in it)
+            hit = {ref: next(((i, round(t * 1e3)) for i, t, p, _ in it if (p - ref) / (phi0 - ref) <= 1e-6), ("-", "-")) for ref in (phi_star, own)}
+            print(f"step {k:2d} L-BFGS, initial Hessian the {name}: 1e-6 of the lowest Phi after {hit[phi_star][0]} iterations, "
+                  f"{hit[phi_star][1]} ms; of its own lowest after {hit[own][0]}, {hit[own][1]} ms "
+                  f"({(it[-1][1] * 1e3) / max(1, len(it) - 1):.2f} ms per iteration)", flush=True)
 
 
 def merge(path, rows, scenes):
@@ -381,6 +413,9 @@ def main():
         median_steps()
     if part in ("trajectory", "all"):
         trajectory(scenes)
+    if part == "hessian":  # an experiment, printed only: study.py hessian [steps, e.g. 2 6]
+        initial_hessian([int(k) for k in sys.argv[2:]] or [2, 6])
+        return
     plot()
 
 
