@@ -68,6 +68,13 @@ CASES = [
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
 ]
+# factorizations a matrix spread over several ranks has no package for: checked at set-up, before
+# any output (on one rank these run)
+PARALLEL_CASES = [
+    (["-msim_integrator", "implicit_euler", "-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "icc"], "-pc_type icc: no ICC factorization of a mpiaij matrix"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "newtonls", "-ksp_type", "preonly", "-pc_type", "lu", "-pc_factor_mat_solver_type", "superlu"], "-pc_factor_mat_solver_type superlu: no LU factorization"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_ksp_type", "cg", "-pd_pc_type", "icc"], "-pd_pc_type: no ICC factorization of a mpiaij matrix in this PETSc (on several ranks: -pd_pc_type bjacobi -pd_sub_pc_type icc"),
+]
 # the corpus of bad options files (also the options fuzzer's seeds): each says on its first line,
 # "# expect: TEXT", what its one error line must contain
 CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "bad")
@@ -91,7 +98,7 @@ def main():
         with open(os.path.join(tmp, "malformed.opts"), "w") as f:
             f.write("-msim_cloth_n 8\nmsim_steps 3\n")  # the dash forgotten on line 2
         for np in (1, 2):
-            for i, (args, message) in enumerate(CASES):
+            for i, (args, message) in enumerate(CASES + (PARALLEL_CASES if np > 1 else [])):
                 out = os.path.join(tmp, f"series_{np}_{i}")
                 # options given in the case (or in its options file) are not overridden
                 given = " ".join(args) + (open(os.path.join(tmp, args[1])).read() if args[0] == "-options_file" and os.path.exists(os.path.join(tmp, args[1])) else "")
