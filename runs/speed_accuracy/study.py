@@ -7,9 +7,10 @@
    clamped at x = 0, swinging under gravity), each solved by every method
    from the same start: the implicit Euler trajectory solved tightly (exact-Hessian Newton,
    |g| <= 1e-9 |g0|) up to the step before, taken from a checkpoint (-msim_restart).
-   -msim_monitor_convergence gives Phi(x_k), |g(x_k)| and wall time per iteration; Phi* is the lowest
-   Phi any method reached on that step. Relative energy (Phi_k - Phi*)/(Phi_0 - Phi*), also
-   normalised by Phi_1 - Phi* as the literature does, and |g_k|/|g_0|; time to 1e-4 and 1e-6.
+   -msim_monitor_convergence gives Phi(x_k), |g(x_k)| and wall time per iteration (each solve run
+   twice, the faster kept); Phi* is the lowest Phi any method reached on that step. Relative energy
+   (Phi_k - Phi*)/(Phi_0 - Phi*), also normalised by Phi_1 - Phi* as the literature does, and
+   |g_k|/|g_0|; time to 1e-4 and 1e-6.
    The one-off PD factorization (MSimPDSetUp), which a whole run pays once, is taken out of the
    times of the step it falls in.
 2. Trajectory accuracy (work-precision). The largest vertex distance and the energy difference at
@@ -103,6 +104,17 @@ def solve_step(scene, opts, step, checkpoint):
     return [(i, max(t - (setup if i > 0 else 0), 0.0), p, g) for i, t, p, g in it]
 
 
+# the per-step table's solves run twice and keep the faster: this host swings between a fast and a
+# slow state for minutes at a time (the same solve 1.5x slower), while the iterations do not change
+PER_STEP_REPEATS = 2
+
+
+def fastest(histories):
+    """of several runs of one solve, the one whose last iteration came soonest (None if all failed)"""
+    done = [h for h in histories if h]
+    return min(done, key=lambda h: h[-1][1]) if done else None
+
+
 def per_step(scenes):
     rows, summary = [], []
     for scene in scenes:
@@ -110,7 +122,7 @@ def per_step(scenes):
         for step in STEPS:
             data = {}
             for name, opts in PER_STEP:
-                it = solve_step(scene, opts, step, f"{TMP}/{scene}_ck{step - 1}" if step > 1 else None)
+                it = fastest([solve_step(scene, opts, step, f"{TMP}/{scene}_ck{step - 1}" if step > 1 else None) for _ in range(PER_STEP_REPEATS)])
                 if it:
                     data[name] = it
             phi_star = min(p for it in data.values() for _, _, p, _ in it)
