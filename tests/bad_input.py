@@ -73,7 +73,7 @@ CASES = [
 PARALLEL_CASES = [
     (["-msim_integrator", "implicit_euler", "-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "icc"], "-pc_type icc: no ICC factorization of a mpiaij matrix"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "newtonls", "-ksp_type", "preonly", "-pc_type", "lu", "-pc_factor_mat_solver_type", "superlu"], "-pc_factor_mat_solver_type superlu: no LU factorization"),
-    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_ksp_type", "cg", "-pd_pc_type", "icc"], "-pd_pc_type: no ICC factorization of a mpiaij matrix in this PETSc (on several ranks: -pd_pc_type bjacobi -pd_sub_pc_type icc"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_ksp_type", "cg", "-pd_pc_type", "icc"], "-pd_pc_type icc: no ICC factorization of a mpiaij matrix in this PETSc (on several ranks: -pd_pc_type bjacobi -pd_sub_pc_type icc"),
 ]
 # the corpus of bad options files (also the options fuzzer's seeds): each says on its first line,
 # "# expect: TEXT", what its one error line must contain

@@ -18,6 +18,11 @@ PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar
    none is wider than w columns: fewer, wider dense blocks for the solves. */
 PetscErrorCode PCMSimLLTGetFactorSize(PC pc, PetscInt64 *entries, PetscInt *supernodes);
 
+/* Errors, naming the option, if ksp's PC is a factorization (lu, cholesky, ilu, icc) that A's
+   matrix type has no package for (ICC over several ranks); call after KSPSetFromOptions, before
+   KSPSetUp. Nothing is factored. */
+PetscErrorCode MSimCheckFactorAvailable(KSP ksp, Mat A);
+
 /* Phi carries roundoff from its spring terms' cancellation (l - L): changes below this fraction of
    |Phi| are not resolved, and Newton's line search and the trust region judge a step by |g| there. */
 #define MSIM_PHI_ROUNDOFF 1e-12

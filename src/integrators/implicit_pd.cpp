@@ -103,6 +103,7 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   {
     PetscInt before, after;
     PetscCall(MSimFactorizationCount(&before));
+    PetscCall(MSimCheckFactorAvailable(imp->pdksp, imp->A));
     PetscCall(KSPSetUp(imp->pdksp));
     PetscCall(MSimFactorizationCount(&after));
     imp->nfactor += after - before;

@@ -44,22 +44,6 @@ static std::string MSimNameTheOption(const char *mess, PetscBool *named)
     return names.empty() ? m : names + ": '" + name + "' is not a " + kind + " type (-help lists them)";
   }
 
-  const char *fa = "Could not locate a solver type for factorization type ", *mt = " and matrix type ";
-  if (!m.compare(0, strlen(fa), fa) && m.find(mt) != std::string::npos) {
-    /* "... factorization type ICC and matrix type mpiaij.": a -..._pc_type that this matrix (often:
-       one spread over several ranks) has no factorization for */
-    const size_t at   = m.find(mt);
-    std::string  kind = m.substr(strlen(fa), at - strlen(fa)), mat = m.substr(at + strlen(mt)), lower;
-    mat = mat.substr(0, mat.find_first_of(". "));
-    for (char c : kind) lower += (char)tolower((unsigned char)c);
-    const std::string names = MSimOptionsWithValue(lower, "pc_type");
-    *named                  = (PetscBool)!names.empty();
-    if (names.empty()) return m;
-    /* the hint speaks of the first option's options block ("-pd_pc_type": "-pd_") */
-    const std::string first = names.substr(0, names.find(',')), pre = first.substr(0, first.size() - strlen("pc_type"));
-    return names + ": no " + kind + " factorization of a " + mat + " matrix in this PETSc (on several ranks: " + pre + "pc_type bjacobi " + pre + "sub_pc_type " + lower + ", or a package named with " + pre + "pc_factor_mat_solver_type)";
-  }
-
   if (!m.compare(0, strlen(in), in) && m.find(" has no ") != std::string::npos) {
     value = m.substr(strlen(in), m.find(" has no ") - strlen(in));
     what  = m.find("integer") != std::string::npos ? "an integer" : "a number";

@@ -173,38 +173,6 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* A factorization PC whose factor this Jacobian's type has no package for (ICC on a matrix spread
-   over several ranks, the usual case) would fail in the first solve, after output has begun: say
-   so now, naming the option, from the matrix's type alone (nothing is factored here) */
-static PetscErrorCode CheckFactorAvailable(KSP ksp, Mat J)
-{
-  PC            pc;
-  PCType        pctype;
-  MatSolverType stype = NULL;
-  MatType       mtype;
-  const char   *prefix;
-  PetscBool     avail;
-  MatFactorType ftype = MAT_FACTOR_NONE;
-
-  PetscFunctionBeginUser;
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCGetType(pc, &pctype));
-  if (!pctype) PetscFunctionReturn(PETSC_SUCCESS);
-  if (!strcmp(pctype, PCLU)) ftype = MAT_FACTOR_LU;
-  else if (!strcmp(pctype, PCCHOLESKY)) ftype = MAT_FACTOR_CHOLESKY;
-  else if (!strcmp(pctype, PCILU)) ftype = MAT_FACTOR_ILU;
-  else if (!strcmp(pctype, PCICC)) ftype = MAT_FACTOR_ICC;
-  if (ftype == MAT_FACTOR_NONE) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PCFactorGetMatSolverType(pc, &stype));
-  PetscCall(MatGetFactorAvailable(J, stype, ftype, &avail));
-  PetscCall(MatGetType(J, &mtype));
-  PetscCall(KSPGetOptionsPrefix(ksp, &prefix));
-  if (!prefix) prefix = "";
-  PetscCheck(avail || !stype, PetscObjectComm((PetscObject)ksp), PETSC_ERR_SUP, "-%spc_factor_mat_solver_type %s: no %s factorization of a %s matrix in this PETSc", prefix, stype, MatFactorTypes[ftype], mtype);
-  PetscCheck(avail, PetscObjectComm((PetscObject)ksp), PETSC_ERR_SUP, "-%spc_type %s: no %s factorization of a %s matrix in this PETSc (on several ranks: -%spc_type bjacobi -%ssub_pc_type %s, or a package named with -%spc_factor_mat_solver_type)", prefix, pctype, MatFactorTypes[ftype], mtype, prefix, prefix, pctype, prefix);
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
 {
   ImplicitEuler *ie  = (ImplicitEuler *)integ->data;
@@ -326,7 +294,7 @@ static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
     }
     PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
     if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
-    else PetscCall(CheckFactorAvailable(ksp, ie->J));
+    else PetscCall(MSimCheckFactorAvailable(ksp, ie->J));
   }
   {
     /* pd, alone or as the NPC, would build its global step in the first solve; build it here
