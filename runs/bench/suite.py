@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """msim's benchmark suite in one command (runs/bench/run): every method on cloths of N = 32, 64,
 101 (the benchmark cloth of the targets), 128 and 256, and on tet boxes of about 10^5 and 10^6
-springs, at 1 and 2 ranks; the median of several runs (-log_view's MSimStep, minus the one-off PD
-factorization MSimPDSetUp, which it reports apart); ms per step and per nonlinear iteration; max
+springs, at 1 and 2 ranks; the median of several runs (-log_view's MSimStep; the one-off PD
+factorization MSimPDSetUp, made at set-up, is reported apart and taken out of a step only where a
+solver made it there); ms per step and per nonlinear iteration; max
 RSS summed over ranks (-memory_view) and bytes per spring. Each figure that has a target is printed
 beside it with the ratio. Cost bound of the explicit force: the bytes it must move (28 B per spring,
 see explicit.py) at the triad bandwidth of as many ranks streaming at once (stream.cpp), and the
