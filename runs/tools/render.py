@@ -59,7 +59,7 @@ def draw(ax, grid, c, r, title, view, up, max_lines=20000):
     ax.set_xlim(c[0] - r, c[0] + r)
     ax.set_ylim(c[1] - r, c[1] + r)
     ax.set_zlim(c[2] - r, c[2] + r)
-    ax.set_box_aspect((1, 1, 1))
+    ax.set_box_aspect((1, 1, 1), zoom=0.85)  # room for the z label, which the full-size box clips
     ax.locator_params(nbins=4)
     ax.tick_params(labelsize=7)
     ax.view_init(elev=view[0], azim=view[1])
