@@ -47,6 +47,9 @@ typedef struct _n_MSimSceneData {
   std::vector<PetscReal> mass;         /* lumped masses */
   std::vector<char>      fixed;        /* fixed flags */
   std::vector<PetscReal> share;        /* each block vertex's share of the cells' volume or area */
+  /* each block vertex's id in the file it was read from (the ids users type and frames carry);
+     empty where the two are the same (generated scenes, files with no dropped vertices) */
+  std::vector<PetscInt>  file_id;
   /* global figures */
   PetscReal              diameter = 0; /* bounding-box diagonal of the rest state */
   PetscReal              measure = 0;  /* total volume or area of the cells */
