@@ -1,0 +1,151 @@
+"""What msim's Python tests share, so that each script holds only what it checks:
+- the command line: msim alone at 1 rank (a singleton, as a user typing ./msim runs it), under
+  mpirun at more, with tools/env.sh's environment (Open MPI as root, more ranks than cores, one BLAS
+  thread per rank) so that a script runs the same from ctest and from a shell;
+- running it and reading what it wrote: stderr's lines, -msim_view_final's ascii_matlab file,
+  the -msim_monitor_csv / -msim_monitor_convergence CSV files, series.pvd's frames;
+- a tally of named checks (Checks), printed as they are made, whose exit code fails the test when
+  any check failed or when none was made;
+- ending a run with SIGKILL, mpirun and its ranks at once (kill_all).
+Usage in a script:  import msimtest as mt;  msim = mt.msim_path();  check = mt.Checks();
+  r = mt.run(msim, ["-msim_steps", "3"], np=2);  check(r.returncode == 0, "runs");
+  sys.exit(check.exit_code())"""
+import csv
+import os
+import signal
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(HERE)
+
+# tools/env.sh's settings (ctest sets the same through MSIM_TEST_ENV): values already set win
+ENV = dict(os.environ)
+for _k, _v in (("OMPI_ALLOW_RUN_AS_ROOT", "1"), ("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1"),
+               ("OMPI_MCA_rmaps_base_oversubscribe", "1"), ("OPENBLAS_NUM_THREADS", "1")):
+    ENV.setdefault(_k, _v)
+
+
+def msim_path(argv=None):
+    """the msim executable named first on the command line, absolute (tests run msim in other
+    directories)"""
+    argv = sys.argv if argv is None else argv
+    if len(argv) < 2:
+        sys.exit(f"usage: {os.path.basename(argv[0])} path/to/msim [...]")
+    return os.path.abspath(argv[1])
+
+
+def mpirun(np):
+    """mpirun's part of a command line for np ranks; -q keeps mpirun's own banner (about a rank's
+    non-zero exit) out of stderr, where the tests read msim's lines"""
+    return ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np)]
+
+
+def command(exe, args=(), np=1):
+    """exe with args at np ranks: alone at 1 rank, under mpirun at more"""
+    return ([] if np == 1 else mpirun(np)) + [exe] + [str(a) for a in args]
+
+
+def run(exe, args=(), np=1, cwd=None, **kw):
+    """runs exe to its end; stdout and stderr captured as text"""
+    return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, env=ENV, **kw)
+
+
+def popen(exe, args=(), np=1, cwd=None, **kw):
+    """starts exe in the background (a new session, so that kill_all reaches its ranks)"""
+    kw.setdefault("start_new_session", True)
+    return subprocess.Popen(command(exe, args, np), cwd=cwd, env=ENV, **kw)
+
+
+def lines(text):
+    """the non-blank lines of a stream"""
+    return [l for l in text.splitlines() if l.strip()]
+
+
+def view_ascii(path):
+    """the ascii_matlab option of -msim_view_final, as a PetscViewer spec"""
+    return f"ascii:{path}:ascii_matlab"
+
+
+def read_view(path):
+    """the numbers of a Vec written by -msim_view_final ascii:PATH:ascii_matlab, in order (PETSc's
+    header and the 'Vec_... = [' / '];' lines around them are not numbers)"""
+    with open(path) as f:
+        return [float(l) for l in f if l.strip() and l.strip()[0] in "+-0123456789"]
+
+
+def positions(path):
+    """read_view's numbers as an (n, 3) numpy array of vertex positions"""
+    import numpy as np
+    return np.array(read_view(path)).reshape(-1, 3)
+
+
+def final_positions(exe, args, np, tmp, name="final"):
+    """runs exe with -msim_view_final into tmp/NAME_NP.txt; (n, 3) positions, or None when the run
+    failed (its stderr's tail printed), and the finished process"""
+    path = os.path.join(tmp, f"{name}_{np}.txt")
+    r = run(exe, list(args) + ["-msim_view_final", view_ascii(path)], np)
+    if r.returncode:
+        print(f"msim exited with {r.returncode}: {' '.join(str(a) for a in args)}\n{r.stderr[-1500:]}")
+        return None, r
+    return positions(path), r
+
+
+def read_csv(path):
+    """the rows of a CSV file msim wrote (-msim_monitor_csv, -msim_monitor_convergence) as dicts
+    keyed by its header"""
+    with open(path) as f:
+        return list(csv.DictReader(f))
+
+
+def frames(out):
+    """the frame files series.pvd in the output directory out lists, in order"""
+    with open(os.path.join(out, "series.pvd")) as f:
+        return [l.split('file="')[1].split('"')[0] for l in f if 'file="' in l]
+
+
+class Checks:
+    """A tally of named checks: each prints 'ok' or 'FAIL' and what it checked (only failures with
+    quiet=True); exit_code() is 1 when any failed or when none was made (a test that checked
+    nothing passes nothing)."""
+
+    def __init__(self, quiet=False):
+        self.passed = 0
+        self.failed = 0
+        self.quiet = quiet
+
+    def __call__(self, ok, what):
+        ok = bool(ok)
+        if not ok or not self.quiet:
+            print(("ok   " if ok else "FAIL ") + what, flush=True)
+        self.passed += ok
+        self.failed += not ok
+        return ok
+
+    def exit_code(self):
+        if self.passed + self.failed == 0:
+            print("FAILED: no check was made")
+            return 1
+        print(f"{self.passed} passed, {self.failed} failed")
+        return 1 if self.failed else 0
+
+
+def kill_all(p):
+    """SIGKILL to mpirun's ranks (Open MPI puts them in process groups of their own) and to mpirun
+    or the single msim, at once; returns when none is left"""
+    ranks = [int(x) for x in subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True, text=True).stdout.split()]
+    for pid in ranks + [p.pid]:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    p.wait()
+    deadline = time.time() + 10  # a zombie no init reaps stays listed: give up waiting then
+    for pid in ranks:
+        while time.time() < deadline:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.01)
