@@ -5,11 +5,12 @@ the output directory. A misspelled option must be named in one warning line, and
 steps cut off by -snes_max_it; an implicit solve that fails is named with PETSc's reason, and its convergence history is kept. A run that diverges must keep the frames written before it and the
 last finite state."""
 import os
-import subprocess
 import sys
 import tempfile
 
-MSIM = os.path.abspath(sys.argv[1])
+import msimtest as mt
+
+MSIM = mt.msim_path()
 CASES = [
     (["-msim_dt", "0"], "-msim_dt must be > 0"),
     (["-msim_dt", "-1e-3"], "-msim_dt must be > 0"),
@@ -77,7 +78,7 @@ PARALLEL_CASES = [
 ]
 # the corpus of bad options files (also the options fuzzer's seeds): each says on its first line,
 # "# expect: TEXT", what its one error line must contain
-CORPUS = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "bad")
+CORPUS = os.path.join(mt.HERE, "data", "bad")
 for name in sorted(os.listdir(CORPUS)):
     if name.endswith(".opts"):
         first = open(os.path.join(CORPUS, name)).readline()
@@ -86,14 +87,11 @@ for name in sorted(os.listdir(CORPUS)):
 
 
 def run(args, cwd, np=1):
-    # one rank runs as a singleton (what a user typing ./msim sees); two under mpirun -q, which
-    # keeps mpirun's own banner about the non-zero exit out of stderr
-    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + args
-    return subprocess.run(cmd, cwd=cwd, capture_output=True, text=True)
+    return mt.run(MSIM, args, np, cwd=cwd)
 
 
 def main():
-    passed = failed = 0
+    check = mt.Checks(quiet=True)
     with tempfile.TemporaryDirectory() as tmp:
         with open(os.path.join(tmp, "malformed.opts"), "w") as f:
             f.write("-msim_cloth_n 8\nmsim_steps 3\n")  # the dash forgotten on line 2
@@ -104,7 +102,7 @@ def main():
                 given = " ".join(args) + (open(os.path.join(tmp, args[1])).read() if args[0] == "-options_file" and os.path.exists(os.path.join(tmp, args[1])) else "")
                 extra = ([] if "-msim_output" in given else ["-msim_output", out]) + ([] if "-msim_steps" in given else ["-msim_steps", "5"])
                 r = run(args + extra, tmp, np)
-                lines = [l for l in r.stderr.splitlines() if l.strip()]
+                lines = mt.lines(r.stderr)
                 problems = []
                 if r.returncode == 0:
                     problems.append("exit code 0")
@@ -112,47 +110,34 @@ def main():
                     problems.append(f"stderr {lines!r} does not say '{message}' on one line")
                 if os.path.exists(out):
                     problems.append("output directory was created")
-                if problems:
-                    failed += 1
-                    print(f"FAIL np={np} {' '.join(args)}: " + "; ".join(problems))
-                else:
-                    passed += 1
+                check(not problems, f"np={np} {' '.join(args)}: " + "; ".join(problems))
         # a misspelled option runs with the defaults, so it is named in a warning (one line, exit 0)
         for np in (1, 2):
             r = run(["-msim_stifness", "10", "-msim_steps", "2"], tmp, np)
-            lines = [l for l in r.stderr.splitlines() if l.strip()]
-            if r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: -msim_stifness was set but never used"):
-                passed += 1
-            else:
-                failed += 1
-                print(f"FAIL np={np} misspelled option: rc {r.returncode}, stderr {lines!r}")
+            lines = mt.lines(r.stderr)
+            check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: -msim_stifness was set but never used"),
+                  f"np={np} misspelled option: rc {r.returncode}, stderr {lines!r}")
         # an implicit solve cut off by -snes_max_it before its tolerance: the run goes on, and one
         # warning line at its end says how many steps stopped short; a fixed count says nothing
         implicit = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "8", "-msim_dt", "0.0333", "-msim_steps", "4"]
         for np in (1, 2):
             r = run(implicit + ["-snes_type", "newtonls", "-snes_max_it", "1"], tmp, np)
-            lines = [l for l in r.stderr.splitlines() if l.strip()]
+            lines = mt.lines(r.stderr)
             r2 = run(implicit + ["-snes_type", "pd", "-snes_max_it", "3", "-snes_pd_fixed"], tmp, np)
-            if (r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: in 4 of 4 steps -snes_type newtonls stopped at -snes_max_it 1")
-                    and r2.returncode == 0 and not r2.stderr.strip()):
-                passed += 1
-            else:
-                failed += 1
-                print(f"FAIL np={np} unconverged steps: rc {r.returncode}, stderr {lines!r}; fixed count: rc {r2.returncode}, stderr {r2.stderr.strip()!r}")
+            check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: in 4 of 4 steps -snes_type newtonls stopped at -snes_max_it 1")
+                  and r2.returncode == 0 and not r2.stderr.strip(),
+                  f"np={np} unconverged steps: rc {r.returncode}, stderr {lines!r}; fixed count: rc {r2.returncode}, stderr {r2.stderr.strip()!r}")
         # an implicit solve that fails (here a function-evaluation cap it cannot meet): one error
         # line naming the step, the SNES type and PETSc's reason
         # its per-iteration history up to the failure is kept under the name given
         for np in (1, 2):
             hist = os.path.join(tmp, f"failed_history_{np}.csv")
             r = run(implicit + ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-snes_max_funcs", "5", "-msim_monitor_convergence", hist], tmp, np)
-            lines = [l for l in r.stderr.splitlines() if l.strip()]
+            lines = mt.lines(r.stderr)
             rows = open(hist).read().splitlines() if os.path.exists(hist) else []
-            if (r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: the nonlinear solver failed (-snes_type qn: DIVERGED_FUNCTION_COUNT) at step 1")
-                    and len(rows) >= 2 and rows[0] == "step,iteration,wall_s,phi,gnorm" and rows[1].startswith("1,0,") and not os.path.exists(hist + ".tmp")):
-                passed += 1
-            else:
-                failed += 1
-                print(f"FAIL np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}, history {rows[:2]!r}")
+            check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: the nonlinear solver failed (-snes_type qn: DIVERGED_FUNCTION_COUNT) at step 1")
+                  and len(rows) >= 2 and rows[0] == "step,iteration,wall_s,phi,gnorm" and rows[1].startswith("1,0,") and not os.path.exists(hist + ".tmp"),
+                  f"np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}, history {rows[:2]!r}")
         # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
         out = os.path.join(tmp, "diverged")
         r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)
@@ -161,14 +146,9 @@ def main():
         ok = (r.returncode != 0 and len(err) == 1 and "diverged at step" in err[0] and "explicit_euler" in err[0] and "h = 0.002" in err[0]
               and len(frames) >= 1 and os.path.exists(os.path.join(out, "last_finite.vtu")) and os.path.exists(os.path.join(out, "series.pvd"))
               and not any(f.endswith(".tmp") for f in os.listdir(out)))
-        if ok:
-            passed += 1
+        if check(ok, f"divergence: rc {r.returncode}, stderr {r.stderr[-500:]!r}, frames {frames}"):
             print(f"divergence: '{err[0]}', {len(frames)} frames kept, last_finite.vtu written")
-        else:
-            failed += 1
-            print(f"FAIL divergence: rc {r.returncode}, stderr {r.stderr[-500:]!r}, frames {frames}")
-    print(f"{passed} passed, {failed} failed")
-    sys.exit(1 if failed else 0)
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

@@ -23,14 +23,14 @@ clamped top face, which keeps the column from contracting sideways, and the geom
 nonlinearity at strain 3e-4 account for 0.2-0.3%), at 1 and 2 ranks; and, as a control, with one
 spring constant for every spring instead of E the sag depends on n (such a lattice's modulus grows
 like k / h as its cells shrink: it stiffens under refinement). Usage: box_sag.py path/to/msim"""
-import os
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
 
-MSIM = sys.argv[1]
+import msimtest as mt
+
+MSIM = mt.msim_path()
 E, RHO, G, L = 1e8, 1000.0, 9.81, 6.0
 
 
@@ -48,17 +48,12 @@ def lattice_modulus_z():
 
 def sag(n, np_, spring):
     with tempfile.TemporaryDirectory() as tmp:
-        final = os.path.join(tmp, "x.txt")
-        cmd = (["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(np_)] if np_ > 1 else []) + [
-            MSIM, "-msim_scene", "box", "-msim_box_n", f"{n},{n},{6 * n}", "-msim_box_size", f"1,1,{L}", "-msim_fix_plane", "z_max",
+        x, r = mt.final_positions(MSIM, [
+            "-msim_scene", "box", "-msim_box_n", f"{n},{n},{6 * n}", "-msim_box_size", f"1,1,{L}", "-msim_fix_plane", "z_max",
             "-msim_density", str(RHO), "-msim_integrator", "implicit_euler", "-msim_dt", "1000", "-msim_steps", "1",
-            "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_rtol", "1e-12", "-snes_atol", "1e-14",
-            "-msim_view_final", f"ascii:{final}:ascii_matlab"] + spring
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode:
-            sys.exit(f"msim failed: {r.stderr}")
-        vals = [float(l) for l in open(final) if l.strip() and l.strip()[0] in "+-0123456789"]
-    x = np.array(vals).reshape(-1, 3)
+            "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_rtol", "1e-12", "-snes_atol", "1e-14"] + spring, np_, tmp)
+    if x is None:
+        sys.exit("msim failed")
     return -x[: (n + 1) ** 2, 2].mean()  # vertices i + (n+1) j of the layer z = 0
 
 
@@ -66,23 +61,16 @@ def main():
     ez = lattice_modulus_z()
     predicted = RHO * G * L * L / (2 * E * ez)
     print(f"lattice modulus along z: {ez:.6f} E; predicted sag {predicted:.6e} m")
-    failed = 0
+    check = mt.Checks()
     for np_ in (1, 2):
         for n in (1, 2, 4):
             s = sag(n, np_, ["-msim_young", str(E)])
             err = s / predicted - 1
-            print(f"np={np_} n={n}: sag {s:.6e} m, {err:+.2e} relative")
-            if abs(err) > 1e-2:
-                failed += 1
-                print(f"FAIL np={np_} n={n}: sag {s:.6e} is not within 1% of {predicted:.6e}")
+            check(abs(err) <= 1e-2, f"np={np_} n={n}: sag {s:.6e} m within 1% of {predicted:.6e} ({err:+.2e} relative)")
     # control: equal springs (k = E x 1 m, the n = 1 value's order) stiffen under refinement
     s1, s4 = sag(1, 1, ["-msim_stiffness", "1e8"]), sag(4, 1, ["-msim_stiffness", "1e8"])
-    print(f"equal springs: sag {s1:.6e} at n = 1, {s4:.6e} at n = 4")
-    if not s1 > 1.5 * s4:
-        failed += 1
-        print("FAIL a lattice of equal springs should stiffen under refinement")
-    print("passed" if not failed else f"{failed} failed")
-    sys.exit(1 if failed else 0)
+    check(s1 > 1.5 * s4, f"a lattice of equal springs stiffens under refinement: sag {s1:.6e} at n = 1, {s4:.6e} at n = 4")
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

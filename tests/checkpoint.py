@@ -20,28 +20,16 @@ import sys
 import tempfile
 import time
 
-from processes import kill_all  # tests/processes.py
+import msimtest as mt
 
-MSIM = os.path.abspath(sys.argv[1])
+MSIM = mt.msim_path()
 SCENE = ["-msim_cloth_n", "16", "-msim_integrator", "implicit_euler", "-msim_dt", "0.005", "-snes_type", "pd", "-snes_pd_anderson", "5",
          "-snes_max_it", "8", "-snes_pd_fixed", "-msim_output_every", "10", "-msim_wind", "1,0,2", "-msim_drag", "0.01"]
-failed = 0
-
-
-
-def check(ok, what):
-    global failed
-    if not ok:
-        failed += 1
-    print(("ok   " if ok else "FAIL ") + what)
-
-
-def cmd(np, args):
-    return ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + args
+check = mt.Checks()
 
 
 def run(np, args, cwd):
-    return subprocess.run(cmd(np, args), cwd=cwd, capture_output=True, text=True)
+    return mt.run(MSIM, args, np, cwd=cwd)
 
 
 def final(path):
@@ -52,8 +40,7 @@ def final(path):
 
 
 def frames(out):
-    pvd = open(os.path.join(out, "series.pvd")).read()
-    listed = [l.split('file="')[1].split('"')[0] for l in pvd.splitlines() if 'file="' in l]
+    listed = mt.frames(out)
     return listed, {f: open(os.path.join(out, f), "rb").read() for f in listed}
 
 
@@ -124,12 +111,12 @@ def main():
             args = SCENE + ["-msim_steps", "400", "-msim_output", out, "-msim_monitor_csv", out + ".csv", "-msim_checkpoint", ck, "-msim_checkpoint_every", "7",
                             "-msim_view_final", f"binary:{out}.bin"]
             refout, r = whole(tmp, np, f"kref{np}", 400)
-            p = subprocess.Popen(cmd(np, args), cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+            p = mt.popen(MSIM, args, np, cwd=tmp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             # a random moment: after a random number of steps, somewhere between two checkpoints
             target, t0 = random.randint(20, 300), time.time()
             while (not os.path.exists(out + ".csv") or sum(1 for _ in open(out + ".csv")) < target) and time.time() - t0 < 60:
                 time.sleep(0.005)
-            kill_all(p)
+            mt.kill_all(p)
             r = run(np, args + ["-msim_restart", ck], tmp)
             check(r.returncode == 0, f"np={np}: restarted after SIGKILL ({r.stderr.strip()[:200]})")
             if r.returncode:
@@ -147,14 +134,15 @@ def main():
             out = os.path.join(tmp, name)
             ck = os.path.join(tmp, name + ".ck")
             args = SCENE + ["-msim_output", out, "-msim_checkpoint", ck, "-msim_checkpoint_every", "100000", "-msim_monitor_csv", out + ".csv"]
-            p = subprocess.Popen(cmd(np, args + ["-msim_steps", "100000"]), cwd=tmp, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+            p = mt.popen(MSIM, args + ["-msim_steps", "100000"], np, cwd=tmp, start_new_session=False,
+                         stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
             t0 = time.time()
             while (not os.path.exists(out + ".csv") or sum(1 for _ in open(out + ".csv")) < 20) and time.time() - t0 < 60:
                 time.sleep(0.01)
             p.send_signal(signal.SIGTERM)
             err = p.communicate(timeout=120)[1]
             # msim's lines (mpirun's libevent may add a "[warn] Epoll ..." line of its own on a signal)
-            lines = [l for l in err.splitlines() if l.strip() and not l.startswith("[warn] Epoll")]
+            lines = [l for l in mt.lines(err) if not l.startswith("[warn] Epoll")]
             stopped = len(lines) == 1 and "stopped by SIGTERM after step" in lines[0] and "-msim_restart" in lines[0]
             check(p.returncode != 0 and stopped and os.path.exists(ck), f"np={np}: SIGTERM stops with one line and a checkpoint (rc {p.returncode}, {lines[:3]})")
             if stopped:
@@ -186,11 +174,10 @@ def main():
                 for k in range(0, len(extra), 2):  # later values win
                     args += extra[k:k + 2]
                 r = run(np, args, tmp)
-                lines = [l for l in r.stderr.splitlines() if l.strip()]
+                lines = mt.lines(r.stderr)
                 check(r.returncode != 0 and len(lines) == 1 and message in lines[0] and not os.path.exists(out),
                       f"np={np}: refused: {message} ({lines[:2]})")
-    print("FAILED" if failed else "all passed")
-    return 1 if failed else 0
+    return check.exit_code()
 
 
 if __name__ == "__main__":

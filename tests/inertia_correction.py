@@ -11,14 +11,14 @@ at 1 and at 2 ranks:
   - the first step, from the same start as plain Newton's, ends at lower Phi than its saddle;
   - both rank counts reach the same Phi in each step.
 Usage: inertia_correction.py path/to/msim"""
-import csv
 import os
 import re
-import subprocess
 import sys
 import tempfile
 
-MSIM = sys.argv[1]
+import msimtest as mt
+
+MSIM = mt.msim_path()
 SCENE = ["-msim_scene", "chain", "-msim_chain_n", "40", "-msim_chain_length", "1", "-msim_mass", "1", "-msim_stiffness", "1000",
          "-msim_fix", "corners", "-msim_prestretch", "0.95", "-msim_gravity", "-50,-0.5,0", "-msim_integrator", "implicit_euler",
          "-msim_dt", "0.01", "-snes_type", "newtonls", "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky",
@@ -27,25 +27,17 @@ SCENE = ["-msim_scene", "chain", "-msim_chain_n", "40", "-msim_chain_length", "1
 
 def run(np, steps, correct, tmp):
     mon = os.path.join(tmp, f"mon_{np}_{steps}_{correct}.csv")
-    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + SCENE + [
-        "-msim_steps", str(steps), "-msim_inertia_correction", str(correct), "-msim_monitor_csv", mon]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+    r = mt.run(MSIM, SCENE + ["-msim_steps", str(steps), "-msim_inertia_correction", str(correct), "-msim_monitor_csv", mon], np)
     saddle = re.search(r"steps converged to a saddle point of Phi \(negative pivots in the exact Hessian's LDL\^T\): (\d+), at most (\d+)", r.stdout)
     shifted = re.search(r"inertia correction: (\d+) Newton iterations factored H \+ delta M", r.stdout)
-    rows = list(csv.DictReader(open(mon)))[1:] if os.path.exists(mon) else []
+    rows = mt.read_csv(mon)[1:] if os.path.exists(mon) else []
     return dict(rc=r.returncode, stderr=r.stderr.strip(), saddle=int(saddle.group(1)) if saddle else None,
                 shifted=int(shifted.group(1)) if shifted else None, phi=[float(x["phi"]) for x in rows],
                 its=[int(x["nonlinear_its"]) for x in rows])
 
 
 def main():
-    failed = 0
-
-    def check(ok, what):
-        nonlocal failed
-        print(f"{'ok' if ok else 'FAIL'} {what}")
-        failed += not ok
-
+    check = mt.Checks()
     with tempfile.TemporaryDirectory() as tmp:
         phis = {}
         for np in (1, 2):
@@ -61,7 +53,7 @@ def main():
             phis[np] = fixed["phi"]
         agree = len(phis[1]) == len(phis[2]) == 3 and all(abs(a - b) <= 1e-9 * abs(a) for a, b in zip(phis[1], phis[2]))
         check(agree, f"1 and 2 ranks reach the same Phi: {phis[1]} / {phis[2]}")
-    sys.exit(1 if failed else 0)
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

@@ -9,12 +9,11 @@ import sys
 import tempfile
 import time
 
-from processes import kill_all  # tests/processes.py
+import msimtest as mt
 
-MSIM = os.path.abspath(sys.argv[1])
+MSIM = mt.msim_path()
 ARGS = ["-msim_cloth_n", "30", "-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "100000",
         "-snes_type", "pd", "-snes_max_it", "5", "-snes_pd_fixed", "-msim_output_every", "5"]
-
 
 
 def rows_ok(path, header, fields, step_col):
@@ -33,40 +32,32 @@ def rows_ok(path, header, fields, step_col):
 
 
 def main():
-    failed = 0
+    check = mt.Checks()
     with tempfile.TemporaryDirectory() as tmp:
         for np in (1, 2):
             csv = os.path.join(tmp, f"mon{np}.csv")
             hist = os.path.join(tmp, f"conv{np}.csv")
             out = os.path.join(tmp, f"out{np}")
-            cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + ARGS + [
-                "-msim_monitor_csv", csv, "-msim_monitor_convergence", hist, "-msim_output", out]
-            p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+            p = mt.popen(MSIM, ARGS + ["-msim_monitor_csv", csv, "-msim_monitor_convergence", hist, "-msim_output", out], np,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
             deadline = time.time() + 60
             while time.time() < deadline:
                 time.sleep(0.2)
                 if os.path.exists(csv) and sum(1 for _ in open(csv)) > 20:
                     break
-            kill_all(p)
+            mt.kill_all(p)
             problems = [m for m in (rows_ok(csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s", 10, 0),
                                      rows_ok(hist, "step,iteration,wall_s,phi,gnorm", 5, 0)) if m]
-            pvd = os.path.join(out, "series.pvd")
-            listed = []
-            if os.path.exists(pvd):
-                listed = [l.split('file="')[1].split('"')[0] for l in open(pvd) if 'file="' in l]
+            listed = mt.frames(out) if os.path.exists(os.path.join(out, "series.pvd")) else []
             for name in listed:
                 data = open(os.path.join(out, name), "rb").read()
                 if not data.rstrip().endswith(b"</VTKFile>"):
                     problems.append(f"frame {name} is cut")
             if not listed:
                 problems.append("no frame listed in series.pvd")
-            if problems:
-                failed += 1
-                print(f"FAIL np={np}: " + "; ".join(problems))
-            else:
-                print(f"np={np}: killed after {sum(1 for _ in open(csv)) - 1} monitor rows; {len(listed)} frames complete")
-    print("FAILED" if failed else "all passed")
-    return 1 if failed else 0
+            check(not problems, f"np={np}: killed after {sum(1 for _ in open(csv)) - 1 if os.path.exists(csv) else 0} monitor rows; "
+                                f"{len(listed)} frames complete" + "".join("; " + m for m in problems))
+    return check.exit_code()
 
 
 if __name__ == "__main__":

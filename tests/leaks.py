@@ -5,12 +5,13 @@ and GAMG, SLEPc's spectrum, the .vtu and HDF5 series, monitors, checkpoint and r
 mesh, refinement) at 1 and 2 ranks must list none."""
 import os
 import re
-import subprocess
 import sys
 import tempfile
 
-MSIM = os.path.abspath(sys.argv[1])
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+import msimtest as mt
+
+MSIM = mt.msim_path()
+ROOT = mt.ROOT
 RUNS = {
     "explicit, vtu series, monitor": "-msim_cloth_n 8 -msim_steps 20 -msim_output {d}/a -msim_output_every 5 -msim_monitor_csv {d}/a.csv",
     "pd anderson, checkpoint": "-msim_cloth_n 8 -msim_integrator implicit_euler -snes_type pd -snes_pd_anderson 5 -msim_steps 4 -msim_checkpoint {d}/c.ck -msim_monitor_convergence {d}/conv.csv",
@@ -23,20 +24,15 @@ LEAK = re.compile(r"^\[\s*\d+\]\s*\d+ bytes ", re.M)
 
 
 def main():
-    failed = 0
+    check = mt.Checks()
     for np in (1, 2):
         with tempfile.TemporaryDirectory() as d:
             for name, args in RUNS.items():
-                cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + args.format(d=d).split() + ["-malloc_debug", "-malloc_dump"]
-                r = subprocess.run(cmd, capture_output=True, text=True)
+                r = mt.run(MSIM, args.format(d=d).split() + ["-malloc_debug", "-malloc_dump"], np)
                 leaks = LEAK.findall(r.stdout + r.stderr)
-                ok = r.returncode == 0 and not leaks
-                print(f"{'ok  ' if ok else 'FAIL'} np={np} {name}: rc {r.returncode}, {len(leaks)} blocks left")
-                if not ok:
-                    failed += 1
+                if not check(r.returncode == 0 and not leaks, f"np={np} {name}: rc {r.returncode}, {len(leaks)} blocks left"):
                     print((r.stdout + r.stderr)[-1500:])
-    print("FAILED" if failed else "all passed")
-    return 1 if failed else 0
+    return check.exit_code()
 
 
 if __name__ == "__main__":

@@ -23,10 +23,12 @@ import subprocess
 import sys
 import tempfile
 
-MSIM = os.path.abspath(sys.argv[1])
+import msimtest as mt
+
+MSIM = mt.msim_path()
 TETGEN = "--no-tetgen" not in sys.argv
-HERE = os.path.dirname(os.path.abspath(__file__))
-ROOT = os.path.dirname(HERE)
+HERE = mt.HERE
+ROOT = mt.ROOT
 BAD = os.path.join(HERE, "data", "bad")
 GOOD = os.path.join(HERE, "data", "meshes")
 sys.path.insert(0, GOOD)
@@ -78,21 +80,11 @@ CORPUS = [
 ]
 NEEDS_TETGEN = {"open_surface.off", "self_intersecting.off"}  # found while preparing TetGen's input
 
-passed = failed = 0
-
-
-def check(ok, what):
-    global passed, failed
-    if ok:
-        passed += 1
-    else:
-        failed += 1
-        print("FAIL " + what)
+check = mt.Checks(quiet=True)
 
 
 def run(args, np=1, cwd=None):
-    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + args
-    return subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
+    return mt.run(MSIM, args, np, cwd=cwd)
 
 
 def scene_view(args, np=1):
@@ -137,9 +129,8 @@ def test_corpus(tmp):
                 continue
             out = os.path.join(tmp, f"out_{np}")
             path = os.path.join("tests", "data", "bad", name)
-            r = subprocess.run(([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM])
-                               + ["-msim_scene", scene, "-msim_mesh_file", path, "-msim_output", out, "-msim_steps", "2"], capture_output=True, text=True, cwd=ROOT)
-            lines = [l for l in r.stderr.splitlines() if l.strip()]
+            r = run(["-msim_scene", scene, "-msim_mesh_file", path, "-msim_output", out, "-msim_steps", "2"], np, cwd=ROOT)
+            lines = mt.lines(r.stderr)
             stem = name.rsplit(".", 1)[0]
             good = (r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: ") and message in lines[0]
                     and os.path.join("tests", "data", "bad", stem) in lines[0] and not os.path.exists(out) and r.returncode < 128)
@@ -273,8 +264,7 @@ def main():
             test_valid()
             test_bunny(tmp)
             test_partition()
-    print(f"{passed} passed, {failed} failed")
-    sys.exit(1 if failed else 0)
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

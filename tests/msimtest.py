@@ -7,8 +7,12 @@
 - a tally of named checks (Checks), printed as they are made, whose exit code fails the test when
   any check failed or when none was made;
 - ending a run with SIGKILL, mpirun and its ranks at once (kill_all).
-Usage in a script:  import msimtest as mt;  msim = mt.msim_path();  check = mt.Checks();
-  r = mt.run(msim, ["-msim_steps", "3"], np=2);  check(r.returncode == 0, "runs");
+Usage in a script (registered by one line in tests/CMakeLists.txt's MSIM_SCRIPT_TESTS):
+  import msimtest as mt
+  msim, check = mt.msim_path(), mt.Checks()
+  for np in mt.ranks():
+      r = mt.run(msim, ["-msim_steps", "3"], np)
+      check(r.returncode == 0, f"np={np}: runs")
   sys.exit(check.exit_code())"""
 import csv
 import os
@@ -36,6 +40,15 @@ def msim_path(argv=None):
     return os.path.abspath(argv[1])
 
 
+def ranks(default=(1, 2), argv=None):
+    """the rank counts a script runs msim at: `--np N` on its command line (ctest's per-rank tests,
+    tests/CMakeLists.txt) gives [N], else the default"""
+    argv = sys.argv if argv is None else argv
+    if "--np" in argv:
+        return [int(argv[argv.index("--np") + 1])]
+    return list(default)
+
+
 def mpirun(np):
     """mpirun's part of a command line for np ranks; -q keeps mpirun's own banner (about a rank's
     non-zero exit) out of stderr, where the tests read msim's lines"""
@@ -49,13 +62,15 @@ def command(exe, args=(), np=1):
 
 def run(exe, args=(), np=1, cwd=None, **kw):
     """runs exe to its end; stdout and stderr captured as text"""
-    return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, env=ENV, **kw)
+    kw.setdefault("env", ENV)
+    return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, **kw)
 
 
 def popen(exe, args=(), np=1, cwd=None, **kw):
     """starts exe in the background (a new session, so that kill_all reaches its ranks)"""
     kw.setdefault("start_new_session", True)
-    return subprocess.Popen(command(exe, args, np), cwd=cwd, env=ENV, **kw)
+    kw.setdefault("env", ENV)
+    return subprocess.Popen(command(exe, args, np), cwd=cwd, **kw)
 
 
 def lines(text):
@@ -81,11 +96,11 @@ def positions(path):
     return np.array(read_view(path)).reshape(-1, 3)
 
 
-def final_positions(exe, args, np, tmp, name="final"):
+def final_positions(exe, args, np, tmp, name="final", cwd=None):
     """runs exe with -msim_view_final into tmp/NAME_NP.txt; (n, 3) positions, or None when the run
     failed (its stderr's tail printed), and the finished process"""
     path = os.path.join(tmp, f"{name}_{np}.txt")
-    r = run(exe, list(args) + ["-msim_view_final", view_ascii(path)], np)
+    r = run(exe, list(args) + ["-msim_view_final", view_ascii(path)], np, cwd=cwd)
     if r.returncode:
         print(f"msim exited with {r.returncode}: {' '.join(str(a) for a in args)}\n{r.stderr[-1500:]}")
         return None, r

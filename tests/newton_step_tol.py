@@ -12,16 +12,14 @@ At 1 and 2 ranks, on a 31 x 31 cloth falling from two corners at h = 1/30 s (its
 and buckle: Phi is nonconvex, the case that needs a line search)."""
 import os
 import re
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from checks import Checks  # noqa: E402
+import msimtest as mt
 
-MSIM = os.path.abspath(sys.argv[1])
+MSIM = mt.msim_path()
 STEPS = 4
 SCENE = ["-msim_cloth_n", "31", "-msim_integrator", "implicit_euler", "-msim_dt", "0.0333333333333333", "-msim_steps", str(STEPS),
          "-snes_type", "newtonls", "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps",
@@ -32,16 +30,14 @@ MAXIT = 30
 
 def run(np_, extra, tmp, tag):
     out = os.path.join(tmp, f"{tag}_{np_}.txt")
-    cmd = ([MSIM] if np_ == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np_), MSIM]) + SCENE + extra + \
-        ["-msim_monitor", "-msim_view_final", f"ascii:{out}:ascii_matlab"]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+    r = mt.run(MSIM, SCENE + extra + ["-msim_monitor", "-msim_view_final", mt.view_ascii(out)], np_)
     its = [int(m.group(1)) for m in re.finditer(r"^step\s+[1-9]\d*\s.*\snl (\d+) ", r.stdout, re.M)]
-    x = np.array([float(l) for l in open(out) if l.strip() and l.strip()[0] in "+-0123456789"]) if r.returncode == 0 else None
+    x = np.array(mt.read_view(out)) if r.returncode == 0 else None
     return r, its, x
 
 
 def main():
-    check = Checks()
+    check = mt.Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in (1, 2):

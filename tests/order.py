@@ -7,19 +7,16 @@ measured). Observed order p = log2(e(h) / e(h/2)) for both pairs:
 explicit Euler 1, symplectic Euler 1, RK4 4, implicit Euler (solved to roundoff) 1, each within
 0.15. Symplectic Euler's energy error stays bounded over 10^4 steps (the last tenth of the run no
 worse than 1.5 x the first) and is first order in h. At 1 and 2 ranks."""
-import csv
 import math
 import os
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from checks import Checks  # noqa: E402
+import msimtest as mt
 
-MSIM = os.path.abspath(sys.argv[1])
+MSIM = mt.msim_path()
 SCENE = ["-msim_scene", "chain", "-msim_chain_n", "8", "-msim_fix", "corners", "-msim_spectrum_check", "0"]
 T = 0.3
 EXACT = ["-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_rtol", "1e-14", "-snes_atol", "1e-15"]
@@ -30,31 +27,29 @@ CASES = [("explicit_euler", 1, (1e-4, 5e-5, 2.5e-5), []),
 
 
 def msim(np_, args):
-    cmd = ([MSIM] if np_ == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np_), MSIM]) + SCENE + args
-    r = subprocess.run(cmd, capture_output=True, text=True)
+    r = mt.run(MSIM, SCENE + args, np_)
     if r.returncode:
         sys.exit(f"msim failed: {' '.join(args)}\n{r.stderr}")
 
 
 def final(np_, integrator, h, steps, extra, tmp):
     out = os.path.join(tmp, f"{integrator}_{h}.txt")
-    msim(np_, ["-msim_integrator", integrator, "-msim_dt", repr(h), "-msim_steps", str(steps), "-msim_view_final", f"ascii:{out}:ascii_matlab"] + extra)
-    return np.array([float(l) for l in open(out) if l.strip() and l.strip()[0] in "+-0123456789"])
+    msim(np_, ["-msim_integrator", integrator, "-msim_dt", repr(h), "-msim_steps", str(steps), "-msim_view_final", mt.view_ascii(out)] + extra)
+    return np.array(mt.read_view(out))
 
 
 def energy_error(np_, h, steps, tmp):
     """max |E - E0| over the first and the last tenth of a symplectic Euler run"""
     mon = os.path.join(tmp, f"energy_{h}.csv")
     msim(np_, ["-msim_integrator", "symplectic_euler", "-msim_dt", repr(h), "-msim_steps", str(steps), "-msim_monitor_csv", mon])
-    with open(mon) as f:
-        e = np.array([float(r["total"]) for r in csv.DictReader(f)])
+    e = np.array([float(r["total"]) for r in mt.read_csv(mon)])
     dev = np.abs(e - e[0])
     tenth = len(e) // 10
     return dev[:tenth].max(), dev[-tenth:].max()
 
 
 def main():
-    check = Checks()
+    check = mt.Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in (1, 2):

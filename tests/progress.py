@@ -6,11 +6,12 @@ half way reports its own rate (steps since the restart over its wall time), not 
 steps of the first run."""
 import os
 import re
-import subprocess
 import sys
 import tempfile
 
-MSIM = os.path.abspath(sys.argv[1])
+import msimtest as mt
+
+MSIM = mt.msim_path()
 STEPS = 4000
 ARGS = ["-msim_cloth_n", "40", "-msim_integrator", "implicit_euler", "-msim_dt", "0.001", "-msim_steps", str(STEPS),
         "-snes_type", "pd", "-snes_max_it", "3", "-snes_pd_fixed"]
@@ -18,15 +19,14 @@ LINE = re.compile(r"^msim: step (\d+) of (\d+) \((\d+)%\), t = (\S+) s, wall \S+
 
 
 def run(np, extra):
-    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + ARGS + extra
-    return subprocess.run(cmd, capture_output=True, text=True)
+    return mt.run(MSIM, ARGS + extra, np)
 
 
 def main():
-    failed = 0
+    check = mt.Checks()
     for np in (1, 2):
         r = run(np, ["-msim_progress", "0.05"])
-        lines = [l for l in r.stderr.splitlines() if l.strip()]
+        lines = mt.lines(r.stderr)
         found = [LINE.match(l) for l in lines]
         steps = [int(m.group(1)) for m in found if m]
         ok = (r.returncode == 0 and len(lines) >= 2 and all(found) and steps == sorted(set(steps))
@@ -34,10 +34,8 @@ def main():
                       and abs(float(m.group(4)) - 0.001 * int(m.group(1))) < 1e-9 for m in found))
         quiet = run(np, ["-msim_progress", "0"])
         ok = ok and quiet.returncode == 0 and quiet.stderr.strip() == ""
-        print(f"np={np}: {len(lines)} progress lines (steps {steps[:3]}...{steps[-1:]}); quiet run stderr {quiet.stderr.strip()[:100]!r}")
-        if not ok:
-            failed += 1
-            print(f"FAIL np={np}: rc {r.returncode}, stderr {lines[:4]!r}")
+        check(ok, f"np={np}: {len(lines)} progress lines (steps {steps[:3]}...{steps[-1:]}), rc {r.returncode}, first {lines[:4]!r}; "
+                  f"quiet run stderr {quiet.stderr.strip()[:100]!r}")
     # a restart from step STEPS / 2: the same work per step, so about the same rate (the old rate
     # counted every step from 0: twice or more at the restart's first lines)
     with tempfile.TemporaryDirectory() as tmp:
@@ -46,13 +44,9 @@ def main():
         fresh = [float(LINE.match(l).group(5)) for l in run(1, ["-msim_progress", "0.05"]).stderr.splitlines() if LINE.match(l)]
         again = [float(LINE.match(l).group(5)) for l in run(1, ["-msim_progress", "0.05", "-msim_restart", ck]).stderr.splitlines() if LINE.match(l)]
         ratio = max(again) / (sum(fresh) / len(fresh)) if fresh and again else 0
-        ok = first.returncode == 0 and 0.3 < ratio < 1.7
-        print(f"restart at step {STEPS // 2}: fastest reported rate {ratio:.2f}x the fresh run's mean")
-        if not ok:
-            failed += 1
-            print(f"FAIL restart rate: rc {first.returncode}, fresh {fresh[:3]}, restarted {again[:3]}")
-    print("FAILED" if failed else "all passed")
-    return 1 if failed else 0
+        check(first.returncode == 0 and 0.3 < ratio < 1.7,
+              f"restart at step {STEPS // 2}: fastest reported rate {ratio:.2f}x the fresh run's mean (rc {first.returncode}, fresh {fresh[:3]}, restarted {again[:3]})")
+    return check.exit_code()
 
 
 if __name__ == "__main__":

@@ -8,15 +8,13 @@ Usage: run_example.py MSIM NAME NP [--stride K] [--regen] [-- extra msim options
 import argparse
 import os
 import re
-import subprocess
 import sys
 import tempfile
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-sys.path.insert(0, HERE)
-import numdiff  # noqa: E402
+import msimtest as mt
+import numdiff
 
-ROOT = os.path.dirname(HERE)
+HERE, ROOT = mt.HERE, mt.ROOT
 
 
 def main():
@@ -37,17 +35,16 @@ def main():
         opts = os.path.join(ROOT, "examples", a.name + ".opts")
         with open(opts) as f:
             text = f.read()
-        cmd = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(a.np), a.msim,
-               "-options_file", opts, "-options_left"]
+        args = ["-options_file", opts, "-options_left"]
         if not re.search(r"^-msim_spectrum\s*$", text, re.M):  # spectrum-only examples do not step
-            cmd += ["-msim_monitor", "-msim_view_final", "ascii:" + final + ":ascii_matlab"]
+            args += ["-msim_monitor", "-msim_view_final", mt.view_ascii(final)]
         if re.search(r"^-msim_output\s", text, re.M):  # the series goes to the temporary folder
-            cmd += ["-msim_output", os.path.join(tmp, "series")]
-        cmd += a.extra
-        env = dict(os.environ, OPENBLAS_NUM_THREADS="1")
-        r = subprocess.run(cmd, cwd=ROOT, capture_output=True, text=True, env=env)
+            args += ["-msim_output", os.path.join(tmp, "series")]
+        args += a.extra
+        # one BLAS thread whatever the caller's environment: the expected files were made so
+        r = mt.run(os.path.abspath(a.msim), args, a.np, cwd=ROOT, env=dict(mt.ENV, OPENBLAS_NUM_THREADS="1"))
         if r.returncode != 0:
-            print(" ".join(cmd))
+            print(" ".join(mt.command(a.msim, args, a.np)))
             print(r.stdout[-4000:], r.stderr[-4000:])
             sys.exit(f"msim exited with {r.returncode}")
         if "There are no unused options" not in r.stdout or "WARNING! There are options you set that were not used" in r.stdout:

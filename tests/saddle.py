@@ -12,10 +12,11 @@ factorization, at x0, has none), and 0.8; a stretched one (prestretch 1.05) is a
 warning.
 Usage: saddle.py path/to/msim"""
 import re
-import subprocess
 import sys
 
-MSIM = sys.argv[1]
+import msimtest as mt
+
+MSIM = mt.msim_path()
 N, LENGTH, MASS, K, H, GX = 40, 1.0, 1.0, 1000.0, 0.01, -50.0
 
 
@@ -52,31 +53,27 @@ def expected_negative(prestretch):
 
 
 def run(prestretch, np):
-    cmd = ([MSIM] if np == 1 else ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n", str(np), MSIM]) + [
+    r = mt.run(MSIM, [
         "-msim_scene", "chain", "-msim_chain_n", str(N), "-msim_chain_length", str(LENGTH), "-msim_mass", str(MASS),
         "-msim_stiffness", str(K), "-msim_fix", "corners", "-msim_prestretch", str(prestretch), "-msim_gravity", f"{GX},0,0",
         "-msim_integrator", "implicit_euler", "-msim_dt", str(H), "-msim_steps", "1", "-snes_type", "newtonls", "-msim_psd", "0",
-        "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-msim_view"]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+        "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-msim_view"], np)
     m = re.search(r"steps converged to a saddle point of Phi \(negative pivots in the exact Hessian's LDL\^T\): (\d+), at most (\d+) negative", r.stdout)
     warned = "converged to a saddle point" in r.stderr
     return r.returncode, (int(m.group(1)), int(m.group(2))) if m else None, warned
 
 
 def main():
-    failed = 0
+    check = mt.Checks()
     for prestretch in (0.95, 0.8, 1.05):
         want = expected_negative(prestretch)
         for np in (1, 2):
             rc, got, warned = run(prestretch, np)
-            ok = rc == 0 and got == ((1, want) if want else (0, 0)) and warned == (want > 0)
-            print(f"{'ok' if ok else 'FAIL'} prestretch {prestretch} np={np}: derived {want} negative eigenvalues; msim reports (steps, negative) {got}, warning {warned}")
-            failed += not ok
+            check(rc == 0 and got == ((1, want) if want else (0, 0)) and warned == (want > 0),
+                  f"prestretch {prestretch} np={np}: derived {want} negative eigenvalues; msim reports (steps, negative) {got}, warning {warned}")
     # the derivation must exercise a saddle at all
-    if expected_negative(0.95) == 0 or expected_negative(0.8) == 0:
-        print("FAIL the compressed chain has no negative eigenvalue: the case tests nothing")
-        failed += 1
-    sys.exit(1 if failed else 0)
+    check(expected_negative(0.95) > 0 and expected_negative(0.8) > 0, "the compressed chain has negative eigenvalues (else the case tests nothing)")
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

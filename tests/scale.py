@@ -14,41 +14,28 @@
 Usage: scale.py path/to/msim [--no-tetgen]"""
 import os
 import re
-import subprocess
 import sys
 import tempfile
 import xml.etree.ElementTree as ET
 
 import numpy as np
 
-MSIM = os.path.abspath(sys.argv[1])
+import msimtest as mt
+
+MSIM = mt.msim_path()
 TETGEN = "--no-tetgen" not in sys.argv
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = mt.ROOT
 CUBE5 = os.path.join(ROOT, "tests", "data", "meshes", "cube5.node")
 BUNNY = os.path.join(ROOT, "examples", "meshes", "bunny.off")
-passed = failed = 0
-
-
-def check(ok, what):
-    global passed, failed
-    passed += ok
-    failed += not ok
-    if not ok:
-        print("FAIL " + what)
+check = mt.Checks(quiet=True)
 
 
 def run(args, np_):
-    cmd = (["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(np_)] if np_ > 1 else []) + [MSIM] + args
-    return subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+    return mt.run(MSIM, args, np_, cwd=ROOT)
 
 
 def final_positions(args, np_, tmp):
-    path = os.path.join(tmp, f"final_{np_}.txt")
-    r = run(args + ["-msim_view_final", f"ascii:{path}:ascii_matlab"], np_)
-    if r.returncode:
-        print(r.stderr[-1500:])
-        return None
-    return np.array([float(l) for l in open(path) if l.strip() and l.strip()[0] in "+-0123456789"]).reshape(-1, 3)
+    return mt.final_positions(MSIM, args, np_, tmp, cwd=ROOT)[0]
 
 
 def test_refined_cube():
@@ -124,8 +111,7 @@ def main():
         test_parts()
         test_parallel_output(tmp)
         test_same_positions(tmp)
-    print(f"{passed} passed, {failed} failed")
-    sys.exit(1 if failed else 0)
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

@@ -11,14 +11,14 @@
   gravity is off by about h g t / 2 = 2.5e-7 m there).
 - SLEPc's spectrum runs (-msim_spectrum), and the guard warns for symplectic Euler above 2/omega.
 Usage: tet_methods.py path/to/msim"""
-import os
-import subprocess
 import sys
 import tempfile
 
 import numpy as np
 
-MSIM = sys.argv[1]
+import msimtest as mt
+
+MSIM = mt.msim_path()
 BOX = "-msim_scene box -msim_box_n 3,3,3 -msim_box_size 0.3,0.1,0.1 -msim_fix_plane x_min -msim_density 1000 -msim_young 1e6".split()
 TIGHT = "-snes_rtol 1e-10 -snes_atol 1e-16 -snes_max_it 5000".split()
 IMPLICIT = {
@@ -33,25 +33,12 @@ IMPLICIT = {
     "lbfgs": "-snes_type qn -snes_qn_scale_type jacobian",
     "trust region": "-snes_type ntr",
 }
-passed = failed = 0
-
-
-def check(ok, what):
-    global passed, failed
-    passed += ok
-    failed += not ok
-    if not ok:
-        print("FAIL " + what)
+check = mt.Checks(quiet=True)
 
 
 def run(args, np_):
     with tempfile.TemporaryDirectory() as tmp:
-        final = os.path.join(tmp, "x.txt")
-        cmd = (["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(np_)] if np_ > 1 else []) + [MSIM] + BOX + args + ["-msim_view_final", f"ascii:{final}:ascii_matlab"]
-        r = subprocess.run(cmd, capture_output=True, text=True)
-        if r.returncode:
-            return None, r.stderr
-        x = np.array([float(l) for l in open(final) if l.strip() and l.strip()[0] in "+-0123456789"]).reshape(-1, 3)
+        x, r = mt.final_positions(MSIM, BOX + args, np_, tmp)
         return x, r.stderr
 
 
@@ -88,14 +75,13 @@ def main():
         d = np.abs(xi - xr).max()
         print(f"np={np_} implicit_euler: max |x - x(rk4)| = {d:.1e} m after 5 ms at h = 10 us")
         check(d < 1e-6, f"np={np_} implicit Euler differs from rk4 by {d:.2e}")
-        r = subprocess.run((["mpirun", "--allow-run-as-root", "--oversubscribe", "-n", str(np_)] if np_ > 1 else []) + [MSIM] + BOX + ["-msim_spectrum"], capture_output=True, text=True)
+        r = mt.run(MSIM, BOX + ["-msim_spectrum"], np_)
         w = float(r.stdout.split("omega_max = ")[1].split()[0]) if "omega_max = " in r.stdout else None
         check(w is not None and w > 0, f"np={np_}: -msim_spectrum gives omega_max ({r.stdout[-300:]} {r.stderr[-300:]})")
         if w:
-            r = subprocess.run([MSIM] + BOX + ["-msim_integrator", "symplectic_euler", "-msim_dt", str(2.2 / w), "-msim_steps", "1"], capture_output=True, text=True)
+            r = mt.run(MSIM, BOX + ["-msim_integrator", "symplectic_euler", "-msim_dt", str(2.2 / w), "-msim_steps", "1"])
             check("exceeds the stability limit" in r.stderr, f"np={np_}: the guard warns above 2/omega_max ({r.stderr.strip()})")
-    print(f"{passed} passed, {failed} failed")
-    sys.exit(1 if failed else 0)
+    sys.exit(check.exit_code())
 
 
 if __name__ == "__main__":

@@ -25,7 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
 from msimrun import ENV, MSIM, ROOT  # noqa: E402
 sys.path.insert(0, os.path.join(ROOT, "tests"))
-from processes import kill_all  # noqa: E402  (SIGKILL to msim, or to mpirun and its ranks at once)
+from msimtest import kill_all  # noqa: E402  (SIGKILL to msim, or to mpirun and its ranks at once)
 
 WORK = "/tmp/msim_soak"
 
