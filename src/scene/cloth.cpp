@@ -1,7 +1,8 @@
-/* Cloth grid: N x N vertices in the z = 0 plane, vertex (i, j) has id j N + i. Spring families as
-   DESIGN.md defines them; -msim_fix corners holds the two corners of the edge j = N - 1, edge holds
-   that whole edge, so under gravity (-z) the cloth swings down like a curtain. Each rank makes the
-   vertices of its block of ids and the springs that start at them. */
+/* Cloth grid: N x N vertices in the z = 0 plane, vertex (i, j) has id j N + i. Spring families:
+   structural (i,j)-(i+1,j) and (i,j)-(i,j+1), shear (i,j)-(i+1,j+1) and (i+1,j)-(i,j+1), bending
+   (i,j)-(i+2,j) and (i,j)-(i,j+2). -msim_fix corners holds the two corners of the edge j = N - 1,
+   edge holds that whole edge, so under gravity (-z) the cloth swings down like a curtain. Each rank
+   makes the vertices of its block of ids and the springs that start at them. */
 #include <msim/scene.h>
 
 PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm comm, MSimSceneData *s)
