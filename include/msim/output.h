@@ -1,5 +1,6 @@
-/* Output layer: ParaView series, per-step monitors, final positions. Everything is written by rank 0
-   from positions gathered in input vertex order, so files do not depend on the rank count. Files
+/* Output layer: ParaView series, per-step monitors, final positions. Everything is in input vertex
+   order, so files do not depend on the rank count (a .vtu series is written by rank 0 from data
+   gathered there, the HDF5 series by every rank at once). Files
    are written whole (temporary file, then rename): a killed run never leaves a truncated frame. */
 #pragma once
 #include <msim/system.h>
