@@ -1,12 +1,27 @@
-/* Hands each step to a PETSc TS on U = [x; v] (each rank: its 3 nown positions, then velocities).
-   -ts_type rk -ts_rk_type 4 -ts_adapt_type none is RK4; -ts_type basicsymplectic
-   -ts_basicsymplectic_type 1 is symplectic Euler through the "position"/"momentum" splits. */
+/* Hands each step to a PETSc TS. Explicit types (euler, rk, ssp, basicsymplectic) get the
+   right-hand side on U = [x; v] (each rank: its 3 nown positions, then velocities): -ts_type rk
+   -ts_rk_type 4 -ts_adapt_type none is RK4; -ts_type basicsymplectic -ts_basicsymplectic_type 1 is
+   symplectic Euler through the "position"/"momentum" splits. Implicit types get the implicit form
+   with its analytic Jacobian (ts_forms.h): first order on U (beuler, theta, cn, bdf, rosw,
+   arkimex, alpha, irk), second order on x and v (alpha2). An adaptive TS (-ts_adapt_type basic,
+   dsp) takes its own steps inside each -msim_dt, which then sets the interval of frames,
+   monitors and checkpoints; it starts each interval with the step it proposed last. */
 #include <msim/integrator.h>
+#include "ts_forms.h"
+
+typedef enum { TS_FORM_EXPLICIT, TS_FORM_FIRST_ORDER, TS_FORM_SECOND_ORDER } TSForm;
 
 typedef struct {
-  TS  ts;
-  Vec U, A;
-  IS  is_pos, is_mom;
+  TS          ts;
+  Vec         U, A;
+  Vec         X2, V2; /* second order: TS2SetSolution's x and v */
+  IS          is_pos, is_mom;
+  TSForm      form;
+  MSimTSForms forms;
+  PetscReal   h_next;          /* the step the TS proposed last (adaptive) */
+  PetscBool   adaptive;        /* the TS's error control chooses its steps (-ts_adapt_type not none) */
+  PetscInt    max_substeps;    /* -msim_ts_max_substeps: internal steps allowed per -msim_dt */
+  PetscInt    substeps, nrejected; /* internal steps and rejections in the run so far */
 } TSInteg;
 
 /* du/dt = [v; M^-1 f(x, v)] */
@@ -47,10 +62,66 @@ static PetscErrorCode RHS_Momentum(TS ts, PetscReal t, Vec X, Vec F, void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The form each TS type is served with; PETSC_FALSE for a type msim has no analytic form for */
+static PetscErrorCode ClassifyType(TSType type, TSForm *form, PetscBool *known)
+{
+  const char *explicit_types[] = {TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC};
+  const char *first_order[]    = {TSBEULER, TSTHETA, TSCN, TSBDF, TSROSW, TSARKIMEX, TSALPHA, TSIRK};
+
+  PetscFunctionBeginUser;
+  *known = PETSC_TRUE;
+  for (const char *t : explicit_types)
+    if (!strcmp(type, t)) {
+      *form = TS_FORM_EXPLICIT;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+  for (const char *t : first_order)
+    if (!strcmp(type, t)) {
+      *form = TS_FORM_FIRST_ORDER;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+  if (!strcmp(type, TSALPHA2)) {
+    *form = TS_FORM_SECOND_ORDER;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  *known = PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Stability limits for the guard: the explicit types with a known one; implicit ones have none */
+static PetscErrorCode SetStabilityLimit(MSimIntegrator integ, TSInteg *d, TSType type)
+{
+  PetscFunctionBeginUser;
+  integ->stability_limit = PETSC_INFINITY;
+  if (d->form != TS_FORM_EXPLICIT) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!strcmp(type, TSBASICSYMPLECTIC)) integ->stability_limit = 2.0;
+  if (!strcmp(type, TSEULER)) integ->stability_limit = 0.0;
+  if (!strcmp(type, TSRK)) {
+    TSRKType rktype;
+    PetscCall(TSRKGetType(d->ts, &rktype));
+    if (!strcmp(rktype, TSRK4)) integ->stability_limit = 2.0 * PETSC_SQRT2;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode SetFromOptions_TS(MSimIntegrator integ)
+{
+  TSInteg *d = (TSInteg *)integ->data;
+
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(integ->comm, NULL, "msim ts integrator", NULL);
+  PetscCall(MSimOptionsInt("-msim_ts_max_substeps", "An adaptive TS: most internal steps it may take within one -msim_dt before the run stops as diverged", NULL, d->max_substeps, &d->max_substeps, NULL));
+  PetscOptionsEnd();
+  PetscCheck(d->max_substeps >= 1, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_ts_max_substeps must be >= 1 (got %" PetscInt_FMT ")", d->max_substeps);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Setup_TS(MSimIntegrator integ)
 {
   TSInteg   *d   = (TSInteg *)integ->data;
   MSimSystem sys = integ->sys;
+  TSType     type;
+  PetscBool  known;
 
   PetscFunctionBeginUser;
   PetscCall(VecCreateMPI(integ->comm, 6 * sys->nown, 6 * sys->nfree, &d->U));
@@ -60,64 +131,124 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
   PetscCall(TSSetProblemType(d->ts, TS_NONLINEAR));
   PetscCall(TSSetType(d->ts, TSRK));
   PetscCall(TSRKSetType(d->ts, TSRK4));
-  PetscCall(TSSetRHSFunction(d->ts, NULL, RHS_Full, integ));
-  PetscCall(TSRHSSplitSetIS(d->ts, "position", d->is_pos));
-  PetscCall(TSRHSSplitSetIS(d->ts, "momentum", d->is_mom));
-  PetscCall(TSRHSSplitSetRHSFunction(d->ts, "position", NULL, RHS_Position, integ));
-  PetscCall(TSRHSSplitSetRHSFunction(d->ts, "momentum", NULL, RHS_Momentum, integ));
   PetscCall(TSSetTimeStep(d->ts, integ->dt));
   PetscCall(TSSetMaxSteps(d->ts, PETSC_MAX_INT - 1)); /* msim drives the steps one TSStep at a time; PETSC_MAX_INT reads as unset */
   PetscCall(TSSetMaxTime(d->ts, PETSC_MAX_REAL));
-  PetscCall(TSSetSolution(d->ts, d->U));
+  /* a failed nonlinear solve retries the step at half its size (TSAdaptCheckStage), up to
+     -ts_max_reject times, and a step that still fails stops the run as diverged through msim's
+     own path (the last good state kept), not as an error inside TSStep */
+  PetscCall(TSSetMaxSNESFailures(d->ts, -1));
+  PetscCall(TSSetErrorIfStepFails(d->ts, PETSC_FALSE));
   PetscCall(TSSetFromOptions(d->ts));
-  {
-    TSType    type;
-    PetscBool symp;
-    PetscCall(TSGetType(d->ts, &type));
-    PetscCall(PetscStrcmp(type, TSBASICSYMPLECTIC, &symp));
-    PetscBool rk, euler;
-    PetscCall(PetscStrcmp(type, TSRK, &rk));
-    PetscCall(PetscStrcmp(type, TSEULER, &euler));
-    /* stability limits for the guard, where the type has a known one */
-    if (symp) integ->stability_limit = 2.0;
-    if (euler) integ->stability_limit = 0.0;
-    if (rk) {
-      TSRKType rktype;
-      PetscCall(TSRKGetType(d->ts, &rktype));
-      if (!strcmp(rktype, TSRK4)) integ->stability_limit = 2.0 * PETSC_SQRT2;
-    }
-    PetscCheck(!symp || (sys->damping == 0 && sys->drag == 0), integ->comm, PETSC_ERR_ARG_INCOMP, "-ts_type basicsymplectic needs forces independent of velocity: set -msim_damping 0 -msim_drag 0");
+  PetscCall(TSGetType(d->ts, &type));
+  PetscCall(ClassifyType(type, &d->form, &known));
+  PetscCheck(known, integ->comm, PETSC_ERR_SUP, "-ts_type %s: msim's ts integrator has no analytic form for this type; use an explicit type (euler, rk, ssp, basicsymplectic), a first-order implicit one (beuler, theta, cn, bdf, rosw, arkimex, alpha, irk) or alpha2", type);
+  PetscCall(SetStabilityLimit(integ, d, type));
+  switch (d->form) {
+  case TS_FORM_EXPLICIT:
+    PetscCall(TSSetRHSFunction(d->ts, NULL, RHS_Full, integ));
+    PetscCall(TSRHSSplitSetIS(d->ts, "position", d->is_pos));
+    PetscCall(TSRHSSplitSetIS(d->ts, "momentum", d->is_mom));
+    PetscCall(TSRHSSplitSetRHSFunction(d->ts, "position", NULL, RHS_Position, integ));
+    PetscCall(TSRHSSplitSetRHSFunction(d->ts, "momentum", NULL, RHS_Momentum, integ));
+    PetscCall(TSSetSolution(d->ts, d->U));
+    PetscCheck(strcmp(type, TSBASICSYMPLECTIC) || (sys->damping == 0 && sys->drag == 0), integ->comm, PETSC_ERR_ARG_INCOMP, "-ts_type basicsymplectic needs forces independent of velocity: set -msim_damping 0 -msim_drag 0");
+    break;
+  case TS_FORM_FIRST_ORDER:
+    /* ARKIMEX: the whole force is in the implicit form, whose explicit first stage needs an
+       identity mass (dF/dU' = I) */
+    PetscCall(MSimTSFormsCreate(sys, d->is_pos, d->is_mom, &d->forms));
+    PetscCall(MSimTSFormsSetFirstOrder(d->forms, d->ts, (PetscBool)!strcmp(type, TSARKIMEX)));
+    PetscCall(TSSetSolution(d->ts, d->U));
+    break;
+  case TS_FORM_SECOND_ORDER:
+    PetscCall(MSimTSFormsCreate(sys, d->is_pos, d->is_mom, &d->forms));
+    PetscCall(MSimTSFormsSetSecondOrder(d->forms, d->ts));
+    PetscCall(VecDuplicate(sys->X0, &d->X2));
+    PetscCall(VecDuplicate(sys->X0, &d->V2));
+    PetscCall(TS2SetSolution(d->ts, d->X2, d->V2));
+    break;
   }
+  if (d->forms) PetscCall(MSimTSFormsSetFromOptions(d->forms, d->ts));
   PetscCall(TSSetUp(d->ts));
+  {
+    TSAdapt adapt;
+    PetscCall(TSGetAdapt(d->ts, &adapt));
+    PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTNONE, &known));
+    d->adaptive = (PetscBool)!known;
+  }
+  d->h_next = integ->dt;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
+/* (X, V) into the TS's solution, or back */
+static PetscErrorCode CopyState(TSInteg *d, Vec X, Vec V, PetscBool into_ts)
 {
-  TSInteg *d = (TSInteg *)integ->data;
-  Vec      Ux, Uv;
+  Vec Ux, Uv;
 
   PetscFunctionBeginUser;
-  PetscCall(VecGetSubVector(d->U, d->is_pos, &Ux));
-  PetscCall(VecCopy(X, Ux));
-  PetscCall(VecRestoreSubVector(d->U, d->is_pos, &Ux));
-  PetscCall(VecGetSubVector(d->U, d->is_mom, &Uv));
-  PetscCall(VecCopy(V, Uv));
-  PetscCall(VecRestoreSubVector(d->U, d->is_mom, &Uv));
-  PetscCall(TSSetTime(d->ts, t));
-  PetscCall(TSSetTimeStep(d->ts, integ->dt));
-  PetscCall(TSStep(d->ts));
-  {
-    PetscReal tn;
-    PetscCall(TSGetTime(d->ts, &tn));
-    PetscCheck(PetscAbsReal(tn - (t + integ->dt)) <= 1e-12 * PetscMax(1.0, PetscAbsReal(tn)), integ->comm, PETSC_ERR_ARG_INCOMP, "the TS changed the step (t %g, expected %g): use a fixed-step TS, e.g. -ts_adapt_type none", (double)tn, (double)(t + integ->dt));
+  if (d->form == TS_FORM_SECOND_ORDER) {
+    PetscCall(VecCopy(into_ts ? X : d->X2, into_ts ? d->X2 : X));
+    PetscCall(VecCopy(into_ts ? V : d->V2, into_ts ? d->V2 : V));
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(VecGetSubVector(d->U, d->is_pos, &Ux));
-  PetscCall(VecCopy(Ux, X));
+  PetscCall(VecCopy(into_ts ? X : Ux, into_ts ? Ux : X));
   PetscCall(VecRestoreSubVector(d->U, d->is_pos, &Ux));
   PetscCall(VecGetSubVector(d->U, d->is_mom, &Uv));
-  PetscCall(VecCopy(Uv, V));
+  PetscCall(VecCopy(into_ts ? V : Uv, into_ts ? Uv : V));
   PetscCall(VecRestoreSubVector(d->U, d->is_mom, &Uv));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* From t to t + dt in the TS's own steps: one with a fixed-step TS; with an adaptive one as many
+   as its error control takes, the last shortened to land on t + dt. */
+static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
+{
+  TSInteg            *d    = (TSInteg *)integ->data;
+  const PetscReal     tend = t + integ->dt, eps = 1e-12 * PetscMax(1.0, PetscAbsReal(tend));
+  PetscReal           tcur = t, h;
+  PetscInt            snes0, ksp0, snes1, ksp1, rej0, rej1, n = 0;
+  TSConvergedReason   reason;
+
+  PetscFunctionBeginUser;
+  PetscCall(CopyState(d, X, V, PETSC_TRUE));
+  /* a fixed-step TS tries the whole -msim_dt again in every interval (a failed solve halves only
+     the step that failed) */
+  if (!d->adaptive) d->h_next = integ->dt;
+  PetscCall(TSGetSNESIterations(d->ts, &snes0));
+  PetscCall(TSGetKSPIterations(d->ts, &ksp0));
+  PetscCall(TSGetStepRejections(d->ts, &rej0));
+  PetscCall(TSSetTime(d->ts, t));
+  while (tend - tcur > eps) {
+    PetscCheck(n < d->max_substeps, integ->comm, PETSC_ERR_NOT_CONVERGED, "the TS took -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g without reaching t = %g (now at t = %g, step %g)", d->max_substeps, (double)integ->dt, (double)tend, (double)tcur, (double)d->h_next);
+    h = PetscMin(d->h_next, tend - tcur);
+    if (tend - tcur - h <= eps) h = tend - tcur;
+    PetscCall(TSSetTimeStep(d->ts, h));
+    PetscCall(TSStep(d->ts));
+    PetscCall(TSGetConvergedReason(d->ts, &reason));
+    if (reason < 0) break;
+    PetscCall(TSGetTime(d->ts, &tcur));
+    PetscCall(TSGetTimeStep(d->ts, &h));
+    /* a step shortened to land on t + dt says little of the next: keep the proposal before it */
+    if (tend - tcur > eps || n == 0) d->h_next = h > 0 ? h : d->h_next;
+    n++;
+  }
+  d->substeps += n;
+  PetscCall(TSGetSNESIterations(d->ts, &snes1));
+  PetscCall(TSGetKSPIterations(d->ts, &ksp1));
+  PetscCall(TSGetStepRejections(d->ts, &rej1));
+  d->nrejected += rej1 - rej0;
+  integ->nonlinear_its = snes1 - snes0;
+  integ->linear_its    = ksp1 - ksp0;
+  PetscCall(TSGetConvergedReason(d->ts, &reason));
+  if (reason < 0) {
+    TSType type;
+    PetscCall(TSGetType(d->ts, &type));
+    integ->failed = PETSC_TRUE;
+    PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s)", type, TSConvergedReasons[reason]));
+  }
+  PetscCall(CopyState(d, X, V, PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -125,6 +256,8 @@ static PetscErrorCode View_TS(MSimIntegrator integ, PetscViewer viewer)
 {
   TSInteg *d = (TSInteg *)integ->data;
   PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "ts: %" PetscInt_FMT " internal steps, %" PetscInt_FMT " rejected (by the error control, or a nonlinear solve that failed and was retried at half the step)\n", d->substeps, d->nrejected));
+  if (d->forms) PetscCall(MSimTSFormsView(d->forms, viewer));
   if (d->ts) PetscCall(TSView(d->ts, viewer));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -133,8 +266,13 @@ static PetscErrorCode Destroy_TS(MSimIntegrator integ)
 {
   TSInteg *d = (TSInteg *)integ->data;
   PetscFunctionBeginUser;
+  /* msim steps with TSStep, and only TSSolve reads -ts_view: honour it at the end of the run */
+  if (d->ts && !integ->help_listing) PetscCall(TSViewFromOptions(d->ts, NULL, "-ts_view"));
   PetscCall(TSDestroy(&d->ts));
+  PetscCall(MSimTSFormsDestroy(&d->forms));
   PetscCall(VecDestroy(&d->U));
+  PetscCall(VecDestroy(&d->X2));
+  PetscCall(VecDestroy(&d->V2));
   PetscCall(ISDestroy(&d->is_pos));
   PetscCall(ISDestroy(&d->is_mom));
   PetscCall(PetscFree(integ->data));
@@ -146,7 +284,9 @@ PetscErrorCode MSimIntegratorCreate_TS(MSimIntegrator integ)
   TSInteg *d;
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&d));
+  d->max_substeps    = 100000;
   integ->data        = d;
+  integ->ops.setfromoptions = SetFromOptions_TS;
   integ->ops.setup   = Setup_TS;
   integ->ops.step    = Step_TS;
   integ->ops.view    = View_TS;

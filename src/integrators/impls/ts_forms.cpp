@@ -1,0 +1,298 @@
+/* Implicit forms of the spring system for PETSc's TS, with analytic sparse Jacobians
+   (ts_forms.h). */
+#include "ts_forms.h"
+#include <msim/solvers.h>
+
+struct _n_MSimTSForms {
+  MSimSystem sys;
+  IS         is_pos, is_mom;
+  /* first order: the nest [[a I, -I], [K, a M + C]] and the positions' Schur matrix */
+  Mat        J, A00, A01, A10, A11, S;
+  KSP        schur;   /* prefix ts_schur_: S dx = r_v + (a M + C) r_x */
+  Vec        rhs, work; /* position-sized work */
+  PetscReal  shift;     /* the a of the last Jacobian */
+  PetscBool  unit_mass; /* the velocity rows divided by M: v' - M^-1 f (ARKIMEX's explicit stages need dF/dU' = I) */
+  /* second order: shiftA M + shiftV C + K */
+  Mat        J2;
+  PetscInt   nfunction, njacobian; /* evaluations, for the view */
+};
+
+/* A = mass_coef M + damp_coef C + stiff_coef K at (t, X): C's spring damping along X's axes.
+   The one place that maps TS's coefficients onto the system's assembly. */
+static PetscErrorCode Assemble(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal damp_coef, PetscReal stiff_coef, Mat A)
+{
+  PetscFunctionBeginUser;
+  const MSimMatrixCoefficients c = {t, X, mass_coef, damp_coef * sys->drag, stiff_coef, PETSC_FALSE, t, damp_coef != 0 && sys->damping > 0 ? X : NULL, damp_coef};
+  PetscCall(MSimSystemAssembleMatrix(sys, &c, A));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Fv = M a - f(t, x, v), with Ma as work */
+static PetscErrorCode AccelerationResidual(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A, Vec Ma, Vec Fv)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemComputeForce(sys, t, X, V, Fv));
+  PetscCall(VecPointwiseMult(Ma, sys->mass, A));
+  PetscCall(VecAYPX(Fv, -1.0, Ma));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode IFunction(TS ts, PetscReal t, Vec U, Vec Udot, Vec F, void *ctx)
+{
+  MSimTSForms f = (MSimTSForms)ctx;
+  Vec         X, V, Xd, Vd, Fx, Fv;
+
+  PetscFunctionBeginUser;
+  f->nfunction++;
+  PetscCall(VecGetSubVector(U, f->is_pos, &X));
+  PetscCall(VecGetSubVector(U, f->is_mom, &V));
+  PetscCall(VecGetSubVector(Udot, f->is_pos, &Xd));
+  PetscCall(VecGetSubVector(Udot, f->is_mom, &Vd));
+  PetscCall(VecGetSubVector(F, f->is_pos, &Fx));
+  PetscCall(VecGetSubVector(F, f->is_mom, &Fv));
+  PetscCall(VecWAXPY(Fx, -1.0, V, Xd));
+  PetscCall(AccelerationResidual(f->sys, t, X, V, Vd, f->work, Fv));
+  if (f->unit_mass) {
+    Vec massinv;
+    PetscCall(MSimSystemGetInverseMass(f->sys, &massinv));
+    PetscCall(VecPointwiseMult(Fv, Fv, massinv));
+  }
+  PetscCall(VecRestoreSubVector(F, f->is_mom, &Fv));
+  PetscCall(VecRestoreSubVector(F, f->is_pos, &Fx));
+  PetscCall(VecRestoreSubVector(Udot, f->is_mom, &Vd));
+  PetscCall(VecRestoreSubVector(Udot, f->is_pos, &Xd));
+  PetscCall(VecRestoreSubVector(U, f->is_mom, &V));
+  PetscCall(VecRestoreSubVector(U, f->is_pos, &X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode IJacobian(TS ts, PetscReal t, Vec U, Vec Udot, PetscReal a, Mat J, Mat P, void *ctx)
+{
+  MSimTSForms f = (MSimTSForms)ctx;
+  Vec         X;
+  PetscBool   shell;
+  SNES        snes;
+  KSP         ksp;
+  PC          pc;
+
+  PetscFunctionBeginUser;
+  f->njacobian++;
+  f->shift = a;
+  PetscCall(VecGetSubVector(U, f->is_pos, &X));
+  PetscCall(MatZeroEntries(f->A00));
+  PetscCall(MatShift(f->A00, a));
+  PetscCall(Assemble(f->sys, t, X, 0.0, 0.0, 1.0, f->A10));
+  PetscCall(Assemble(f->sys, t, X, a, 1.0, 0.0, f->A11));
+  if (f->unit_mass) {
+    Vec massinv;
+    PetscCall(MSimSystemGetInverseMass(f->sys, &massinv));
+    PetscCall(MatDiagonalScale(f->A10, massinv, NULL));
+    PetscCall(MatDiagonalScale(f->A11, massinv, NULL));
+  }
+  /* the exact PC's matrix only while it is the PC in use */
+  PetscCall(TSGetSNES(ts, &snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCSHELL, &shell));
+  if (shell) PetscCall(Assemble(f->sys, t, X, a * a, a, 1.0, f->S));
+  PetscCall(VecRestoreSubVector(U, f->is_pos, &X));
+  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  if (P != J) {
+    PetscCall(MatAssemblyBegin(P, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(P, MAT_FINAL_ASSEMBLY));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The exact inverse of [[a I, -I], [K, a M + C]]: dx from the positions' Schur system, then
+   dv = a dx - r_x. */
+static PetscErrorCode SchurApply(PC pc, Vec R, Vec Y)
+{
+  MSimTSForms        f;
+  Vec                rx, rv, yx, yv;
+  KSPConvergedReason reason;
+
+  PetscFunctionBeginUser;
+  PetscCall(PCShellGetContext(pc, &f));
+  PetscCall(VecGetSubVector(R, f->is_pos, &rx));
+  PetscCall(VecGetSubVector(R, f->is_mom, &rv));
+  PetscCall(VecGetSubVector(Y, f->is_pos, &yx));
+  PetscCall(VecGetSubVector(Y, f->is_mom, &yv));
+  PetscCall(MatMult(f->A11, rx, f->rhs));
+  PetscCall(VecAXPY(f->rhs, 1.0, rv));
+  if (f->unit_mass) PetscCall(VecPointwiseMult(f->rhs, f->rhs, f->sys->mass)); /* the rows of M^-1 (...) back to S's */
+  PetscCall(KSPSolve(f->schur, f->rhs, yx));
+  PetscCall(KSPGetConvergedReason(f->schur, &reason));
+  PetscCheck(reason >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_NOT_CONVERGED, "ts: the positions' solve (prefix ts_schur_) failed: %s", KSPConvergedReasons[reason]);
+  PetscCall(VecAXPBYPCZ(yv, f->shift, -1.0, 0.0, yx, rx));
+  PetscCall(VecRestoreSubVector(Y, f->is_mom, &yv));
+  PetscCall(VecRestoreSubVector(Y, f->is_pos, &yx));
+  PetscCall(VecRestoreSubVector(R, f->is_mom, &rv));
+  PetscCall(VecRestoreSubVector(R, f->is_pos, &rx));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode I2Function(TS ts, PetscReal t, Vec X, Vec V, Vec A, Vec F, void *ctx)
+{
+  MSimTSForms f = (MSimTSForms)ctx;
+
+  PetscFunctionBeginUser;
+  f->nfunction++;
+  PetscCall(AccelerationResidual(f->sys, t, X, V, A, f->work, F));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode I2Jacobian(TS ts, PetscReal t, Vec X, Vec V, Vec A, PetscReal shiftV, PetscReal shiftA, Mat J, Mat P, void *ctx)
+{
+  MSimTSForms f = (MSimTSForms)ctx;
+
+  PetscFunctionBeginUser;
+  f->njacobian++;
+  PetscCall(Assemble(f->sys, t, X, shiftA, shiftV, 1.0, P));
+  if (J != P) {
+    PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Direct LDL^T (MUMPS) on ksp: exact Newton at any rank count, indefinite K included */
+static PetscErrorCode DefaultDirect(KSP ksp)
+{
+  PC pc;
+
+  PetscFunctionBeginUser;
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCCHOLESKY));
+  PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTSFormsCreate(MSimSystem sys, IS is_pos, IS is_mom, MSimTSForms *forms)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscNew(forms));
+  (*forms)->sys    = sys;
+  (*forms)->is_pos = is_pos;
+  (*forms)->is_mom = is_mom;
+  PetscCall(PetscObjectReference((PetscObject)is_pos));
+  PetscCall(PetscObjectReference((PetscObject)is_mom));
+  PetscCall(VecDuplicate(sys->X0, &(*forms)->rhs));
+  PetscCall(VecDuplicate(sys->X0, &(*forms)->work));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTSFormsSetFirstOrder(MSimTSForms f, TS ts, PetscBool unit_mass)
+{
+  MSimSystem sys = f->sys;
+  Mat        blocks[4];
+  IS         is[2] = {f->is_pos, f->is_mom};
+  SNES       snes;
+  KSP        ksp;
+  PC         pc;
+  Vec        one;
+
+  PetscFunctionBeginUser;
+  f->unit_mass = unit_mass;
+  PetscCall(MatCreateAIJ(sys->comm, 3 * sys->nown, 3 * sys->nown, 3 * sys->nfree, 3 * sys->nfree, 1, NULL, 0, NULL, &f->A00));
+  PetscCall(MatCreateAIJ(sys->comm, 3 * sys->nown, 3 * sys->nown, 3 * sys->nfree, 3 * sys->nfree, 1, NULL, 0, NULL, &f->A01));
+  PetscCall(VecDuplicate(sys->X0, &one));
+  PetscCall(VecSet(one, 1.0));
+  PetscCall(MatDiagonalSet(f->A00, one, INSERT_VALUES));
+  PetscCall(VecScale(one, -1.0));
+  PetscCall(MatDiagonalSet(f->A01, one, INSERT_VALUES));
+  PetscCall(VecDestroy(&one));
+  PetscCall(MSimSystemCreateMatrix(sys, &f->A10));
+  PetscCall(MSimSystemCreateMatrix(sys, &f->A11));
+  PetscCall(MSimSystemCreateMatrix(sys, &f->S));
+  blocks[0] = f->A00;
+  blocks[1] = f->A01;
+  blocks[2] = f->A10;
+  blocks[3] = f->A11;
+  PetscCall(MatCreateNest(sys->comm, 2, is, 2, is, blocks, &f->J));
+  PetscCall(TSSetIFunction(ts, NULL, IFunction, f));
+  PetscCall(TSSetIJacobian(ts, f->J, f->J, IJacobian, f));
+  /* the exact Schur PC, unless the user's -pc_type replaces it */
+  PetscCall(TSGetSNES(ts, &snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPSetType(ksp, KSPPREONLY));
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PCSetType(pc, PCSHELL));
+  PetscCall(PCShellSetContext(pc, f));
+  PetscCall(PCShellSetApply(pc, SchurApply));
+  PetscCall(PCShellSetName(pc, "msim: exact elimination of the velocities, then (a^2 M + a C + K) dx = r by the KSP of prefix ts_schur_"));
+  PetscCall(KSPCreate(sys->comm, &f->schur));
+  PetscCall(KSPSetOptionsPrefix(f->schur, "ts_schur_"));
+  PetscCall(KSPSetOperators(f->schur, f->S, f->S));
+  PetscCall(DefaultDirect(f->schur));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTSFormsSetSecondOrder(MSimTSForms f, TS ts)
+{
+  SNES snes;
+  KSP  ksp;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemCreateMatrix(f->sys, &f->J2));
+  PetscCall(TSSetI2Function(ts, NULL, I2Function, f));
+  PetscCall(TSSetI2Jacobian(ts, f->J2, f->J2, I2Jacobian, f));
+  PetscCall(TSGetSNES(ts, &snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(DefaultDirect(ksp));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTSFormsSetFromOptions(MSimTSForms f, TS ts)
+{
+  SNES snes;
+  KSP  ksp;
+
+  PetscFunctionBeginUser;
+  /* the user's -snes_*, -ksp_*, -pc_* options over the defaults set above */
+  PetscCall(TSGetSNES(ts, &snes));
+  PetscCall(SNESSetFromOptions(snes));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  if (f->schur) {
+    PetscCall(KSPSetFromOptions(f->schur));
+    PetscCall(MSimCheckFactorAvailable(f->schur, f->S));
+  }
+  if (f->J2) PetscCall(MSimCheckFactorAvailable(ksp, f->J2));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTSFormsView(MSimTSForms f, PetscViewer viewer)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "ts: %" PetscInt_FMT " residual and %" PetscInt_FMT " analytic Jacobian evaluations (%s form)\n", f->nfunction, f->njacobian, f->J2 ? "second-order" : "first-order"));
+  if (f->schur) {
+    PetscCall(PetscViewerASCIIPushTab(viewer));
+    PetscCall(KSPView(f->schur, viewer));
+    PetscCall(PetscViewerASCIIPopTab(viewer));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTSFormsDestroy(MSimTSForms *forms)
+{
+  MSimTSForms f = *forms;
+
+  PetscFunctionBeginUser;
+  if (!f) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(ISDestroy(&f->is_pos));
+  PetscCall(ISDestroy(&f->is_mom));
+  PetscCall(MatDestroy(&f->J));
+  PetscCall(MatDestroy(&f->A00));
+  PetscCall(MatDestroy(&f->A01));
+  PetscCall(MatDestroy(&f->A10));
+  PetscCall(MatDestroy(&f->A11));
+  PetscCall(MatDestroy(&f->S));
+  PetscCall(MatDestroy(&f->J2));
+  PetscCall(KSPDestroy(&f->schur));
+  PetscCall(VecDestroy(&f->rhs));
+  PetscCall(VecDestroy(&f->work));
+  PetscCall(PetscFree(*forms));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,92 @@
+#!/usr/bin/env python3
+"""PETSc's implicit TS types on msim's analytic Jacobians (-msim_integrator ts).
+
+The scene is tests/order.py's: a chain of 8 vertices held at both ends, released at rest length
+under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each rank count:
+- observed order of convergence p = log2(e(h) / e(h/2)) for h, h/2, h/4 (within 0.15 of the
+  method's order): beuler 1; cn, bdf (order 2), alpha2 at its default spectral radius 1 (Newmark's
+  average acceleration); rosw and arkimex's defaults at least 2;
+- no finite-difference Jacobian: -ts_view never says "finite differences", and the TS's Jacobian is
+  msim's MATNEST (first order) or its AIJ (alpha2);
+- an adaptive TS (-ts_adapt_type basic) lands every -msim_dt interval, takes its own steps inside
+  (more than one per interval where the tolerance is tight) and reaches the reference within a
+  small multiple of its tolerance;
+- a type msim has no analytic form for is one error line naming it."""
+import math
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+MSIM = mt.msim_path()
+SCENE = ["-msim_scene", "chain", "-msim_chain_n", "8", "-msim_fix", "corners", "-msim_spectrum_check", "0",
+         "-snes_rtol", "1e-12", "-snes_atol", "1e-13"]
+T = 0.3
+HS = (4e-3, 2e-3, 1e-3)
+CASES = [("beuler", [], 1), ("cn", [], 2), ("bdf", ["-ts_bdf_order", "2"], 2),
+         ("alpha2", [], 2)]
+HIGHER = [("rosw", []), ("arkimex", [])]
+
+
+def final(np_, args, tmp, name):
+    x, r = mt.final_positions(MSIM, SCENE + args, np_, tmp, name)
+    return x, r
+
+
+def main():
+    check = mt.Checks()
+    with tempfile.TemporaryDirectory() as tmp:
+        for np_ in mt.ranks():
+            ref, _ = final(np_, ["-msim_integrator", "rk4", "-msim_dt", "1e-5", "-msim_steps", str(round(T / 1e-5))], tmp, "ref")
+            check(ref is not None, f"np={np_}: the RK4 reference runs")
+            if ref is None:
+                continue
+
+            def err(ts_type, extra, h):
+                x, _ = final(np_, ["-msim_integrator", "ts", "-ts_type", ts_type, "-ts_adapt_type", "none", "-msim_dt", repr(h),
+                                   "-msim_steps", str(round(T / h))] + extra, tmp, f"{ts_type}_{h}")
+                return float(np.abs(x - ref).max()) if x is not None else float("nan")
+
+            for ts_type, extra, order in CASES:
+                e = [err(ts_type, extra, h) for h in HS]
+                p = [math.log2(e[i] / e[i + 1]) for i in range(2)]
+                check(all(abs(q - order) < 0.15 for q in p),
+                      f"np={np_}: -ts_type {ts_type}: errors {', '.join(f'{v:.3e}' for v in e)}: observed order {p[0]:.3f}, {p[1]:.3f} (expected {order})")
+            for ts_type, extra in HIGHER:
+                e = [err(ts_type, extra, h) for h in HS]
+                p = [math.log2(e[i] / e[i + 1]) for i in range(2)]
+                check(all(q > 1.85 for q in p), f"np={np_}: -ts_type {ts_type}: errors {', '.join(f'{v:.3e}' for v in e)}: observed order {p[0]:.3f}, {p[1]:.3f} (expected at least 2)")
+
+            for ts_type, mat in (("beuler", "type: nest"), ("cn", "type: nest"), ("bdf", "type: nest"), ("arkimex", "type: nest"), ("alpha2", "aij")):
+                r = mt.run(MSIM, SCENE + ["-msim_integrator", "ts", "-ts_type", ts_type, "-msim_dt", "1e-3", "-msim_steps", "3", "-ts_view"], np_)
+                view = r.stdout + r.stderr
+                check(r.returncode == 0 and "finite difference" not in view and mat in view,
+                      f"np={np_}: -ts_type {ts_type}: analytic Jacobian ({mat}, no finite differences) (exit {r.returncode})")
+
+            # adaptive: the error control's own steps inside each 10 ms interval
+            tol = 1e-6
+            x, r = final(np_, ["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_bdf_order", "2", "-ts_adapt_type", "basic",
+                               "-ts_atol", repr(tol), "-ts_rtol", "0", "-msim_dt", "0.01", "-msim_steps", str(round(T / 0.01)),
+                               "-msim_view"], tmp, "adaptive")
+            ok = x is not None
+            sub = 0
+            if ok:
+                for l in (r.stdout + r.stderr).splitlines():
+                    if "internal steps" in l:
+                        sub = int(l.split("ts:")[1].split()[0])
+            e = float(np.abs(x - ref).max()) if ok else float("nan")
+            check(ok and sub > 2 * round(T / 0.01) and e < 1e-3,
+                  f"np={np_}: adaptive bdf: {sub} internal steps over {round(T / 0.01)} intervals, error {e:.3e} at T")
+
+            r = mt.run(MSIM, SCENE + ["-msim_integrator", "ts", "-ts_type", "glle", "-msim_steps", "1"], np_)
+            err_lines = [l for l in r.stderr.splitlines() if "error" in l]
+            check(r.returncode != 0 and len(err_lines) == 1 and "-ts_type glle" in err_lines[0],
+                  f"np={np_}: -ts_type glle refused in one line naming it: {err_lines}")
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
