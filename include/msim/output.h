@@ -18,9 +18,15 @@ PetscErrorCode MSimOutputRemoveIfUnused(MSimOutput out);
 /* A restarted run: the series lists the frames on disk up to that step, and goes on */
 PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step);
 PetscErrorCode MSimOutputWanted(MSimOutput out, PetscInt step, PetscInt last, PetscBool *want);
-PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X);
+/* A frame of the state (X, V) at time t. Besides positions it holds, in input vertex order, each
+   vertex's `fixed` flag, `file_id` (its id in the input file; -1 for a vertex msim made, by TetGen
+   or -msim_refine) and `velocity`, each spring's `strain` l/L - 1 and each tet's `volume_ratio`
+   V/V0 (signed volumes: negative where inverted). The springs are the cells where the scene has
+   no others (grids, chains); a mesh's springs are a second piece (.vtu: frame_NNNNNN_springs.vtu,
+   part 1 of the .pvd's timestep; HDF5: the second grid of the frame's spatial collection). */
+PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X, Vec V);
 /* A file NAME.vtu in the output directory outside the series (e.g. the last finite state). */
-PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X);
+PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X, Vec V);
 PetscErrorCode MSimOutputDestroy(MSimOutput *out);
 /* made (optional, len bytes): the outermost directory this call created ("" if none), so that a run
    refused before it writes anything can take them away again (MSimOutputRemoveIfUnused) */
@@ -30,6 +36,16 @@ PetscErrorCode MSimMakeDirectory(MPI_Comm comm, const char dir[], const char opt
    VTK_TRIANGLE, 4: VTK_TETRA), the fixed flag, and optionally one point vector field `name` (e.g.
    a mode shape; NULL for none). Rank 0 only. */
 PetscErrorCode MSimWriteVTU(const char path[], PetscInt nv, const PetscReal *x, PetscInt ncell, int cell_size, const PetscInt *cells, const char *fixed, const char name[], const PetscReal *field);
+/* A named array of a .vtu piece: one tuple of ncomp values of VTK type `type` (Float64, Int64 or
+   UInt8) per point or per cell */
+typedef struct {
+  const char *name;
+  const char *type;
+  int         ncomp;
+  const void *data;
+} MSimVTUArray;
+/* The same with any point and cell arrays. Rank 0 only. */
+PetscErrorCode MSimWriteVTUPiece(const char path[], PetscInt nv, const PetscReal *x, PetscInt ncell, int cell_size, const PetscInt *cells, int npoint, const MSimVTUArray point[], int ncelldata, const MSimVTUArray cell[]);
 /* Write text atomically: PATH.tmp then rename. */
 PetscErrorCode MSimWriteFileAtomic(const char path[], const void *data, size_t n);
 
@@ -74,5 +90,6 @@ PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
 PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi);
 PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon);
 
-/* -msim_view_final VIEWER: positions of all vertices in input order. */
+/* -msim_view_final VIEWER: positions of all vertices in msim's vertex order (that of the frames,
+   whose file_id array maps it to the input file's ids). */
 PetscErrorCode MSimViewFinal(MSimSystem sys, PetscReal t, Vec X);

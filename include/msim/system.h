@@ -82,6 +82,14 @@ struct _n_MSimSystem {
      lines), input ids */
   int                   out_cell_size; /* vertices per cell: 4, 3 or 2 */
   std::vector<PetscInt> out_cells;
+  /* what frames show besides positions, kept only when something draws (MSimSceneCellsDrawn) */
+  std::vector<PetscReal> out_cell_V0;  /* rest volume of each tet of out_cells (tet scenes) */
+  std::vector<PetscInt>  out_springs;  /* a mesh's springs held here as input-id pairs (for grids
+                                          and chains out_cells are the springs) */
+  std::vector<PetscReal> out_spring_L; /* rest length of each spring drawn: of out_springs, or of
+                                          out_cells' lines where those are the springs */
+  std::vector<PetscInt>  nat_file_id;  /* each block vertex's id in the input file (-1: made by
+                                          msim, TetGen or refinement); empty: the input id */
   PetscInt              ncell_global;  /* a mesh's tets or triangles (0 for grids and chains) */
   int                   cell_size;     /* 4 tets, 3 triangles, 0 none */
   PetscInt              nspring_total; /* every spring of the scene, those between fixed vertices too */
@@ -138,6 +146,16 @@ PetscErrorCode MSimSystemGatherPositions(MSimSystem sys, PetscReal t, Vec X, std
 PetscErrorCode MSimSystemGatherVector(MSimSystem sys, Vec X, std::vector<PetscReal> &all);
 /* Every vertex's fixed flag and the cells drawn, on rank 0 (empty elsewhere), for small outputs. */
 PetscErrorCode MSimSystemGatherTopology(MSimSystem sys, std::vector<char> &fixed, std::vector<PetscInt> &cells);
+/* Velocities of all nv vertices in input order into sys->natural (the handles' velocity at fixed
+   vertices); the same gathered whole on rank 0. Collective. */
+PetscErrorCode MSimSystemNaturalVelocities(MSimSystem sys, Vec V);
+PetscErrorCode MSimSystemGatherVelocities(MSimSystem sys, Vec V, std::vector<PetscReal> &all);
+/* Everything else a serial series draws, on rank 0 (empty elsewhere), in input order: each
+   vertex's file id, the tets' rest volumes, a mesh's springs and the rest lengths of the springs
+   drawn. Collective. */
+PetscErrorCode MSimSystemGatherFrameTopology(MSimSystem sys, std::vector<PetscInt> &file_id, std::vector<PetscReal> &cell_V0, std::vector<PetscInt> &springs, std::vector<PetscReal> &spring_L);
+/* This rank's block of file ids (the input ids where the scene has none). */
+PetscErrorCode MSimSystemBlockFileIds(MSimSystem sys, std::vector<PetscInt> &ids);
 
 /* Matrix over free vertices, block size 3, AIJ (works with every factorization and PC), with the
    spring graph's nonzero pattern preallocated once. */

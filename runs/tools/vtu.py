@@ -42,11 +42,12 @@ def boundary_faces(tets):
 
 
 def read_pvd(path):
-    """Returns [(time, vtu path)] in order."""
+    """Returns [(time, vtu path)] in order: each frame's part 0, its cells (a mesh's springs are
+    part 1, a file of their own)."""
     import os
     root = ET.parse(path).getroot()
     base = os.path.dirname(path)
-    return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet")]
+    return [(float(d.get("timestep")), os.path.join(base, d.get("file"))) for d in root.iter("DataSet") if d.get("part", "0") == "0"]
 
 
 def read_xdmf(path):
@@ -68,11 +69,15 @@ def read_xdmf(path):
         return cache[(file, name)]
 
     out = []
-    for g in ET.parse(path).getroot().iter("Grid"):
-        if g.get("GridType") != "Uniform":
-            continue
-        items = {tag: g.find(tag).find("DataItem").text for tag in ("Topology", "Geometry", "Attribute")}
-        out.append((float(g.find("Time").get("Value")),
+    root = ET.parse(path).getroot()
+    series = root.find("Domain/Grid")
+    # a temporal collection of frames, or one grid (NAME.xdmf); a mesh's frame is a spatial
+    # collection of its cells and its springs: the cells are drawn
+    for frame in (series.findall("Grid") if series.get("CollectionType") == "Temporal" else [series]):
+        g = frame if frame.get("GridType") == "Uniform" else frame.find("Grid")
+        items = {tag: g.find(tag).find("DataItem").text for tag in ("Topology", "Geometry")}
+        items["Attribute"] = next(a for a in g.findall("Attribute") if a.get("Name") == "fixed").find("DataItem").text
+        out.append((float(frame.find("Time").get("Value")),
                     lambda items=items: {"connectivity": dataset(items["Topology"]), "points": dataset(items["Geometry"]), "fixed": dataset(items["Attribute"]).reshape(-1)}))
     return out
 

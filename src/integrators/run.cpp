@@ -120,7 +120,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   if (!restarted) { /* a restarted run has these from the first */
     if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0));
     PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
-    if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X));
+    if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X, V));
   }
   last_good         = step0;
   integ->step       = step0; /* counted up by each MSimIntegratorStep */
@@ -163,7 +163,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       info->diverged   = PETSC_TRUE;
       info->steps_done = n;
       info->t          = t;
-      PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood));
+      PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
       PetscCall(VecCopy(Xgood, X));
       PetscCall(VecCopy(Vgood, V));
       PetscCall(EndEarly());
@@ -176,7 +176,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     }
     if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi));
     PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
-    if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X));
+    if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X, V));
     PetscCall(MSimStopSignalPoll(&stop, &signal_seen));
     PetscCall(MSimCheckpointWanted(ck, n, integ->steps, &want_out));
     if (want_out || signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));

@@ -139,7 +139,9 @@ PetscErrorCode MSimViewFinal(MSimSystem sys, PetscReal t, Vec X)
   Vec                    P;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscOptionsGetViewer(sys->comm, NULL, NULL, "-msim_view_final", &viewer, &format, &set));
+  PetscOptionsBegin(sys->comm, NULL, "msim final state", NULL);
+  PetscCall(PetscOptionsViewer("-msim_view_final", "Final positions x,y,z of every vertex (fixed ones included) in msim's vertex order, whatever the rank count: the input file's order less the nodes it drops, then those msim adds (TetGen, -msim_refine; the frames' file_id array maps them to the file's ids)", NULL, &viewer, &format, &set));
+  PetscOptionsEnd();
   if (!set) PetscFunctionReturn(PETSC_SUCCESS);
   /* in input order, distributed by the scene's directory blocks: any size, any viewer (ASCII
      prints through rank 0 block by block; binary and HDF5 write in parallel) */

@@ -3,6 +3,7 @@
    of hdf5_series.cpp that every rank writes its part of (any size). The collection is rewritten
    whole after each frame so that it always lists exactly the frames on disk. */
 #include "hdf5_series.h"
+#include "frame_fields.h"
 #include <string>
 #include <vector>
 #include <cerrno>
@@ -18,8 +19,11 @@ struct _n_MSimOutput {
   std::string           pvd_entries;
   PetscBool             hdf5;
   MSimHDF5Series        h5;
-  std::vector<char>     fixed; /* .vtu: on rank 0, every vertex's flag and the cells drawn, in input ids */
-  std::vector<PetscInt> cells;
+  /* .vtu: on rank 0, every vertex's flag and file id, the cells drawn (input ids) and their rest
+     volumes (tets), a mesh's springs and the rest lengths of the springs drawn */
+  std::vector<char>      fixed;
+  std::vector<PetscInt>  cells, file_id, springs;
+  std::vector<PetscReal> cell_V0, spring_L;
   char                  made[PETSC_MAX_PATH_LEN] = ""; /* the outermost directory SetUp created */
 };
 
@@ -95,7 +99,10 @@ PetscErrorCode MSimOutputSetUp(MSimOutput out)
   PetscCall(MSimMakeDirectory(out->sys->comm, out->dir, "-msim_output", out->made, sizeof(out->made)));
   /* a serial series: rank 0 writes every frame whole, so it holds the topology */
   if (out->hdf5) PetscCall(MSimHDF5SeriesSetUp(&out->h5, out->sys, out->dir));
-  else PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
+  else {
+    PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
+    PetscCall(MSimSystemGatherFrameTopology(out->sys, out->file_id, out->cell_V0, out->springs, out->spring_L));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -120,7 +127,9 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
   while (fgets(buf, sizeof(buf), fp)) text += buf;
   fclose(fp);
   if (out->hdf5) { /* grids from "    <Grid Name=" to "    </Grid>" */
-    const std::string open = "    <Grid Name=\"frame_", close = "    </Grid>\n";
+    /* a frame's grid may hold grids of its own (a mesh's cells and springs): its end is the
+       first closing tag at its own depth */
+    const std::string open = "    <Grid Name=\"frame_", close = "\n    </Grid>\n";
     for (size_t at = text.find(open); at != std::string::npos; at = text.find(open, at)) {
       const size_t end = text.find(close, at);
       if (end == std::string::npos) break;
@@ -150,38 +159,63 @@ PetscErrorCode MSimOutputWanted(MSimOutput out, PetscInt step, PetscInt last, Pe
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char file[], PetscReal t, Vec X)
+/* BASE.vtu, and for a mesh BASE_springs.vtu: the frame's pieces (output.h) */
+static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], PetscReal t, Vec X, Vec V)
 {
   MSimSystem             sys = out->sys;
-  std::vector<PetscReal> all;
+  std::vector<PetscReal> x, v;
   char                   path[PETSC_MAX_PATH_LEN];
 
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemGatherPositions(sys, t, X, all));
+  PetscCall(MSimSystemGatherPositions(sys, t, X, x));
+  PetscCall(MSimSystemGatherVelocities(sys, V, v));
   if (sys->rank == 0) {
-    PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s", out->dir, file));
-    PetscCall(MSimWriteVTU(path, sys->nv, all.data(), (PetscInt)(out->cells.size() / sys->out_cell_size), sys->out_cell_size, out->cells.data(), out->fixed.data(), NULL, NULL));
+    const int                  k = sys->out_cell_size;
+    const size_t               ncell = out->cells.size() / k, nspring = out->spring_L.size();
+    const bool                 lines = out->springs.empty(); /* the cells are the springs */
+    const std::vector<int64_t> ids(out->file_id.begin(), out->file_id.end());
+    std::vector<PetscReal>     strain(nspring), ratio(out->cell_V0.size());
+    MSimFrameStrain(nspring, lines ? out->cells.data() : out->springs.data(), out->spring_L.data(), x.data(), strain.data());
+    MSimFrameVolumeRatio(ratio.size(), out->cells.data(), out->cell_V0.data(), x.data(), ratio.data());
+    const MSimVTUArray point[3] = {
+      {"fixed",    "UInt8",   1, out->fixed.data()},
+      {"file_id",  "Int64",   1, ids.data()       },
+      {"velocity", "Float64", 3, v.data()         }
+    };
+    const MSimVTUArray cellstrain = {"strain", "Float64", 1, strain.data()}, cellratio = {"volume_ratio", "Float64", 1, ratio.data()};
+    PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s.vtu", out->dir, base));
+    PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)ncell, k, out->cells.data(), 3, point, lines ? 1 : k == 4 ? 1 : 0, lines ? &cellstrain : &cellratio));
+    if (!lines) {
+      PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s_springs.vtu", out->dir, base));
+      PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)nspring, 2, out->springs.data(), 3, point, 1, &cellstrain));
+    }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X)
+PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X, Vec V)
 {
-  char file[64], line[256], path[PETSC_MAX_PATH_LEN];
+  char base[64], line[512], path[PETSC_MAX_PATH_LEN];
 
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_Output, X, 0, 0, 0));
   if (out->hdf5) {
-    PetscCall(MSimHDF5SeriesWriteFrame(&out->h5, step, t, X));
+    PetscCall(MSimHDF5SeriesWriteFrame(&out->h5, step, t, X, V));
     PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  PetscCall(PetscSNPrintf(file, sizeof(file), "frame_%06" PetscInt_FMT ".vtu", step));
-  PetscCall(MSimOutputWriteVTU(out, file, t, X));
+  PetscCall(PetscSNPrintf(base, sizeof(base), "frame_%06" PetscInt_FMT, step));
+  PetscCall(MSimOutputWriteVTU(out, base, t, X, V));
   if (out->sys->rank == 0) {
-    PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"0\" file=\"%s\"/>\n", (double)t, file));
+    /* a mesh's springs are part 1 of the timestep: ParaView's .pvd reader makes the two a
+       multiblock data set */
+    PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"0\" file=\"%s.vtu\"/>\n", (double)t, base));
     out->pvd_entries += line;
+    if (!out->springs.empty()) {
+      PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"1\" file=\"%s_springs.vtu\"/>\n", (double)t, base));
+      out->pvd_entries += line;
+    }
     std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n" + out->pvd_entries + "  </Collection>\n</VTKFile>\n";
     PetscCall(PetscSNPrintf(path, sizeof(path), "%s/series.pvd", out->dir));
     PetscCall(MSimWriteFileAtomic(path, pvd.data(), pvd.size()));
@@ -190,24 +224,22 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X)
+PetscErrorCode MSimOutputWriteExtra(MSimOutput out, const char name[], PetscReal t, Vec X, Vec V)
 {
-  char file[PETSC_MAX_PATH_LEN];
-
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
   if (out->hdf5) {
-    PetscCall(MSimHDF5SeriesWriteExtra(&out->h5, name, t, X));
+    PetscCall(MSimHDF5SeriesWriteExtra(&out->h5, name, t, X, V));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  PetscCall(PetscSNPrintf(file, sizeof(file), "%s.vtu", name));
-  PetscCall(MSimOutputWriteVTU(out, file, t, X));
+  PetscCall(MSimOutputWriteVTU(out, name, t, X, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimOutputDestroy(MSimOutput *out)
 {
   PetscFunctionBeginUser;
+  if (*out && (*out)->hdf5) PetscCall(MSimHDF5SeriesDestroy(&(*out)->h5));
   delete *out;
   *out = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

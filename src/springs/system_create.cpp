@@ -67,13 +67,26 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   PetscBool drawn;
   PetscCall(MSimSceneCellsDrawn(&drawn));
   sys->out_cell_size = S.cell_size ? S.cell_size : 2;
-  if (drawn && S.cell_size) sys->out_cells = S.cells;
-  else if (drawn) {
-    sys->out_cells.resize(2 * S.si.size());
+  if (drawn) {
+    /* the springs as input-id pairs: a grid's or chain's cells, a mesh's second piece */
+    std::vector<PetscInt> &lines = S.cell_size ? sys->out_springs : sys->out_cells;
+    lines.resize(2 * S.si.size());
     for (size_t q = 0; q < S.si.size(); q++) {
-      sys->out_cells[2 * q]     = S.si[q];
-      sys->out_cells[2 * q + 1] = S.sj[q];
+      lines[2 * q]     = S.si[q];
+      lines[2 * q + 1] = S.sj[q];
     }
+    sys->out_spring_L = S.sL;
+    if (S.cell_size) sys->out_cells = S.cells;
+    sys->nat_file_id = S.file_id;
+  }
+  if (drawn && S.cell_size == 4) {
+    /* each tet's rest volume, so frames can show V/V0; signed, so an inverted tet reads < 0
+       whatever the file's orientation */
+    const size_t           ntet = sys->out_cells.size() / 4;
+    std::vector<PetscReal> x;
+    PetscCall(MSimSceneFetchPositions(comm, &S, sys->out_cells, x));
+    sys->out_cell_V0.resize(ntet);
+    for (size_t c = 0; c < ntet; c++) sys->out_cell_V0[c] = MSimTetVolume(&x[12 * c], &x[12 * c + 3], &x[12 * c + 6], &x[12 * c + 9]);
   }
   PetscCall(MSimSystemDistribute(comm, S, partition, morton, L));
   PetscCall(PetscLogStagePush(MSIM_StageSetup));

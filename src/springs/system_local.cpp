@@ -121,7 +121,11 @@ PetscErrorCode MSimSystemGhostsAdd(MSimSystem sys, Vec floc, Vec F)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode MSimSystemNatural(MSimSystem sys, PetscReal t, PetscBool positions, Vec X)
+/* What the fixed vertices hold in the natural Vec: their positions b(t), zero (a displacement-like
+   vector) or the handles' velocity */
+enum NaturalFixed { NATURAL_POSITION, NATURAL_ZERO, NATURAL_VELOCITY };
+
+static PetscErrorCode MSimSystemNatural(MSimSystem sys, PetscReal t, NaturalFixed what, Vec X)
 {
   PetscScalar *n;
 
@@ -131,7 +135,7 @@ static PetscErrorCode MSimSystemNatural(MSimSystem sys, PetscReal t, PetscBool p
   PetscCall(VecScatterEnd(sys->to_natural, X, sys->natural, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArray(sys->natural, &n));
   for (size_t f = 0; f < sys->nat_fixed.size(); f++)
-    for (int c = 0; c < 3; c++) n[3 * sys->nat_fixed[f] + c] = positions ? sys->nat_b0[3 * f + c] + t * sys->fix_velocity[c] : 0.0;
+    for (int c = 0; c < 3; c++) n[3 * sys->nat_fixed[f] + c] = what == NATURAL_POSITION ? sys->nat_b0[3 * f + c] + t * sys->fix_velocity[c] : what == NATURAL_VELOCITY ? sys->fix_velocity[c] : 0.0;
   PetscCall(VecRestoreArray(sys->natural, &n));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -139,14 +143,21 @@ static PetscErrorCode MSimSystemNatural(MSimSystem sys, PetscReal t, PetscBool p
 PetscErrorCode MSimSystemNaturalPositions(MSimSystem sys, PetscReal t, Vec X)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemNatural(sys, t, PETSC_TRUE, X));
+  PetscCall(MSimSystemNatural(sys, t, NATURAL_POSITION, X));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSystemNaturalVector(MSimSystem sys, Vec X)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemNatural(sys, 0, PETSC_FALSE, X));
+  PetscCall(MSimSystemNatural(sys, 0, NATURAL_ZERO, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemNaturalVelocities(MSimSystem sys, Vec V)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemNatural(sys, 0, NATURAL_VELOCITY, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -176,6 +187,14 @@ PetscErrorCode MSimSystemGatherPositions(MSimSystem sys, PetscReal t, Vec X, std
 {
   PetscFunctionBeginUser;
   PetscCall(MSimSystemNaturalPositions(sys, t, X));
+  PetscCall(MSimSystemNaturalToZero(sys, all));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGatherVelocities(MSimSystem sys, Vec V, std::vector<PetscReal> &all)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemNaturalVelocities(sys, V));
   PetscCall(MSimSystemNaturalToZero(sys, all));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -212,5 +231,33 @@ PetscErrorCode MSimSystemGatherTopology(MSimSystem sys, std::vector<char> &fixed
   /* blocks ascend with the rank: gathered in rank order they are in input order */
   PetscCall(GatherToZero(sys, sys->nat_fixed_flag, fixed));
   PetscCall(GatherToZero(sys, sys->out_cells, cells));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemBlockFileIds(MSimSystem sys, std::vector<PetscInt> &ids)
+{
+  const PetscInt count = sys->dir.Count(sys->rank), start = sys->dir.Start(sys->rank);
+
+  PetscFunctionBeginUser;
+  if (!sys->nat_file_id.empty()) {
+    PetscCheck((PetscInt)sys->nat_file_id.size() == count, PETSC_COMM_SELF, PETSC_ERR_PLIB, "file ids for %zu of the block's %" PetscInt_FMT " vertices", sys->nat_file_id.size(), count);
+    ids = sys->nat_file_id;
+  } else {
+    ids.resize(count);
+    for (PetscInt v = 0; v < count; v++) ids[v] = start + v;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGatherFrameTopology(MSimSystem sys, std::vector<PetscInt> &file_id, std::vector<PetscReal> &cell_V0, std::vector<PetscInt> &springs, std::vector<PetscReal> &spring_L)
+{
+  std::vector<PetscInt> mine;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemBlockFileIds(sys, mine));
+  PetscCall(GatherToZero(sys, mine, file_id));
+  PetscCall(GatherToZero(sys, sys->out_cell_V0, cell_V0));
+  PetscCall(GatherToZero(sys, sys->out_springs, springs));
+  PetscCall(GatherToZero(sys, sys->out_spring_L, spring_L));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
