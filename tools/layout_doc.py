@@ -8,14 +8,14 @@ build directories.
 
 Usage: tools/layout_doc.py            rewrites docs/layout.md
        tools/layout_doc.py --check    exits 1, with the difference, when it is stale"""
-import difflib
 import os
 import re
 import subprocess
 import sys
 
+from generated_page import write_or_check
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DOC = os.path.join(ROOT, "docs", "layout.md")
 # directories with no README of their own
 DIRS = {
     ".": "msim: the build (CMakeLists.txt), the README, the licence",
@@ -158,18 +158,7 @@ def render():
 
 def main():
     text = render()
-    if "--check" in sys.argv:
-        with open(DOC) as f:
-            old = f.read()
-        if old != text:
-            sys.stdout.writelines(difflib.unified_diff(old.splitlines(True), text.splitlines(True), "docs/layout.md", "from the tree"))
-            sys.exit("docs/layout.md is stale: regenerate it with /usr/bin/python3 tools/layout_doc.py")
-        print("docs/layout.md matches the tree")
-        return
-    with open(DOC, "w") as f:
-        f.write(text)
-    print(f"wrote docs/layout.md ({text.count(chr(10))} lines)")
-
+    write_or_check("docs/layout.md", text, "the tree", "/usr/bin/python3 tools/layout_doc.py", f"{text.count(chr(10))} lines")
 
 if __name__ == "__main__":
     main()

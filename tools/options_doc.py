@@ -13,14 +13,14 @@ one to RUNS).
 
 Usage: tools/options_doc.py path/to/msim            rewrites docs/options.md
        tools/options_doc.py path/to/msim --check    exits 1, with the difference, when it is stale"""
-import difflib
 import os
 import re
 import subprocess
 import sys
 
+from generated_page import write_or_check
+
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-DOC = os.path.join(ROOT, "docs", "options.md")
 TEMPLATE = os.path.join(ROOT, "docs", "options.template.md")
 # one step of the default scene: -help prints while the objects are set up
 QUICK = ["-msim_steps", "1"]
@@ -177,18 +177,8 @@ def main():
     if template.count("@OPTION_TABLES@") != 1:
         sys.exit(f"options_doc.py: {TEMPLATE} must hold the line @OPTION_TABLES@ once")
     text = template.replace("@OPTION_TABLES@", render(groups))
-    if "--check" in sys.argv:
-        with open(DOC) as f:
-            old = f.read()
-        if old != text:
-            sys.stdout.writelines(difflib.unified_diff(old.splitlines(True), text.splitlines(True), "docs/options.md", "from -help"))
-            sys.exit("docs/options.md is stale: regenerate it with /usr/bin/python3 tools/options_doc.py build/msim")
-        print(f"docs/options.md matches -help: {len(listed)} options in {len(groups)} sections")
-        return
-    with open(DOC, "w") as f:
-        f.write(text)
-    print(f"wrote docs/options.md: {len(listed)} options in {len(groups)} sections")
-
+    write_or_check("docs/options.md", text, "-help", "/usr/bin/python3 tools/options_doc.py build/msim",
+                   f"{len(listed)} options in {len(groups)} sections")
 
 if __name__ == "__main__":
     main()
