@@ -1,6 +1,8 @@
-/* ParaView series every k steps, in one of two forms: DIR/frame_NNNNNN.vtu and DIR/series.pvd,
-   written by rank 0 from positions gathered whole (small runs), or the parallel HDF5 + XDMF series
-   of hdf5_series.cpp that every rank writes its part of (any size). The collection is rewritten
+/* ParaView series every k steps, in one of two forms: DIR/frame_NNNNNN.vtu (a mesh's springs in
+   DIR/frame_NNNNNN_springs.vtu) and DIR/series.pvd, written by rank 0 from positions and
+   velocities gathered whole (small runs; the topology, file ids, rest lengths and volumes
+   gathered once), or the parallel HDF5 + XDMF series of hdf5_series.cpp that every rank writes
+   its part of (any size). The fields each frame holds: msim/output.h. The collection is rewritten
    whole after each frame so that it always lists exactly the frames on disk. */
 #include "hdf5_series.h"
 #include "frame_fields.h"
