@@ -1,21 +1,108 @@
-/* Implicit Euler in position form, shared by the integrator, the pd SNES type and the tests:
-   y = x_n + h v_n + h^2 M^-1 (m g + c w),
-   g(x) = M (x - y) - h^2 f_spring(x) + h c (x - x_n) + h kd sum_s A_s^T n n^T A_s (x - x_n),
-   the gradient of
-   Phi(x) = 1/2 (x-y)^T M (x-y) + h^2 E(x) + h c/2 |x - x_n|^2 + h kd/2 sum_s (n . A_s (x - x_n))^2,
-   where A_s x = x_i - x_j (fixed ends from b(t)) and the damping axes n are those of x_n. */
+/* The implicit problem: every step of an implicit time scheme minimizes the incremental potential
+
+     Phi(x) = 1/2 (x - y)^T M (x - y) + sum_t E_t(x),      g(x) = grad Phi(x),
+
+   where the time scheme (a registered type, src/implicit/schemes/) supplies y, the weight beta of
+   the potentials (each E_t is beta h^2 times a potential, or a dissipation potential) and the
+   velocity update, and the energy terms (registered types, src/implicit/terms/) supply E_t, its
+   gradient, Hessian blocks, projective-dynamics local step and matrix weights, and the largest
+   feasible step. Implicit Euler with springs, spring damping and drag gives
+     y = x_n + h v_n + h^2 M^-1 (m g + c w),
+     Phi(x) = 1/2 |x-y|_M^2 + h^2 E(x) + h c/2 |x - x_n|^2 + h kd/2 sum_s (n . A_s (x - x_n))^2,
+   where A_s x = x_i - x_j (fixed ends from b(t)) and the damping axes n are those of x_n.
+   Constant external forces (gravity, the wind's drag) are folded into y by the scheme: a force
+   constant in x adds a linear term to Phi, which equals a shift of y by beta h^2 M^-1 f up to a
+   constant, so it costs nothing per iteration and leaves Phi's values as they were.
+   The solvers (src/solvers/) see the problem only through SNES callbacks and MSimPDProblem. */
 #pragma once
 #include <msim/system.h>
 #include <msim/solvers.h>
 
-typedef struct _n_MSimImplicit *MSimImplicit;
+typedef struct _n_MSimImplicit       *MSimImplicit;
+typedef struct _n_MSimImplicitScheme *MSimImplicitScheme;
+typedef struct _n_MSimImplicitTerm   *MSimImplicitTerm;
+
+/* What the terms need from the step, set from the scheme at each step (and for PD's matrix). */
+typedef struct {
+  PetscReal t, h;  /* start and size of the step */
+  PetscReal h2;    /* beta h^2: the weight of potential energies in Phi */
+  PetscReal hd;    /* the weight of a dissipation potential d/2 |x - xref|^2 for a viscous force
+                      -d v(x): beta h^2 dv/dx (implicit Euler: h) */
+  PetscReal tx;    /* time at which the unknown x sees the boundary b(t) (Euler: t + h) */
+  PetscReal tref;  /* time of xref (Euler: t) */
+  Vec       xref;  /* the state dissipative terms measure from, and spring damping takes its
+                      axes from (Euler: x_n) */
+} MSimImplicitStep;
+
+/* A time scheme: Phi's y and beta, the first iterate, and the velocity update. */
+typedef struct {
+  /* from (X, V) at t: y, x_n and whatever history the scheme keeps; imp->step.xref, tref, tx */
+  PetscErrorCode (*begin_step)(MSimImplicitScheme, MSimImplicit, PetscReal t, PetscReal h, Vec X, Vec V);
+  /* X holds x_n on entry: the first iterate (Euler: x_n + h v_n) */
+  PetscErrorCode (*guess)(MSimImplicitScheme, MSimImplicit, Vec V, Vec X);
+  /* X holds the minimizer on entry: x_{n+1} into X and v_{n+1} into V */
+  PetscErrorCode (*end_step)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
+  /* the vectors an exact restart needs besides x and v (none for Euler; BDF2: x_{n-1}) */
+  PetscErrorCode (*get_history)(MSimImplicitScheme, PetscInt *n, Vec **history);
+  PetscErrorCode (*view)(MSimImplicitScheme, PetscViewer);
+  PetscErrorCode (*destroy)(MSimImplicitScheme);
+} MSimImplicitSchemeOps;
+
+struct _n_MSimImplicitScheme {
+  char                  type[64];
+  PetscReal             beta;  /* h2 = beta h^2 */
+  PetscReal             gamma; /* hd = gamma h (Euler 1; BDF2 2/3; midpoint and Newmark 1/2) */
+  MSimImplicitSchemeOps ops;
+  void                 *data;
+};
+
+/* An energy term. Every op is optional but energy and gradient; a term with a diagonal op is the
+   quadratic w/2 |x - c|^2 and needs no other: the problem folds it into its inertia pass (one
+   loop over the dofs for energy, gradient, Hessian diagonal, PD matrix and right-hand side). */
+typedef struct {
+  PetscErrorCode (*diagonal)(MSimImplicitTerm, PetscReal *w, Vec *c);
+  /* *e += this rank's part of the term's Phi at X (the problem sums over ranks) */
+  PetscErrorCode (*energy)(MSimImplicitTerm, Vec X, PetscReal *e);
+  /* G += the term's gradient at X (owned rows) */
+  PetscErrorCode (*gradient)(MSimImplicitTerm, Vec X, Vec G);
+  /* Hessian at X (psd: each block projected to PSD), as coefficients of the system's one-pass
+     assembly ... */
+  PetscErrorCode (*hessian_coefficients)(MSimImplicitTerm, Vec X, PetscBool psd, MSimMatrixCoefficients *c);
+  /* ... or as blocks of its own, added into the assembled J (ADD_VALUES, then assemble) */
+  PetscErrorCode (*hessian)(MSimImplicitTerm, Vec X, PetscBool psd, Mat J);
+  /* projective dynamics: its weights in the scalar PD matrix A (ADD_VALUES; A is assembled by
+     the problem), and its local step: rhs += sum A_s^T w_s p_s(X) (owned rows), *e += its Phi at X
+     when e is not NULL. pd_begin (optional) starts what pd_rhs needs (the ghost exchange), so it
+     travels while the problem's inertia pass runs. */
+  PetscErrorCode (*pd_matrix)(MSimImplicitTerm, Mat A);
+  PetscErrorCode (*pd_begin)(MSimImplicitTerm, Vec X);
+  PetscErrorCode (*pd_rhs)(MSimImplicitTerm, Vec X, Vec rhs, PetscReal *e);
+  /* the largest alpha in (0, *alpha] for which X - alpha Y stays where the term is defined
+     (contact barriers: the line search starts there); lowers *alpha where it must, else leaves it */
+  PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha);
+  PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer);
+  PetscErrorCode (*destroy)(MSimImplicitTerm);
+} MSimImplicitTermOps;
+
+struct _n_MSimImplicitTerm {
+  char                type[64];
+  MSimImplicit        imp;
+  MSimImplicitTermOps ops;
+  void               *data;
+};
+
 struct _n_MSimImplicit {
-  MSimSystem sys;
-  PetscReal  h, t;            /* step and start time of the current step */
-  Vec        Xn, Y;           /* x_n and y */
-  PetscBool  psd;             /* project spring Hessian blocks to PSD in the Jacobian */
-  /* projective dynamics: scalar matrix A = M + h c I + sum_s (h^2 k_s + h kd) L_s over free
-     vertices, factored once (KSP prefix pd_), three columns solved together */
+  MSimSystem         sys;
+  PetscReal          h, t;    /* step and start time of the current step */
+  MSimImplicitStep   step;    /* the terms' view of the step (MSimImplicitStepUpdate) */
+  Vec                Xn, Y;   /* x_n and y */
+  PetscBool          psd;     /* project Hessian blocks to PSD in the Jacobian */
+  MSimImplicitScheme scheme;
+  PetscInt           nterms;
+  MSimImplicitTerm   terms[16];
+  /* projective dynamics: scalar matrix A = M + the terms' weights (springs: h^2 k_s + h kd per
+     spring's Laplacian; drag: h c I) over free vertices, factored once (KSP prefix pd_), three
+     columns solved together */
   Mat        A;
   Mat        A3;              /* A kron I3 on block-size-3 Vecs (MAIJ), made on first use */
   KSP        pdksp;
@@ -29,15 +116,40 @@ struct _n_MSimImplicit {
   MSimPDProblem pd;
 };
 
+/* Registries, PETSc style: -msim_integrator lists the schemes (each is an implicit integrator of
+   the same name), -msim_implicit_terms the terms. */
+#define MSIMSCHEMEEULER "implicit_euler"
+#define MSIMTERMSPRINGS "springs"
+#define MSIMTERMDRAG    "drag"
+PetscErrorCode MSimImplicitSchemeRegister(const char name[], PetscErrorCode (*create)(MSimImplicitScheme));
+PetscErrorCode MSimImplicitTermRegister(const char name[], PetscErrorCode (*create)(MSimImplicitTerm));
+PetscErrorCode MSimImplicitRegisterAll(void);
+/* the registered schemes' names (the strings are the registry's; PetscFree the array) */
+PetscErrorCode MSimImplicitSchemeGetNames(const char ***names, PetscInt *n);
+
+/* Create with a scheme by name (NULL: implicit Euler) and the terms of -msim_implicit_terms
+   (default: every registered term; a term whose physics the scene lacks costs nothing). */
 PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp);
+PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[], MSimImplicit *imp);
 PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp);
-/* start a step from (X, V) at t: sets x_n, y. */
+PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer);
+/* imp->step from the scheme's beta and gamma at step size imp->h */
+PetscErrorCode MSimImplicitStepUpdate(MSimImplicit imp);
+/* start a step from (X, V) at t: sets x_n, y (the scheme's begin_step) */
 PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V);
+/* X := the first iterate (X holds x_n) */
+PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X);
+/* X holds the minimizer: x_{n+1} into X, v_{n+1} into V */
+PetscErrorCode MSimImplicitEndStep(MSimImplicit imp, Vec X, Vec V);
+/* Y += s (g + c w / m): the constant external acceleration, for the schemes' y */
+PetscErrorCode MSimImplicitAddExternalAcceleration(MSimImplicit imp, PetscReal s, Vec Y);
 PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G);
 PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi);
 PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
 /* the Jacobian plus delta M (inertia correction) */
 PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal delta, Mat J);
+/* the largest alpha in (0, 1] for which X - alpha Y is feasible for every term (1 today) */
+PetscErrorCode MSimImplicitMaxStep(MSimImplicit imp, Vec X, Vec Y, PetscReal *alpha);
 /* Newton with inertia correction (-msim_inertia_correction): the exact Hessian H, or H + delta M
    with the least delta of a geometric sequence for which the LDL^T in the KSP's Cholesky PC
    (MUMPS) has no negative pivot, so every Newton direction descends and Newton converges to
@@ -60,3 +172,10 @@ PetscErrorCode MSimImplicitPDSolve(MSimImplicit imp, Vec rhs, Vec guess, Vec X);
 /* A kron I3 as a shell Mat whose only use is as a KSP operator for the PD-factor PC */
 PetscErrorCode MSimImplicitPDCreateShell(MSimImplicit imp, Mat *J);
 PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp);
+/* imp->pd filled with the PD steps and composed on dm, where the pd SNES type finds them */
+PetscErrorCode MSimImplicitPDCompose(MSimImplicit imp, DM dm);
+
+/* The registered schemes and terms (one file each) */
+PETSC_EXTERN PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme);
+PETSC_EXTERN PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
+PETSC_EXTERN PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);

@@ -68,8 +68,11 @@ PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_ExplicitEuler(MSimIntegrator);
 PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_SymplecticEuler(MSimIntegrator);
 PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_RK4(MSimIntegrator);
 PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_TS(MSimIntegrator);
-PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator);
+/* the implicit integrators: one per registered time scheme (msim/implicit.h), same name */
+PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_Implicit(MSimIntegrator);
+PetscErrorCode MSimIntegratorRegisterImplicit(void);
 
+/* The implicit integrators' counters (every scheme; the names are implicit Euler's, the first). */
 /* Numeric factorizations of the PD matrix so far (0 when PD was never used). */
 PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt *n);
 /* Newton on the exact Hessian (-msim_psd 0): directions replaced so far by the PSD-projected

@@ -34,6 +34,9 @@ PetscErrorCode MSimCheckFactorAvailable(KSP ksp, Mat A);
 typedef struct {
   /* Y := a descent direction of Phi at X (the step is X - lambda Y); F = g(X) */
   PetscErrorCode (*descent)(SNES snes, Vec X, Vec F, Vec Y, void *ctx);
+  /* the largest lambda in (0, 1] for which X - lambda Y is feasible (NULL: 1): the search
+     starts there (contact barriers are undefined beyond) */
+  PetscErrorCode (*max_step)(SNES snes, Vec X, Vec Y, PetscReal *lambda, void *ctx);
   void    *ctx;
   PetscInt nfallback; /* directions replaced, over the life of the SNES */
 } MSimLineSearchCtx;
@@ -59,5 +62,15 @@ typedef struct {
   /* local step and right-hand side: rhs = M y + h^2 sum_s k_s A_s^T d_s(x) + boundary terms;
      when phi is not NULL also Phi(x), from the same pass over the springs */
   PetscErrorCode (*rhs)(void *ctx, Vec x, Vec rhs, PetscReal *phi);
+  /* builds and factors the global step's matrix (else the first global_solve does) */
+  PetscErrorCode (*setup)(void *ctx);
   void *ctx;
 } MSimPDProblem;
+/* If snes, or its nonlinear preconditioner, is of type pd: set its problem's global step up now,
+   so that a bad -pd_ksp_* / -pd_pc_* option stops the run before any output and -log_view counts
+   the factorization where it is set up. Call after SNESSetFromOptions. */
+PetscErrorCode MSimSNESSetUpPD(SNES snes);
+/* Whether snes's type solves linear systems with the Jacobian (newtonls, ksponly, ntr, qn with
+   -snes_qn_scale_type jacobian, ...; not pd, anderson, ngmres, ncg, nrichardson, plain qn): PETSc's
+   own flag for it, read after SNESSetFromOptions. */
+PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses);

@@ -162,9 +162,19 @@ PetscErrorCode MSimSystemBlockFileIds(MSimSystem sys, std::vector<PetscInt> &ids
 PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A);
 /* Nonzero blocks per owned row of the free-vertex graph, diagonal included (preallocation). */
 PetscErrorCode MSimSystemGraphPreallocation(MSimSystem sys, std::vector<PetscInt> &dnz, std::vector<PetscInt> &onz);
-/* A = mass_coef M + diag_coef I + stiff_coef K(X) + damp_coef kd sum_s n_s n_s^T (spring axes at
-   Xn at time tn, the start of the step; pass NULL to skip). psd: project each spring block to PSD. */
-PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, PetscReal tn, Vec Xn, PetscReal damp_coef, Mat A);
+/* A = mass M + diagonal I + stiffness K(X) + damping kd sum_s n_s n_s^T, in one pass over the
+   springs. X at time t (fixed ends from b(t)); the spring axes n_s at Xn at time tn, the start of
+   the step (Xn NULL: no damping blocks); psd: project each spring block to PSD. */
+typedef struct _n_MSimMatrixCoefficients {
+  PetscReal t;
+  Vec       X;
+  PetscReal mass, diagonal, stiffness;
+  PetscBool psd;
+  PetscReal tn;
+  Vec       Xn;
+  PetscReal damping;
+} MSimMatrixCoefficients;
+PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoefficients *c, Mat A);
 /* 1 / mass per dof, made on the first call (the explicit integrators' accelerations use it: a
    product vectorizes, where PETSc's VecPointwiseDivide tests every divisor and does not) */
 PetscErrorCode MSimSystemGetInverseMass(MSimSystem sys, Vec *massinv);

@@ -1,47 +1,36 @@
-/* Projective dynamics pieces of the implicit step (Liu et al. 2013), with spring damping and drag
-   folded in exactly: Phi = 1/2|x-y|_M^2 + sum_s [h^2 k_s/2 |A_s x - d_s|^2 + h kd/2 |A_s x - e_s|^2]
-   + h c/2 |x - x_n|^2, minimised over the projections d_s (|d_s| = L_s) and e_s (A_s x_n plus any
-   vector normal to the spring's axis at x_n), which reproduces Phi of msim/implicit.h. The
-   x-step matrix A = M + h c I + sum_s (h^2 k_s + h kd) L_s is constant: factor once per h. */
+/* Projective dynamics pieces of the implicit step (Liu et al. 2013): Phi is the inertia term plus
+   terms that are each a weighted sum of |A_s x - p_s|^2 minimised over their projections p_s
+   (springs: |p| = L, and spring damping and drag folded in exactly, see terms/), so the x-step
+   matrix A = M + the terms' weights is constant: factor once per h. */
 #include <msim/implicit.h>
-#include <msim/kernels.hpp>
-#include <msim/spring_sweep.h>
-
-using msim::Vec3;
-typedef Eigen::Map<const Vec3> CMap3;
-typedef Eigen::Map<Vec3>       Map3;
 
 PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
 {
   MSimSystem         sys = imp->sys;
-  const PetscInt     nfl = sys->nown + sys->nghost;
-  const PetscReal    h   = imp->h;
   const PetscScalar *m;
   std::vector<PetscInt> dnz, onz;
   PC                 pc;
+  PetscReal          diag = 0; /* the diagonal terms' weights */
 
   PetscFunctionBeginUser;
   if (imp->A) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
+  PetscCall(MSimImplicitStepUpdate(imp));
   PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
   PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
   PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
-  PetscErrorCode ierr = 0;
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal) {
-    const PetscReal   w  = h * h * k + h * sys->damping;
-    const bool        fi = i < nfl, fj = j < nfl;
-    const PetscInt    gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
-    const PetscScalar wn = -w;
-    if (ierr) return;
-    if (fi) ierr = MatSetValue(imp->A, gi, gi, w, ADD_VALUES);
-    if (fj && !ierr) ierr = MatSetValue(imp->A, gj, gj, w, ADD_VALUES);
-    if (fi && fj && !ierr) ierr = MatSetValue(imp->A, gi, gj, wn, ADD_VALUES);
-    if (fi && fj && !ierr) ierr = MatSetValue(imp->A, gj, gi, wn, ADD_VALUES);
-  });
-  PetscCall(ierr);
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm term = imp->terms[k];
+    if (term->ops.diagonal) {
+      PetscReal w;
+      Vec       C;
+      PetscCall(term->ops.diagonal(term, &w, &C));
+      diag += w;
+    } else if (term->ops.pd_matrix) PetscCall(term->ops.pd_matrix(term, imp->A));
+  }
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < sys->nown; i++) PetscCall(MatSetValue(imp->A, sys->rstart + i, sys->rstart + i, m[3 * i] + h * sys->drag, ADD_VALUES));
+  for (PetscInt i = 0; i < sys->nown; i++) PetscCall(MatSetValue(imp->A, sys->rstart + i, sys->rstart + i, m[3 * i] + diag, ADD_VALUES));
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
@@ -115,97 +104,55 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* One spring through the local slots (xloc: ghost and fixed slots filled; the owned rows of x and
-   rhs are the Vec arrays xo and ro; ghost contributions go to floc, or nowhere when fl is NULL):
-   the PD projection, the damping term with the spring axes of x_n (xn, all slots, or NULL), and
-   the coupling to fixed ends. */
-static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, PetscReal k, PetscReal L, const PetscScalar *xo, const PetscScalar *xl, const PetscScalar *xn, PetscScalar *ro, PetscScalar *fl, PetscReal *energy)
-{
-  MSimSystem      sys = imp->sys;
-  const PetscInt  nfl = sys->nown + sys->nghost, nown = sys->nown;
-  const PetscReal h = imp->h, hkd = h * sys->damping;
-  const Vec3      xi = CMap3((i < nown ? xo : xl) + 3 * i), xj = CMap3((j < nown ? xo : xl) + 3 * j);
-  const PetscReal w1 = h * h * k;
-  Vec3            p  = w1 * msim::SpringProjection(xi, xj, L);
-  if (energy) *energy += h * h * msim::SpringEnergy(xi, xj, k, L);
-  if (xn) {
-    const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized(), u = xi - xj - dn;
-    p += hkd * (dn + u - n.dot(u) * n);
-    if (energy) *energy += 0.5 * hkd * n.dot(u) * n.dot(u);
-  }
-  /* a fixed end moves its coupling term to the right-hand side */
-  const PetscReal w = w1 + (xn ? hkd : 0.0);
-  if (j >= nfl) p += w * xj;
-  if (i >= nfl) p -= w * xi;
-  if (i < nown) Map3(ro + 3 * i) += p;
-  else if (fl) Map3(fl + 3 * i) += p;
-  if (j < nown) Map3(ro + 3 * j) -= p;
-  else if (fl) Map3(fl + 3 * j) -= p;
-}
-
-/* rhs = M y + h c x_n + sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X; with phi,
-   also Phi(X) (the projections are optimal, so the PD energy equals Phi). Without spring damping
-   the springs with both ends owned go through the vectorized sweep (c = h^2 k L/l along each
-   spring) straight into rhs's array while the ghost positions travel. */
+/* rhs = M y + the diagonal terms' w c + the other terms' local steps at X; with phi, also Phi(X)
+   (the projections are optimal, so the PD energy equals Phi). The terms start what they need
+   (the ghost exchange) before the inertia pass, so it travels meanwhile. */
 PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *phi)
 {
   MSimSystem         sys = imp->sys;
-  const MSimSprings &sp  = sys->springs;
-  const PetscReal    h = imp->h, hc = h * sys->drag;
-  const PetscBool    damped = (PetscBool)(sys->damping > 0);
-  const PetscScalar *x, *xl, *xn = NULL, *y, *m, *xng;
-  PetscScalar       *r, *fl;
-  PetscReal          energy = 0;
+  const PetscScalar *x, *y, *m, *cg;
+  PetscScalar       *r;
+  PetscReal          energy = 0, w = 0;
+  Vec                C = imp->Y;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, rhs, 0, 0));
-  if (damped) {
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
-    PetscCall(VecGetArrayRead(sys->vloc, &xn));
-  } else PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
-  /* the vertex terms */
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.pd_begin) PetscCall(imp->terms[k]->ops.pd_begin(imp->terms[k], X));
+  /* the inertia pass with the first diagonal term fused (the only one so far) */
+  PetscInt next = imp->nterms;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.diagonal) {
+      PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], &w, &C));
+      next = k + 1;
+      break;
+    }
   PetscCall(VecGetArrayWrite(rhs, &r));
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Y, &y));
-  PetscCall(VecGetArrayRead(imp->Xn, &xng));
+  const Vec C0 = C;
+  PetscCall(VecGetArrayRead(C0, &cg));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] = m[i] * y[i] + hc * xng[i];
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] = m[i] * y[i] + w * cg[i];
   if (phi)
-    for (PetscInt i = 0; i < 3 * sys->nown; i++) energy += 0.5 * m[i] * (x[i] - y[i]) * (x[i] - y[i]) + 0.5 * hc * (x[i] - xng[i]) * (x[i] - xng[i]);
+    for (PetscInt i = 0; i < 3 * sys->nown; i++) energy += 0.5 * m[i] * (x[i] - y[i]) * (x[i] - y[i]) + 0.5 * w * (x[i] - cg[i]) * (x[i] - cg[i]);
+  for (PetscInt k = next; k < imp->nterms; k++) {
+    const PetscScalar *c;
+    if (!imp->terms[k]->ops.diagonal) continue;
+    PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], &w, &C));
+    PetscCall(VecGetArrayRead(C, &c));
+    for (PetscInt i = 0; i < 3 * sys->nown; i++) r[i] += w * c[i];
+    if (phi)
+      for (PetscInt i = 0; i < 3 * sys->nown; i++) energy += 0.5 * w * (x[i] - c[i]) * (x[i] - c[i]);
+    PetscCall(VecRestoreArrayRead(C, &c));
+  }
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
-  PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
+  PetscCall(VecRestoreArrayRead(C0, &cg));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));
-  /* the springs: without damping, the owned ones through the vectorized sweeps while the ghost
-     positions travel, then those with a ghost or fixed end; with damping, all through the slots */
-  if (!damped) {
-    PetscReal es = 0;
-    MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, r, NULL, NULL, 0.0, h * h, phi ? &es : NULL);
-    MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, 0.0, h * h, phi ? &es : NULL);
-    energy += h * h * es;
-    PetscCall(VecRestoreArrayRead(X, &x));
-    PetscCall(MSimSystemGhostsEnd(sys, imp->t + h, X, sys->xloc));
-    PetscCall(VecGetArrayRead(X, &x));
-  }
-  PetscCall(VecGetArrayRead(sys->xloc, &xl));
-  {
-    PetscReal *e = phi ? &energy : NULL;
-    if (damped) {
-      PetscCall(VecGetArray(sys->floc, &fl));
-      PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
-      MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) { PDSpringSlots(imp, i, j, k, L, x, xl, xn, r, fl, e); });
-      PetscCall(VecRestoreArray(sys->floc, &fl));
-    } else {
-      /* each adds to its owned end only; the halo's energy is its owners' */
-      for (PetscInt s = sp.ninner; s < sp.n; s++) PDSpringSlots(imp, sp.i[s], sp.j[s], sp.k[s], sp.L[s], x, xl, NULL, r, NULL, e);
-      for (size_t s = 0; s < sp.hi.size(); s++) PDSpringSlots(imp, sp.hi[s], sp.hj[s], sp.hk[s], sp.hL[s], x, xl, NULL, r, NULL, NULL);
-    }
-  }
-  PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscCall(VecRestoreArrayWrite(rhs, &r));
-  if (xn) PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
-  if (damped && sys->size > 1) PetscCall(MSimSystemGhostsAdd(sys, sys->floc, rhs)); /* collective */
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.pd_rhs) PetscCall(imp->terms[k]->ops.pd_rhs(imp->terms[k], X, rhs, phi ? &energy : NULL));
   if (phi) PetscCall(MPIU_Allreduce(&energy, phi, 1, MPIU_REAL, MPIU_SUM, sys->comm));
   PetscCall(PetscLogEventEnd(MSIM_PDLocal, X, rhs, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -339,5 +286,43 @@ PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
   PetscCall(PCShellSetContext(pc, imp));
   PetscCall(PCShellSetApply(pc, PDShellPCApply));
   PetscCall(PCShellSetName(pc, "msim projective-dynamics factor (M + h c I + h^2 L + h kd L) kron I3"));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDRHS((MSimImplicit)ctx, X, rhs, phi));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSolve((MSimImplicit)ctx, rhs, guess, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDProblemSetUp(void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSetUp((MSimImplicit)ctx));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The PD steps travel with the DM, so the pd type also finds them as the NPC of another SNES. */
+PetscErrorCode MSimImplicitPDCompose(MSimImplicit imp, DM dm)
+{
+  PetscContainer c;
+
+  PetscFunctionBeginUser;
+  imp->pd.rhs          = PDProblemRHS;
+  imp->pd.global_solve = PDProblemGlobal;
+  imp->pd.setup        = PDProblemSetUp;
+  imp->pd.ctx          = imp;
+  PetscCall(PetscContainerCreate(imp->sys->comm, &c));
+  PetscCall(PetscContainerSetPointer(c, &imp->pd));
+  PetscCall(PetscObjectCompose((PetscObject)dm, "MSimPDProblem", (PetscObject)c));
+  PetscCall(PetscContainerDestroy(&c));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

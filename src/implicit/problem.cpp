@@ -1,20 +1,11 @@
-/* Residual, objective and Jacobian of the implicit Euler step (see msim/implicit.h). */
+/* The implicit problem (msim/implicit.h): Phi, g and the Hessian as the inertia term plus the
+   registered energy terms; the scheme's y, x_n and velocity update. */
 #include <msim/implicit.h>
-#include <msim/kernels.hpp>
-
-using msim::Mat3;
-using msim::Vec3;
-typedef Eigen::Map<const Vec3> CMap3;
-typedef Eigen::Map<Vec3>       Map3;
 
 PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp)
 {
   PetscFunctionBeginUser;
-  *imp        = new _n_MSimImplicit();
-  (*imp)->sys = sys;
-  (*imp)->psd = PETSC_TRUE;
-  PetscCall(VecDuplicate(sys->X0, &(*imp)->Xn));
-  PetscCall(VecDuplicate(sys->X0, &(*imp)->Y));
+  PetscCall(MSimImplicitCreateWithScheme(sys, NULL, imp));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -22,6 +13,15 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
 {
   PetscFunctionBeginUser;
   if (!*imp) PetscFunctionReturn(PETSC_SUCCESS);
+  for (PetscInt k = 0; k < (*imp)->nterms; k++) {
+    MSimImplicitTerm term = (*imp)->terms[k];
+    if (term->ops.destroy) PetscCall(term->ops.destroy(term));
+    delete term;
+  }
+  if ((*imp)->scheme) {
+    if ((*imp)->scheme->ops.destroy) PetscCall((*imp)->scheme->ops.destroy((*imp)->scheme));
+    delete (*imp)->scheme;
+  }
   PetscCall(VecDestroy(&(*imp)->Xn));
   PetscCall(VecDestroy(&(*imp)->Y));
   PetscCall(VecDestroy(&(*imp)->rhs));
@@ -37,122 +37,180 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "implicit problem: scheme %s (beta %g), terms", imp->scheme->type, (double)imp->scheme->beta));
+  for (PetscInt k = 0; k < imp->nterms; k++) PetscCall(PetscViewerASCIIPrintf(viewer, "%s %s", k ? "," : "", imp->terms[k]->type));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "\n"));
+  if (imp->scheme->ops.view) PetscCall(imp->scheme->ops.view(imp->scheme, viewer));
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.view) PetscCall(imp->terms[k]->ops.view(imp->terms[k], viewer));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitStepUpdate(MSimImplicit imp)
+{
+  const PetscReal h = imp->h;
+
+  PetscFunctionBeginUser;
+  imp->step.h  = h;
+  imp->step.h2 = imp->scheme->beta * h * h;
+  imp->step.hd = imp->scheme->gamma * h;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(!imp->A || h == imp->h, imp->sys->comm, PETSC_ERR_ARG_WRONGSTATE, "the PD matrix was built for h = %g; a new h needs a new factorization", (double)imp->h);
+  imp->t       = t;
+  imp->h       = h;
+  imp->step.t  = t;
+  imp->pd_lits = 0;
+  PetscCall(MSimImplicitStepUpdate(imp));
+  PetscCall(imp->scheme->ops.begin_step(imp->scheme, imp, t, h, X, V));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(imp->scheme->ops.guess(imp->scheme, imp, V, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitEndStep(MSimImplicit imp, Vec X, Vec V)
+{
+  PetscFunctionBeginUser;
+  PetscCall(imp->scheme->ops.end_step(imp->scheme, imp, X, V));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitAddExternalAcceleration(MSimImplicit imp, PetscReal s, Vec Y)
 {
   MSimSystem         sys = imp->sys;
   PetscScalar       *y;
   const PetscScalar *m;
 
   PetscFunctionBeginUser;
-  PetscCheck(!imp->A || h == imp->h, sys->comm, PETSC_ERR_ARG_WRONGSTATE, "the PD matrix was built for h = %g; a new h needs a new factorization", (double)imp->h);
-  imp->t       = t;
-  imp->h       = h;
-  imp->pd_lits = 0;
-  PetscCall(VecCopy(X, imp->Xn));
-  PetscCall(VecWAXPY(imp->Y, h, V, X));
-  PetscCall(VecGetArray(imp->Y, &y));
+  PetscCall(VecGetArray(Y, &y));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) y[i] += h * h * (sys->gravity[i % 3] + sys->drag * sys->wind[i % 3] / m[i]);
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) y[i] += s * (sys->gravity[i % 3] + sys->drag * sys->wind[i % 3] / m[i]);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
-  PetscCall(VecRestoreArray(imp->Y, &y));
+  PetscCall(VecRestoreArray(Y, &y));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The vertex terms of g: M (x - y) + h c (x - x_n), owned rows */
-static PetscErrorCode MSimImplicitVertexResidual(MSimImplicit imp, Vec X, Vec G)
+/* The quadratic terms w/2 |x - c|^2 that ride on the inertia pass: the first one's (w, c) fused
+   into that pass (w = 0 and c = y without one); *next is the index to continue from. */
+static PetscErrorCode FirstDiagonal(MSimImplicit imp, PetscReal *w, Vec *c, PetscInt *next)
+{
+  PetscFunctionBeginUser;
+  *w    = 0;
+  *c    = imp->Y;
+  *next = imp->nterms;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.diagonal) {
+      PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], w, c));
+      *next = k + 1;
+      break;
+    }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* f(i, w, c) for every diagonal term after the fused one (each has its own pass) */
+template <class F>
+static PetscErrorCode ForEachExtraDiagonal(MSimImplicit imp, PetscInt from, F &&f)
+{
+  PetscFunctionBeginUser;
+  for (PetscInt k = from; k < imp->nterms; k++) {
+    PetscReal          w;
+    Vec                C;
+    const PetscScalar *c;
+    if (!imp->terms[k]->ops.diagonal) continue;
+    PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], &w, &C));
+    PetscCall(VecGetArrayRead(C, &c));
+    for (PetscInt i = 0; i < 3 * imp->sys->nown; i++) f(i, w, c);
+    PetscCall(VecRestoreArrayRead(C, &c));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* g = M (x - y) + the diagonal terms w (x - c), owned rows */
+static PetscErrorCode InertiaResidual(MSimImplicit imp, Vec X, Vec G)
 {
   MSimSystem         sys = imp->sys;
-  const PetscReal    hc  = imp->h * sys->drag;
-  const PetscScalar *xg, *xng, *y, *m;
+  const PetscScalar *xg, *cg, *y, *m;
   PetscScalar       *g;
+  PetscReal          w;
+  Vec                C;
+  PetscInt           next;
 
   PetscFunctionBeginUser;
+  PetscCall(FirstDiagonal(imp, &w, &C, &next));
   PetscCall(VecGetArrayWrite(G, &g));
   PetscCall(VecGetArrayRead(X, &xg));
-  PetscCall(VecGetArrayRead(imp->Xn, &xng));
+  PetscCall(VecGetArrayRead(C, &cg));
   PetscCall(VecGetArrayRead(imp->Y, &y));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) g[i] = m[i] * (xg[i] - y[i]) + hc * (xg[i] - xng[i]);
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) g[i] = m[i] * (xg[i] - y[i]) + w * (xg[i] - cg[i]);
+  PetscCall(ForEachExtraDiagonal(imp, next, [&](PetscInt i, PetscReal wk, const PetscScalar *c) { g[i] += wk * (xg[i] - c[i]); }));
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));
-  PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
+  PetscCall(VecRestoreArrayRead(C, &cg));
   PetscCall(VecRestoreArrayRead(X, &xg));
   PetscCall(VecRestoreArrayWrite(G, &g));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* g = vertex terms - h^2 f_spring(x) (+ the damping term). Without spring damping the springs go
-   through the system's in-place sweep: c = h^2 k (1 - L/l) along each spring. */
 PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G)
 {
-  MSimSystem         sys = imp->sys;
-  const MSimSprings &sp  = sys->springs;
-  const PetscReal    h = imp->h, h2 = h * h, hkd = h * sys->damping;
-  const PetscScalar *x, *xn;
-  PetscScalar       *f;
-
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Residual, X, G, 0, 0));
-  PetscCall(MSimImplicitVertexResidual(imp, X, G));
-  if (hkd == 0) PetscCall(MSimSystemSpringSweep(sys, imp->t + h, X, G, h2, -h2, NULL));
-  else {
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
-    PetscCall(VecZeroEntries(sys->floc));
-    PetscCall(VecGetArrayRead(sys->xloc, &x));
-    PetscCall(VecGetArrayRead(sys->vloc, &xn));
-    PetscCall(VecGetArray(sys->floc, &f));
-    MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
-      const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized();
-      Vec3       r  = -h2 * msim::SpringForce(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L);
-      r += (hkd * n.dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn)) * n;
-      Map3(f + 3 * i) += r;
-      Map3(f + 3 * j) -= r;
-    });
-    PetscCall(VecRestoreArray(sys->floc, &f));
-    PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
-    PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-    PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, G));
-  }
+  PetscCall(InertiaResidual(imp, X, G));
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.gradient) PetscCall(imp->terms[k]->ops.gradient(imp->terms[k], X, G));
   PetscCall(PetscLogEventEnd(MSIM_Residual, X, G, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* 1/2 |x - y|_M^2 + the diagonal terms, this rank's part */
+static PetscErrorCode InertiaEnergy(MSimImplicit imp, Vec X, PetscReal *e)
+{
+  MSimSystem         sys = imp->sys;
+  const PetscScalar *xg, *cg, *y, *m;
+  PetscReal          w, local = 0;
+  Vec                C;
+  PetscInt           next;
+
+  PetscFunctionBeginUser;
+  PetscCall(FirstDiagonal(imp, &w, &C, &next));
+  PetscCall(VecGetArrayRead(X, &xg));
+  PetscCall(VecGetArrayRead(C, &cg));
+  PetscCall(VecGetArrayRead(imp->Y, &y));
+  PetscCall(VecGetArrayRead(sys->mass, &m));
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) local += 0.5 * m[i] * (xg[i] - y[i]) * (xg[i] - y[i]) + 0.5 * w * (xg[i] - cg[i]) * (xg[i] - cg[i]);
+  PetscCall(ForEachExtraDiagonal(imp, next, [&](PetscInt i, PetscReal wk, const PetscScalar *c) { local += 0.5 * wk * (xg[i] - c[i]) * (xg[i] - c[i]); }));
+  PetscCall(VecRestoreArrayRead(sys->mass, &m));
+  PetscCall(VecRestoreArrayRead(imp->Y, &y));
+  PetscCall(VecRestoreArrayRead(C, &cg));
+  PetscCall(VecRestoreArrayRead(X, &xg));
+  *e += local;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi)
 {
-  MSimSystem         sys = imp->sys;
-  const MSimSprings &sp  = sys->springs;
-  const PetscReal    h = imp->h, hkd = h * sys->damping, hc = h * sys->drag;
-  const PetscScalar *x, *xn, *xg, *xng, *y, *m;
-  PetscReal          local = 0, springs = 0;
+  PetscReal local = 0;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Energy, X, 0, 0, 0));
-  if (hkd == 0) PetscCall(MSimSystemSpringSweep(sys, imp->t + h, X, NULL, 0, 0, &springs));
-  else {
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t + h, X, sys->xloc));
-    PetscCall(MSimSystemGlobalToLocal(sys, imp->t, imp->Xn, sys->vloc));
-    PetscCall(VecGetArrayRead(sys->xloc, &x));
-    PetscCall(VecGetArrayRead(sys->vloc, &xn));
-    MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
-      const Vec3   dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j);
-      const double a  = dn.normalized().dot(CMap3(x + 3 * i) - CMap3(x + 3 * j) - dn);
-      local += h * h * msim::SpringEnergy(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L) + 0.5 * hkd * a * a;
-    });
-    PetscCall(VecRestoreArrayRead(sys->vloc, &xn));
-    PetscCall(VecRestoreArrayRead(sys->xloc, &x));
-  }
-  PetscCall(VecGetArrayRead(X, &xg));
-  PetscCall(VecGetArrayRead(imp->Xn, &xng));
-  PetscCall(VecGetArrayRead(imp->Y, &y));
-  PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) local += 0.5 * m[i] * (xg[i] - y[i]) * (xg[i] - y[i]) + 0.5 * hc * (xg[i] - xng[i]) * (xg[i] - xng[i]);
-  PetscCall(VecRestoreArrayRead(sys->mass, &m));
-  PetscCall(VecRestoreArrayRead(imp->Y, &y));
-  PetscCall(VecRestoreArrayRead(imp->Xn, &xng));
-  PetscCall(VecRestoreArrayRead(X, &xg));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, sys->comm));
-  *phi = local + h * h * springs;
+  PetscCall(InertiaEnergy(imp, X, &local));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, imp->sys->comm));
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.energy) PetscCall(imp->terms[k]->ops.energy(imp->terms[k], X, &local));
+  *phi = local;
   PetscCall(PetscLogEventEnd(MSIM_Energy, X, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -164,10 +222,33 @@ PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* (1 + delta) M + the diagonal terms' w I + the terms' blocks: one pass of the system's assembly
+   with every term's coefficients, then the terms with blocks of their own */
 PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal delta, Mat J)
 {
-  MSimSystem sys = imp->sys;
+  MSimMatrixCoefficients c = {imp->step.tx, X, 1.0 + delta, 0.0, 0.0, imp->psd, imp->step.tref, NULL, 0.0};
+
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemAssembleMatrix(sys, imp->t + imp->h, X, 1.0 + delta, imp->h * sys->drag, imp->h * imp->h, imp->psd, imp->t, sys->damping > 0 ? imp->Xn : NULL, imp->h, J));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm term = imp->terms[k];
+    if (term->ops.diagonal) {
+      PetscReal w;
+      Vec       C;
+      PetscCall(term->ops.diagonal(term, &w, &C));
+      c.diagonal += w;
+    } else if (term->ops.hessian_coefficients) PetscCall(term->ops.hessian_coefficients(term, X, imp->psd, &c));
+  }
+  PetscCall(MSimSystemAssembleMatrix(imp->sys, &c, J));
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.hessian) PetscCall(imp->terms[k]->ops.hessian(imp->terms[k], X, imp->psd, J));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitMaxStep(MSimImplicit imp, Vec X, Vec Y, PetscReal *alpha)
+{
+  PetscFunctionBeginUser;
+  *alpha = 1;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.max_step) PetscCall(imp->terms[k]->ops.max_step(imp->terms[k], X, Y, alpha));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

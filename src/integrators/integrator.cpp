@@ -20,7 +20,7 @@ PetscErrorCode MSimIntegratorRegisterAll(void)
   PetscCall(MSimIntegratorRegister(MSIMSYMPLECTICEULER, MSimIntegratorCreate_SymplecticEuler));
   PetscCall(MSimIntegratorRegister(MSIMRK4, MSimIntegratorCreate_RK4));
   PetscCall(MSimIntegratorRegister(MSIMTS, MSimIntegratorCreate_TS));
-  PetscCall(MSimIntegratorRegister(MSIMIMPLICITEULER, MSimIntegratorCreate_ImplicitEuler));
+  PetscCall(MSimIntegratorRegisterImplicit()); /* one per time scheme */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -3,14 +3,14 @@
 #include <cstdio>
 
 struct _n_MSimConvergenceMonitor {
-  MSimSystem     sys;
-  MSimImplicit   imp;
+  MSimSystem          sys;
+  MSimConvergenceEval eval;
+  void               *eval_ctx;
   char           path[PETSC_MAX_PATH_LEN];
   FILE          *fp;
   PetscBool      opened;
   PetscInt       step, first_step;
   PetscLogDouble start, spent; /* step start, time spent inside the monitor */
-  Vec            G;
 };
 
 PetscErrorCode MSimConvergenceMonitorCreate(MSimSystem sys, MSimConvergenceMonitor *mon)
@@ -40,10 +40,7 @@ static PetscErrorCode MSimConvergenceMonitorIterate(SNES snes, PetscInt its, Pet
   PetscFunctionBeginUser;
   PetscCall(PetscTime(&t0));
   PetscCall(SNESGetSolution(snes, &X));
-  if (!mon->G) PetscCall(VecDuplicate(X, &mon->G));
-  PetscCall(MSimImplicitObjective(mon->imp, X, &phi));
-  PetscCall(MSimImplicitResidual(mon->imp, X, mon->G));
-  PetscCall(VecNorm(mon->G, NORM_2, &gnorm));
+  PetscCall((*mon->eval)(mon->eval_ctx, X, &phi, &gnorm));
   if (mon->sys->rank == 0) {
     /* rows flushed as they are made: a killed run keeps its history up to the last row */
     const int wrote = fprintf(mon->fp, "%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.17e,%.6e\n", mon->step, its, t0 - mon->start - mon->spent, (double)phi, (double)gnorm);
@@ -54,10 +51,11 @@ static PetscErrorCode MSimConvergenceMonitorIterate(SNES snes, PetscInt its, Pet
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES snes, MSimImplicit imp)
+PetscErrorCode MSimConvergenceMonitorAttach(MSimConvergenceMonitor mon, SNES snes, MSimConvergenceEval eval, void *ctx)
 {
   PetscFunctionBeginUser;
-  mon->imp = imp;
+  mon->eval     = eval;
+  mon->eval_ctx = ctx;
   PetscCall(SNESMonitorSet(snes, MSimConvergenceMonitorIterate, mon, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -103,7 +101,6 @@ PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon)
     (*mon)->fp       = NULL;
     PetscCheck(closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_convergence: write to %s failed", (*mon)->path);
   }
-  PetscCall(VecDestroy(&(*mon)->G));
   delete *mon;
   *mon = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

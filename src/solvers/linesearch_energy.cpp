@@ -12,14 +12,14 @@
 #include <msim/solvers.h>
 
 /* Backtracks from lambda = 1 along Y over at most maxhalvings halvings; W holds the accepted point. */
-static PetscErrorCode Backtrack(SNES snes, Vec X, Vec F, Vec Y, Vec W, Vec G, PetscReal phi0, PetscReal slope, PetscReal fnorm, PetscInt maxhalvings, PetscReal *lambda, PetscBool *accepted, PetscBool *have_g, PetscReal *gnorm)
+static PetscErrorCode Backtrack(SNES snes, Vec X, Vec F, Vec Y, Vec W, Vec G, PetscReal phi0, PetscReal slope, PetscReal fnorm, PetscReal lambda0, PetscInt maxhalvings, PetscReal *lambda, PetscBool *accepted, PetscBool *have_g, PetscReal *gnorm)
 {
   PetscReal phi;
 
   PetscFunctionBeginUser;
   *accepted = PETSC_FALSE;
   *have_g   = PETSC_FALSE;
-  *lambda   = 1;
+  *lambda   = lambda0;
   for (PetscInt it = 0; it < maxhalvings; it++, *lambda *= 0.5) {
     PetscCall(VecWAXPY(W, -*lambda, Y, X));
     PetscCall(SNESComputeObjective(snes, W, &phi));
@@ -47,7 +47,7 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
   MSimLineSearchCtx *ctx = (MSimLineSearchCtx *)vctx;
   SNES               snes;
   Vec                X, F, Y, W, G;
-  PetscReal          xnorm, fnorm, ynorm, gnorm = 0, phi0, slope, lambda = 1, steptol, maxstep, rtol, atol, ltol;
+  PetscReal          xnorm, fnorm, ynorm, gnorm = 0, phi0, slope, lambda = 1, lambda0 = 1, steptol, maxstep, rtol, atol, ltol;
   PetscInt           maxit;
   PetscBool          accepted = PETSC_FALSE, have_g = PETSC_FALSE, domain, can_replace;
 
@@ -60,14 +60,16 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
   PetscCall(VecDot(F, Y, &slope)); /* the step is X - lambda Y: dPhi/dlambda = -g . Y */
   slope       = -slope;
   can_replace = (PetscBool)(ctx && ctx->descent);
-  if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, can_replace ? MSIM_LS_EXACT_HALVINGS : PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
+  if (ctx && ctx->max_step) PetscCall(ctx->max_step(snes, X, Y, &lambda0, ctx->ctx));
+  if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, lambda0, can_replace ? MSIM_LS_EXACT_HALVINGS : PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
   if (!accepted && can_replace) {
     PetscCall(PetscInfo(snes, "energy line search: %s direction replaced by the descent callback's\n", slope < 0 ? "poor" : "ascent"));
     PetscCall(ctx->descent(snes, X, F, Y, ctx->ctx));
     ctx->nfallback++;
     PetscCall(VecDot(F, Y, &slope));
     slope = -slope;
-    if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
+    if (ctx->max_step) PetscCall(ctx->max_step(snes, X, Y, &lambda0, ctx->ctx));
+    if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, lambda0, PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
   }
   if (!accepted) {
     PetscCall(PetscInfo(snes, "energy line search: no decrease of Phi or |g| (slope %g)\n", (double)slope));

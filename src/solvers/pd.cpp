@@ -25,6 +25,25 @@ static PetscErrorCode SNESPDGetProblem(SNES snes, MSimPDProblem **pd)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimSNESSetUpPD(SNES snes)
+{
+  PetscBool      pd, has_npc;
+  MSimPDProblem *problem;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESPD, &pd));
+  PetscCall(SNESHasNPC(snes, &has_npc));
+  if (!pd && has_npc) {
+    SNES npc;
+    PetscCall(SNESGetNPC(snes, &npc));
+    PetscCall(PetscObjectTypeCompare((PetscObject)npc, SNESPD, &pd));
+  }
+  if (!pd) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESPDGetProblem(snes, &problem));
+  if (problem->setup) PetscCall((*problem->setup)(problem->ctx));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
 {
   MSimPDProblem      *pd;

@@ -20,7 +20,10 @@ static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, Pet
   PetscCall(PetscLogEventBegin(MSIM_Spectrum, 0, 0, 0, 0));
   PetscCheck(nev >= 1 && nev <= n, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "number of eigenvalues must be in [1, %" PetscInt_FMT "] (got %" PetscInt_FMT ")", n, nev);
   PetscCall(MSimSystemCreateMatrix(sys, &K));
-  PetscCall(MSimSystemAssembleMatrix(sys, 0.0, X, 0.0, 0.0, 1.0, PETSC_FALSE, 0.0, NULL, 0.0, K));
+  {
+    const MSimMatrixCoefficients c = {0.0, X, 0.0, 0.0, 1.0, PETSC_FALSE, 0.0, NULL, 0.0}; /* K(X) alone */
+    PetscCall(MSimSystemAssembleMatrix(sys, &c, K));
+  }
   PetscCall(MSimSystemCreateMassMatrix(sys, &M));
   PetscCall(EPSCreate(sys->comm, &eps));
   PetscCall(EPSSetOperators(eps, K, M));

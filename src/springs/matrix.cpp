@@ -160,34 +160,34 @@ static PetscErrorCode AssemblyMapBuild(MSimSystem sys, Mat A, AssemblyMap **out)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, PetscReal mass_coef, PetscReal diag_coef, PetscReal stiff_coef, PetscBool psd, PetscReal tn, Vec Xn, PetscReal damp_coef, Mat A)
+PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoefficients *c, Mat A)
 {
   const PetscScalar *x, *xn = NULL, *m;
   PetscScalar       *va[2] = {NULL, NULL};
   const PetscInt     nfree_local = sys->nown + sys->nghost;
   PetscErrorCode     ierr        = 0;
-  PetscContainer     c;
+  PetscContainer     container;
   AssemblyMap       *map = NULL;
   Mat                Ad = NULL, Ao = NULL;
   const PetscInt    *garray;
   size_t             blk = 0;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscLogEventBegin(MSIM_Jacobian, X, A, 0, 0));
-  PetscCall(PetscObjectQuery((PetscObject)A, "MSimAssemblyMap", (PetscObject *)&c));
-  if (c) PetscCall(PetscContainerGetPointer(c, (void **)&map));
+  PetscCall(PetscLogEventBegin(MSIM_Jacobian, c->X, A, 0, 0));
+  PetscCall(PetscObjectQuery((PetscObject)A, "MSimAssemblyMap", (PetscObject *)&container));
+  if (container) PetscCall(PetscContainerGetPointer(container, (void **)&map));
   PetscCall(MatZeroEntries(A));
   if (map) {
     PetscCall(AssemblyParts(A, &Ad, &Ao, &garray));
     PetscCall(MatSeqAIJGetArray(Ad, &va[0]));
     if (Ao) PetscCall(MatSeqAIJGetArray(Ao, &va[1]));
   }
-  if (Xn && damp_coef != 0) {
+  if (c->Xn && c->damping != 0) {
     /* spring axes at the start of the step, held in vloc (free during assembly) */
-    PetscCall(MSimSystemGlobalToLocal(sys, tn, Xn, sys->vloc));
+    PetscCall(MSimSystemGlobalToLocal(sys, c->tn, c->Xn, sys->vloc));
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
   }
-  PetscCall(MSimSystemGlobalToLocal(sys, t, X, sys->xloc));
+  PetscCall(MSimSystemGlobalToLocal(sys, c->t, c->X, sys->xloc));
   PetscCall(VecGetArrayRead(sys->xloc, &x));
   /* one block: straight into the arrays where mapped, else MatSetValuesBlocked (B is symmetric,
      so Eigen's column-major storage is the row-major PETSc expects) */
@@ -203,10 +203,10 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
     blk++;
   };
   MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
-    Mat3 H = stiff_coef * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L, (bool)psd);
+    Mat3 H = c->stiffness * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L, (bool)c->psd);
     if (xn) {
       const Vec3 n = (CMap3(xn + 3 * i) - CMap3(xn + 3 * j)).normalized();
-      H += (damp_coef * sys->damping) * (n * n.transpose());
+      H += (c->damping * sys->damping) * (n * n.transpose());
     }
     const bool fi = i < nfree_local, fj = j < nfree_local;
     if (fi) add(i, i, H);
@@ -224,7 +224,7 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
   PetscCall(VecGetArrayRead(sys->mass, &m));
   for (PetscInt i = 0; i < 3 * sys->nown; i++) {
     PetscInt    row = 3 * sys->rstart + i;
-    PetscScalar v   = mass_coef * m[i] + diag_coef;
+    PetscScalar v   = c->mass * m[i] + c->diagonal;
     if (map) va[0][map->diag[i]] += v;
     else if (v != 0) PetscCall(MatSetValues(A, 1, &row, 1, &row, &v, ADD_VALUES));
   }
@@ -239,14 +239,14 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, PetscReal t, Vec X, Pets
     PetscCall(AssemblyParts(A, &Ad, &Ao, &garray));
     if (Ad) {
       PetscCall(AssemblyMapBuild(sys, A, &map));
-      PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &c));
-      PetscCall(PetscContainerSetPointer(c, map));
-      PetscCall(PetscContainerSetUserDestroy(c, AssemblyMapDestroy));
-      PetscCall(PetscObjectCompose((PetscObject)A, "MSimAssemblyMap", (PetscObject)c));
-      PetscCall(PetscContainerDestroy(&c));
+      PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
+      PetscCall(PetscContainerSetPointer(container, map));
+      PetscCall(PetscContainerSetUserDestroy(container, AssemblyMapDestroy));
+      PetscCall(PetscObjectCompose((PetscObject)A, "MSimAssemblyMap", (PetscObject)container));
+      PetscCall(PetscContainerDestroy(&container));
     }
   }
-  PetscCall(PetscLogEventEnd(MSIM_Jacobian, X, A, 0, 0));
+  PetscCall(PetscLogEventEnd(MSIM_Jacobian, c->X, A, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,4 +1,6 @@
-/* Implicit Euler: one SNES (unprefixed) per step on g(x) = 0 (msim/implicit.h). The SNES type picks
+/* The implicit integrators (implicit_euler and every scheme registered in src/implicit/): one
+   SNES (unprefixed) per step on g(x) = grad Phi(x) = 0 of the implicit problem (msim/implicit.h),
+   which holds the scheme and the energy terms; the SNES sees only its callbacks. The SNES type picks
    the method: newtonls (Newton, analytic Jacobian, line search on Phi), ksponly (Baraff-Witkin: one
    linearized step from x0 = x_n + h v_n), pd (projective dynamics), anderson/ngmres with
    -npc_snes_type pd (accelerated PD), qn with -snes_qn_scale_type jacobian (L-BFGS whose initial
@@ -12,17 +14,18 @@ typedef struct {
   SNES                   snes;
   Mat                    J;
   Vec                    G;
-  PetscBool              jacobian_is_pd; /* L-BFGS: constant shell Jacobian, PD factor as PC */
-  PetscBool              pc_pd;
+  PetscBool              pc_pd;          /* the SNES's linear solves preconditioned by the PD factor */
   MSimConvergenceMonitor conv;
   PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
+  PetscBool              psd_set;        /* -msim_psd given */
   MSimLineSearchCtx      ls;
   PetscBool              check_saddle;   /* -msim_check_saddle */
   PetscBool              inertia;        /* Newton's PC is MUMPS LDL^T of the exact Hessian: its inertia is known */
   PetscBool              inertia_correction; /* -msim_inertia_correction */
   MSimInertiaCorrection  ic;
   PetscReal              step_atol;      /* -msim_step_atol: converged once a step moves less */
-} ImplicitEuler;
+  PetscBool              mg_levels_set;  /* the user chose GAMG's smoothers (-mg_levels_ksp_type) */
+} ImplicitData;
 
 /* -msim_step_atol d: also converged once an iteration's step dx has |dx|_2 < d (in metres), the rule
    of graphics codes' Newton (e.g. |dx| < 1e-3 with at most 20 iterations). PETSc's own step test,
@@ -30,7 +33,7 @@ typedef struct {
    space. Read by the SNES types that report their step length (newtonls, ntr, qn; not pd). */
 static PetscErrorCode ConvergedStep(SNES snes, PetscInt it, PetscReal xnorm, PetscReal snorm, PetscReal fnorm, SNESConvergedReason *reason, void *ctx)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)ctx;
+  ImplicitData *ie = (ImplicitData *)ctx;
 
   PetscFunctionBeginUser;
   PetscCall(SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, NULL));
@@ -90,7 +93,7 @@ static PetscErrorCode DescentProjected(SNES snes, Vec X, Vec F, Vec Y, void *ctx
    solve that follows finds the factor current and reuses it. */
 static PetscErrorCode FormJacobianInertiaCorrected(SNES snes, Vec X, Mat J, Mat P, void *ctx)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)ctx;
+  ImplicitData *ie = (ImplicitData *)ctx;
   KSP            ksp;
 
   PetscFunctionBeginUser;
@@ -106,17 +109,23 @@ static PetscErrorCode FormJacobianConstant(SNES snes, Vec X, Mat J, Mat P, void 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode PDRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
+/* the convergence monitor's row: Phi and |g| at X */
+static PetscErrorCode ConvergenceEval(void *ctx, Vec X, PetscReal *phi, PetscReal *gnorm)
 {
+  ImplicitData *ie = (ImplicitData *)ctx;
+
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitPDRHS((MSimImplicit)ctx, X, rhs, phi));
+  PetscCall(MSimImplicitObjective(ie->imp, X, phi));
+  PetscCall(MSimImplicitResidual(ie->imp, X, ie->G));
+  PetscCall(VecNorm(ie->G, NORM_2, gnorm));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
+/* the line search starts where every term is still defined */
+static PetscErrorCode LineSearchMaxStep(SNES snes, Vec X, Vec Y, PetscReal *lambda, void *ctx)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitPDSolve((MSimImplicit)ctx, rhs, guess, X));
+  PetscCall(MSimImplicitMaxStep((MSimImplicit)ctx, X, Y, lambda));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -125,37 +134,224 @@ static PetscErrorCode PDGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
    saddle (compressed springs: on the benchmark cloth from the third step on, with hundreds of
    negative eigenvalues, where descent methods find lower Phi), and -msim_inertia_correction needs
    it to steer Newton to minima. -msim_check_saddle turns the check off. In parallel MUMPS counts
-   the pivots of its last front only with ICNTL(13) = 1 (no ScaLAPACK there). */
-static PetscErrorCode SetUpInertia(ImplicitEuler *ie, SNESType type, PetscMPIInt size)
+   the pivots of its last front only with ICNTL(13) = 1 (no ScaLAPACK there): set on the factor
+   matrix itself, where a user's -mat_mumps_icntl_13 still wins (MUMPS reads it at factorization). */
+static PetscErrorCode SetUpInertia(ImplicitData *ie, PetscMPIInt size)
 {
   KSP           ksp;
   PC            pc;
-  PetscBool     newton, cholesky, set;
+  PetscBool     newton, cholesky, mumps, set;
   MatSolverType solver;
   PetscInt      icntl13 = 1;
 
   PetscFunctionBeginUser;
   ie->inertia = PETSC_FALSE;
-  PetscCall(PetscStrcmp(type, SNESNEWTONLS, &newton));
+  PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESNEWTONLS, &newton));
   if (!(ie->check_saddle || ie->inertia_correction) || !newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESGetKSP(ie->snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
   if (!cholesky) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PCFactorGetMatSolverType(pc, &solver));
-  if (!solver || strcmp(solver, MATSOLVERMUMPS)) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscStrcmp(solver, MATSOLVERMUMPS, &mumps));
+  if (!solver || !mumps) PetscFunctionReturn(PETSC_SUCCESS);
   if (size > 1) {
+    Mat F;
     PetscCall(PetscOptionsGetInt(NULL, NULL, "-mat_mumps_icntl_13", &icntl13, &set));
-    if (!set) PetscCall(PetscOptionsSetValue(NULL, "-mat_mumps_icntl_13", "1"));
+    PetscCall(KSPSetOperators(ksp, ie->J, ie->J));
+    PetscCall(PCFactorSetUpMatSolverType(pc));
+    PetscCall(PCFactorGetMatrix(pc, &F));
+    PetscCall(MatMumpsSetIcntl(F, 13, 1));
   }
   ie->inertia = (PetscBool)(icntl13 == 1);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* GAMG's default Chebyshev smoothing, with its estimated spectrum, made the preconditioner
+   indefinite for CG on cloth Jacobians (DIVERGED_INDEFINITE_PC on the 21 x 21 cloth); symmetric
+   SOR under Richardson keeps it SPD. Not on solids: there the six rigid-body modes of an
+   aggregate of one vertex include three zero columns (rotations about itself), and SOR's inverse
+   of that coarse node's 6 x 6 diagonal block fails (zero pivot) on tet boxes; GAMG's own Chebyshev
+   over point Jacobi takes them. GAMG makes its smoothers (Chebyshev) inside every set-up, so they
+   are changed on the PC's smoothers after it, before each solve; a user's -mg_levels_ksp_type
+   wins. */
+static PetscErrorCode GAMGSmoothersSOR(PC pc, KSP ksp)
+{
+  PetscInt levels;
+
+  PetscFunctionBeginUser;
+  PetscCall(PCMGGetLevels(pc, &levels));
+  for (PetscInt l = 1; l < levels; l++) {
+    KSP       smoother;
+    PC        sub;
+    PetscBool cheb;
+    PetscCall(PCMGGetSmoother(pc, l, &smoother));
+    PetscCall(PetscObjectTypeCompare((PetscObject)smoother, KSPCHEBYSHEV, &cheb));
+    if (!cheb) continue;
+    PetscCall(KSPSetType(smoother, KSPRICHARDSON));
+    PetscCall(KSPGetPC(smoother, &sub));
+    PetscCall(PCSetType(sub, PCSOR));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode SetUpGAMGSmoothers(ImplicitData *ie, MSimSystem sys, KSP ksp)
+{
+  PC        pc;
+  PetscBool gamg;
+
+  PetscFunctionBeginUser;
+  PetscCall(KSPGetPC(ksp, &pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCGAMG, &gamg));
+  if (gamg && !ie->mg_levels_set && sys->cell_size != 4) PetscCall(PCSetPreSolve(pc, GAMGSmoothersSOR));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* What msim chooses for a SNES type by default: the trust region (ntr) handles indefinite
+   Hessians, so it gets the exact one; it and L-BFGS (qn) precondition with the constant PD factor
+   unless a -pc_type is given, and L-BFGS then takes the PD matrix itself as its constant Jacobian
+   (its initial Hessian). */
+static const struct {
+  const char *type;
+  PetscBool   pc_pd, jacobian_pd, exact;
+} kTypeDefaults[] = {
+  {SNESQN,  PETSC_TRUE, PETSC_TRUE,  PETSC_FALSE},
+  {SNESNTR, PETSC_TRUE, PETSC_FALSE, PETSC_TRUE },
+};
+
+static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
+{
+  PetscBool uses, has_pc, jacobian_pd = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSNESUsesJacobian(ie->snes, &uses));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-pc_type", &has_pc));
+  for (const auto &d : kTypeDefaults) {
+    PetscBool match;
+    PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, d.type, &match));
+    if (!match) continue;
+    if (d.pc_pd && !has_pc) ie->pc_pd = PETSC_TRUE;
+    if (d.exact && !ie->psd_set) ie->imp->psd = PETSC_FALSE;
+    jacobian_pd = (PetscBool)(d.jacobian_pd && ie->pc_pd);
+  }
+  if (!uses) PetscFunctionReturn(PETSC_SUCCESS);
+  if (jacobian_pd) {
+    /* L-BFGS with the PD matrix as initial Hessian: constant shell Jacobian, PD factor as PC */
+    PetscCall(MSimImplicitPDCreateShell(ie->imp, &ie->J));
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianConstant, ie->imp));
+    PetscCall(KSPSetType(ksp, KSPPREONLY));
+    PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(MSimSystemCreateMatrix(sys, &ie->J));
+  {
+    /* rigid-body modes of the rest state: the near null space algebraic multigrid (GAMG, ML)
+       needs for a vector problem; other solvers ignore it */
+    MatNullSpace nsp;
+    PetscCall(MatNullSpaceCreateRigidBody(sys->X0, &nsp));
+    PetscCall(MatSetNearNullSpace(ie->J, nsp));
+    PetscCall(MatNullSpaceDestroy(&nsp));
+  }
+  PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
+  if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
+  else PetscCall(MSimCheckFactorAvailable(ksp, ie->J));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
+{
+  PetscFunctionBeginUser;
+  PetscOptionsBegin(integ->comm, NULL, "msim implicit integrators", NULL);
+  PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &ie->psd_set));
+  PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
+  PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, NULL));
+  PetscCall(PetscOptionsBool("-msim_inertia_correction", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): factor H + delta M with the least delta (0, then 1e-3 x 8^k) that leaves no negative pivot, so Newton converges to minima of Phi, not saddles", NULL, ie->inertia_correction, &ie->inertia_correction, NULL));
+  PetscCall(MSimOptionsReal("-msim_step_atol", "Converged also once an iteration's step dx has |dx|_2 below this (m; 0: off): graphics codes' rule, absolute where -snes_stol is relative to |x| (newtonls, ntr, qn)", NULL, ie->step_atol, &ie->step_atol, NULL));
+  PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
+  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
+  {
+    /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
+    PetscBool pd_fixed = PETSC_FALSE;
+    PetscInt  pd_anderson = 0;
+    PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, pd_fixed, &pd_fixed, NULL));
+    PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, pd_anderson, &pd_anderson, NULL));
+  }
+  PetscOptionsEnd();
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-mg_levels_ksp_type", &ie->mg_levels_set));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The SNES with msim's defaults, which a user overrides with the usual options: Newton, msim's
+   line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian. */
+static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ksp)
+{
+  MSimSystem sys = integ->sys;
+  PC         pc;
+  DM         dm;
+  PetscBool  set;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(sys->X0, &ie->G));
+  PetscCall(SNESCreate(integ->comm, &ie->snes));
+  PetscCall(SNESSetFunction(ie->snes, ie->G, FormFunction, ie->imp));
+  PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
+  PetscCall(SNESGetDM(ie->snes, &dm));
+  PetscCall(MSimImplicitPDCompose(ie->imp, dm));
+  PetscCall(SNESSetType(ie->snes, SNESNEWTONLS));
+  PetscCall(SNESGetKSP(ie->snes, ksp));
+  PetscCall(KSPSetType(*ksp, KSPCG));
+  PetscCall(KSPGetPC(*ksp, &pc));
+  PetscCall(PCSetType(pc, sys->size > 1 ? PCBJACOBI : PCICC));
+  /* |g| has units of mass x length: below 1e-10 of total mass x scene size the step is converged
+     to roundoff, and line searches on Phi can only fail there. -snes_max_it is the one budget: no
+     cap on function evaluations (PETSc's 10,000 stopped L-BFGS, two per iteration, at 5,000
+     iterations as a failure). */
+  PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, -1));
+  /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence,
+     unless the user chose one (-snes_linesearch_type) */
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
+  if (!set) {
+    SNESLineSearch ls;
+    PetscCall(SNESGetLineSearch(ie->snes, &ls));
+    PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
+    /* inertia-corrected directions always descend: no fallback needed */
+    ie->ls.descent  = ie->imp->psd || !ie->psd_fallback || ie->inertia_correction ? NULL : DescentProjected;
+    ie->ls.max_step = LineSearchMaxStep;
+    ie->ls.ctx      = ie->imp;
+    PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
+  }
+  if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
+  PetscCall(SNESSetFromOptions(ie->snes));
+  if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ConvergenceEval, ie));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
+{
+  ImplicitData *ie  = (ImplicitData *)integ->data;
+  MSimSystem    sys = integ->sys;
+  KSP           ksp;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitCreateWithScheme(sys, integ->type, &ie->imp));
+  ie->imp->h = integ->dt;
+  PetscCall(ReadOptions(integ, ie));
+  PetscCall(CreateSNES(integ, ie, &ksp));
+  PetscCall(SetUpGAMGSmoothers(ie, sys, ksp));
+  PetscCall(SetUpJacobian(ie, sys, ksp));
+  PetscCall(MSimSNESSetUpPD(ie->snes));
+  PetscCall(SetUpInertia(ie, sys->size));
+  if (ie->inertia_correction) {
+    PetscCheck(ie->inertia, integ->comm, PETSC_ERR_ARG_INCOMP, "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS: -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps (and, in parallel, -mat_mumps_icntl_13 1)");
+    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianInertiaCorrected, ie));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* After a converged Newton solve: one more factorization, of the exact Hessian at the solution X
    (Newton's last one was at the iterate before, which after one or two iterations can still be
    far: a chain compressed further by gravity turned indefinite only at the solution). */
-static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X)
+static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitData *ie, Vec X)
 {
   KSP      ksp;
   PetscInt its, nneg;
@@ -173,155 +369,9 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitEuler *ie, Vec X
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Setup_ImplicitEuler(MSimIntegrator integ)
+static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 {
-  ImplicitEuler *ie  = (ImplicitEuler *)integ->data;
-  MSimSystem     sys = integ->sys;
-  KSP            ksp;
-  PC             pc;
-  DM             dm;
-  PetscContainer c;
-  SNESType       type;
-  PetscBool      needs_jacobian = PETSC_TRUE, has_pc, is_qn, is_ntr, psd_set;
-
-  PetscFunctionBeginUser;
-  PetscCall(MSimImplicitCreate(sys, &ie->imp));
-  ie->imp->h = integ->dt;
-  PetscOptionsBegin(integ->comm, NULL, "msim implicit Euler", NULL);
-  PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &psd_set));
-  PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
-  PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, NULL));
-  PetscCall(PetscOptionsBool("-msim_inertia_correction", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): factor H + delta M with the least delta (0, then 1e-3 x 8^k) that leaves no negative pivot, so Newton converges to minima of Phi, not saddles", NULL, ie->inertia_correction, &ie->inertia_correction, NULL));
-  PetscCall(MSimOptionsReal("-msim_step_atol", "Converged also once an iteration's step dx has |dx|_2 below this (m; 0: off): graphics codes' rule, absolute where -snes_stol is relative to |x| (newtonls, ntr, qn)", NULL, ie->step_atol, &ie->step_atol, NULL));
-  PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
-  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
-  {
-    /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
-    PetscBool pd_fixed = PETSC_FALSE;
-    PetscInt  pd_anderson = 0;
-    PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, pd_fixed, &pd_fixed, NULL));
-    PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, pd_anderson, &pd_anderson, NULL));
-  }
-  PetscOptionsEnd();
-  PetscCall(VecDuplicate(sys->X0, &ie->G));
-  PetscCall(SNESCreate(integ->comm, &ie->snes));
-  PetscCall(SNESSetFunction(ie->snes, ie->G, FormFunction, ie->imp));
-  PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
-  /* The PD steps travel with the DM, so pd also finds them as the NPC of another SNES. */
-  ie->imp->pd.rhs          = PDRHS;
-  ie->imp->pd.global_solve = PDGlobal;
-  ie->imp->pd.ctx          = ie->imp;
-  PetscCall(SNESGetDM(ie->snes, &dm));
-  PetscCall(PetscContainerCreate(integ->comm, &c));
-  PetscCall(PetscContainerSetPointer(c, &ie->imp->pd));
-  PetscCall(PetscObjectCompose((PetscObject)dm, "MSimPDProblem", (PetscObject)c));
-  PetscCall(PetscContainerDestroy(&c));
-  /* defaults a user overrides with the usual options: Newton, line search on Phi, CG with ICC
-     (block Jacobi-ICC in parallel) on the PSD-projected Jacobian */
-  PetscCall(SNESSetType(ie->snes, SNESNEWTONLS));
-  PetscCall(SNESGetKSP(ie->snes, &ksp));
-  PetscCall(KSPSetType(ksp, KSPCG));
-  PetscCall(KSPGetPC(ksp, &pc));
-  PetscCall(PCSetType(pc, sys->size > 1 ? PCBJACOBI : PCICC));
-  /* |g| has units of mass x length: below 1e-10 of total mass x scene size the step is converged
-     to roundoff, and line searches on Phi can only fail there. -snes_max_it is the one budget: no
-     cap on function evaluations (PETSc's 10,000 stopped L-BFGS, two per iteration, at 5,000
-     iterations as a failure). */
-  PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, -1));
-  {
-    /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence,
-       unless the user chose one (-snes_linesearch_type) */
-    SNESLineSearch ls;
-    PetscBool      set;
-    PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
-    if (!set) {
-      PetscCall(SNESGetLineSearch(ie->snes, &ls));
-      PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
-      /* inertia-corrected directions always descend: no fallback needed */
-      ie->ls.descent = ie->imp->psd || !ie->psd_fallback || ie->inertia_correction ? NULL : DescentProjected;
-      ie->ls.ctx     = ie->imp;
-      PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
-    }
-  }
-  if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
-  PetscCall(SNESSetFromOptions(ie->snes));
-  if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ie->imp));
-  {
-    /* GAMG's default Chebyshev smoothing, with its estimated spectrum, made the preconditioner
-       indefinite for CG on these Jacobians (DIVERGED_INDEFINITE_PC on the 21 x 21 cloth);
-       symmetric SOR under Richardson keeps it SPD. Not on solids: there the six rigid-body modes
-       of an aggregate of one vertex include three zero columns (rotations about itself), and
-       SOR's inverse of that coarse node's 6 x 6 diagonal block fails (zero pivot) on tet boxes;
-       Chebyshev over point Jacobi takes them (a zero diagonal counts as 1) and converged in 4 CG
-       iterations there. A user's -mg_levels_* options win. */
-    PC        pc_now;
-    PetscBool gamg, set;
-    PetscCall(KSPGetPC(ksp, &pc_now));
-    PetscCall(PetscObjectTypeCompare((PetscObject)pc_now, PCGAMG, &gamg));
-    PetscCall(PetscOptionsHasName(NULL, NULL, "-mg_levels_ksp_type", &set));
-    if (gamg && !set) {
-      const PetscBool solid = (PetscBool)(sys->cell_size == 4);
-      PetscCall(PetscOptionsSetValue(NULL, "-mg_levels_ksp_type", solid ? "chebyshev" : "richardson"));
-      PetscCall(PetscOptionsSetValue(NULL, "-mg_levels_pc_type", solid ? "jacobi" : "sor"));
-    }
-  }
-
-  PetscCall(SNESGetType(ie->snes, &type));
-  for (const char *t : {SNESPD, SNESANDERSON, SNESNGMRES, SNESNCG, SNESNRICHARDSON, SNESSHELL})
-    if (type && !strcmp(type, t)) needs_jacobian = PETSC_FALSE;
-  is_qn = (PetscBool)(type && !strcmp(type, SNESQN));
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-pc_type", &has_pc));
-  is_ntr = (PetscBool)(type && !strcmp(type, SNESNTR));
-  if ((is_qn || is_ntr) && !has_pc) ie->pc_pd = PETSC_TRUE;
-  /* the trust region handles indefinite Hessians: ntr gets the exact one unless told otherwise */
-  if (is_ntr && !psd_set) ie->imp->psd = PETSC_FALSE;
-  if (is_qn && ie->pc_pd) {
-    /* L-BFGS with the PD matrix as initial Hessian: constant shell Jacobian, PD factor as PC */
-    ie->jacobian_is_pd = PETSC_TRUE;
-    PetscCall(MSimImplicitPDCreateShell(ie->imp, &ie->J));
-    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianConstant, ie->imp));
-    PetscCall(KSPSetType(ksp, KSPPREONLY));
-    PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
-  } else if (needs_jacobian) {
-    PetscCall(MSimSystemCreateMatrix(sys, &ie->J));
-    {
-      /* rigid-body modes of the rest state: the near null space algebraic multigrid (GAMG, ML)
-         needs for a vector problem; other solvers ignore it */
-      MatNullSpace nsp;
-      PetscCall(MatNullSpaceCreateRigidBody(sys->X0, &nsp));
-      PetscCall(MatSetNearNullSpace(ie->J, nsp));
-      PetscCall(MatNullSpaceDestroy(&nsp));
-    }
-    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobian, ie->imp));
-    if (ie->pc_pd) PetscCall(MSimImplicitPDSetPC(ie->imp, ksp));
-    else PetscCall(MSimCheckFactorAvailable(ksp, ie->J));
-  }
-  {
-    /* pd, alone or as the NPC, would build its global step in the first solve; build it here
-       instead, so that a bad -pd_ksp_* / -pd_pc_* option stops the run before any output is
-       written and -log_view counts the factorization in the setup stage */
-    PetscBool uses_pd = (PetscBool)(type && !strcmp(type, SNESPD)), has_npc;
-    PetscCall(SNESHasNPC(ie->snes, &has_npc));
-    if (!uses_pd && has_npc) {
-      SNES     npc;
-      SNESType npc_type;
-      PetscCall(SNESGetNPC(ie->snes, &npc));
-      PetscCall(SNESGetType(npc, &npc_type));
-      uses_pd = (PetscBool)(npc_type && !strcmp(npc_type, SNESPD));
-    }
-    if (uses_pd) PetscCall(MSimImplicitPDSetUp(ie->imp));
-  }
-  PetscCall(SetUpInertia(ie, type, sys->size));
-  if (ie->inertia_correction) {
-    PetscCheck(ie->inertia, integ->comm, PETSC_ERR_ARG_INCOMP, "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS: -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps (and, in parallel, -mat_mumps_icntl_13 1)");
-    PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianInertiaCorrected, ie));
-  }
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
-{
-  ImplicitEuler      *ie = (ImplicitEuler *)integ->data;
+  ImplicitData       *ie = (ImplicitData *)integ->data;
   SNESConvergedReason reason;
   PetscInt            its, lits;
   SNESType            type;
@@ -330,8 +380,7 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitBeginStep(ie->imp, t, integ->dt, X, V));
   if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv, integ->step, integ->first_step));
-  /* initial guess x0 = x_n + h v_n; v_{n+1} = (x_{n+1} - x_n)/h */
-  PetscCall(VecAXPY(X, integ->dt, V));
+  PetscCall(MSimImplicitGuess(ie->imp, V, X));
   PetscCall(SNESSolve(ie->snes, NULL, X));
   PetscCall(SNESGetConvergedReason(ie->snes, &reason));
   PetscCall(SNESGetIterationNumber(ie->snes, &its));
@@ -342,9 +391,10 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
   /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
      counts, also where pd runs as another SNES's nonlinear preconditioner */
   integ->linear_its = lits + ie->imp->pd_lits;
-  /* ksponly and fixed-count pd do not evaluate g at their result: do it here for the monitor */
+  /* the types that stop after a fixed count (ksponly, fixed-count pd) do not evaluate g at their
+     result: do it here for the monitor */
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
-  if (!strcmp(type, SNESKSPONLY) || reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
+  if (reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
   if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
   if (reason == SNES_DIVERGED_MAX_IT) {
@@ -363,26 +413,27 @@ static PetscErrorCode Step_ImplicitEuler(MSimIntegrator integ, PetscReal t, Vec 
     PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
   }
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
-  PetscCall(VecAXPBYPCZ(V, 1.0 / integ->dt, -1.0 / integ->dt, 0.0, X, ie->imp->Xn));
+  PetscCall(MSimImplicitEndStep(ie->imp, X, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode View_ImplicitEuler(MSimIntegrator integ, PetscViewer viewer)
+static PetscErrorCode View_Implicit(MSimIntegrator integ, PetscViewer viewer)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
   PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", integ->unconverged_steps));
   if (ie->inertia_correction) PetscCall(PetscViewerASCIIPrintf(viewer, "inertia correction: %" PetscInt_FMT " Newton iterations factored H + delta M (delta up to %g), %" PetscInt_FMT " factorizations beyond one per iteration\n", ie->ic.shifted, (double)ie->ic.delta_max, ie->ic.extra));
   if (ie->inertia && ie->check_saddle) PetscCall(PetscViewerASCIIPrintf(viewer, "steps converged to a saddle point of Phi (negative pivots in the exact Hessian's LDL^T): %" PetscInt_FMT ", at most %" PetscInt_FMT " negative eigenvalues\n", integ->saddle_steps, integ->saddle_negative));
   if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
+  if (ie->imp) PetscCall(MSimImplicitView(ie->imp, viewer));
   if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
   if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Destroy_ImplicitEuler(MSimIntegrator integ)
+static PetscErrorCode Destroy_Implicit(MSimIntegrator integ)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
   PetscCall(SNESDestroy(&ie->snes));
   PetscCall(MatDestroy(&ie->J));
@@ -393,43 +444,56 @@ static PetscErrorCode Destroy_ImplicitEuler(MSimIntegrator integ)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode SetFromOptions_ImplicitEuler(MSimIntegrator integ)
+static PetscErrorCode SetFromOptions_Implicit(MSimIntegrator integ)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
   PetscCall(MSimConvergenceMonitorCreate(integ->sys, &ie->conv));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode OpenFiles_ImplicitEuler(MSimIntegrator integ)
+static PetscErrorCode OpenFiles_Implicit(MSimIntegrator integ)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
 
   PetscFunctionBeginUser;
   PetscCall(MSimConvergenceMonitorOpen(ie->conv, integ->first_step));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimIntegratorCreate_ImplicitEuler(MSimIntegrator integ)
+/* Each registered scheme is an integrator of the same name (-msim_integrator lists them). */
+PetscErrorCode MSimIntegratorRegisterImplicit(void)
 {
-  ImplicitEuler *ie;
+  const char **names;
+  PetscInt     n;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitSchemeGetNames(&names, &n));
+  for (PetscInt k = 0; k < n; k++) PetscCall(MSimIntegratorRegister(names[k], MSimIntegratorCreate_Implicit));
+  PetscCall(PetscFree(names));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorCreate_Implicit(MSimIntegrator integ)
+{
+  ImplicitData *ie;
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&ie));
   ie->psd_fallback          = PETSC_TRUE;
   ie->check_saddle          = PETSC_TRUE;
   integ->data               = ie;
-  integ->ops.setfromoptions = SetFromOptions_ImplicitEuler;
-  integ->ops.setup          = Setup_ImplicitEuler;
-  integ->ops.step           = Step_ImplicitEuler;
-  integ->ops.view           = View_ImplicitEuler;
-  integ->ops.openfiles      = OpenFiles_ImplicitEuler;
-  integ->ops.destroy        = Destroy_ImplicitEuler;
+  integ->ops.setfromoptions = SetFromOptions_Implicit;
+  integ->ops.setup          = Setup_Implicit;
+  integ->ops.step           = Step_Implicit;
+  integ->ops.view           = View_Implicit;
+  integ->ops.openfiles      = OpenFiles_Implicit;
+  integ->ops.destroy        = Destroy_Implicit;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimImplicitEulerGetProjectedFallbacks(MSimIntegrator integ, PetscInt *n)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
   *n = ie->ls.nfallback;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -437,7 +501,7 @@ PetscErrorCode MSimImplicitEulerGetProjectedFallbacks(MSimIntegrator integ, Pets
 
 PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt *n)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
   *n = ie->imp ? ie->imp->nfactor : 0;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -445,7 +509,7 @@ PetscErrorCode MSimImplicitEulerGetFactorizations(MSimIntegrator integ, PetscInt
 
 PetscErrorCode MSimImplicitEulerGetSNES(MSimIntegrator integ, SNES *snes)
 {
-  ImplicitEuler *ie = (ImplicitEuler *)integ->data;
+  ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
   *snes = ie->snes;
   PetscFunctionReturn(PETSC_SUCCESS);

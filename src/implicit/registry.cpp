@@ -1,0 +1,124 @@
+/* The registries of time schemes and energy terms (PetscFunctionList, as PETSc's own types), and
+   the problem's creation from them: the scheme by name, the terms from -msim_implicit_terms. */
+#include <msim/implicit.h>
+
+static PetscFunctionList MSimSchemeList = NULL, MSimTermList = NULL;
+static PetscBool         MSimImplicitRegistered = PETSC_FALSE;
+
+PetscErrorCode MSimImplicitSchemeRegister(const char name[], PetscErrorCode (*create)(MSimImplicitScheme))
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListAdd(&MSimSchemeList, name, create));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitTermRegister(const char name[], PetscErrorCode (*create)(MSimImplicitTerm))
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListAdd(&MSimTermList, name, create));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MSimImplicitFinalizePackage(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListDestroy(&MSimSchemeList));
+  PetscCall(PetscFunctionListDestroy(&MSimTermList));
+  MSimImplicitRegistered = PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* One line per scheme and per term. */
+PetscErrorCode MSimImplicitRegisterAll(void)
+{
+  PetscFunctionBeginUser;
+  if (MSimImplicitRegistered) PetscFunctionReturn(PETSC_SUCCESS);
+  MSimImplicitRegistered = PETSC_TRUE;
+  PetscCall(PetscRegisterFinalize(MSimImplicitFinalizePackage));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEEULER, MSimImplicitSchemeCreate_Euler));
+  PetscCall(MSimImplicitTermRegister(MSIMTERMSPRINGS, MSimImplicitTermCreate_Springs));
+  PetscCall(MSimImplicitTermRegister(MSIMTERMDRAG, MSimImplicitTermCreate_Drag));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitSchemeGetNames(const char ***names, PetscInt *n)
+{
+  int count;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitRegisterAll());
+  PetscCall(PetscFunctionListGet(MSimSchemeList, names, &count));
+  *n = count - 1; /* PETSc counts the closing NULL */
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode AddTerm(MSimImplicit imp, const char name[])
+{
+  PetscErrorCode (*create)(MSimImplicitTerm);
+  MSimImplicitTerm term;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscFunctionListFind(MSimTermList, name, &create));
+  PetscCheck(create, imp->sys->comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_implicit_terms: no energy term '%s' (see -help for the list)", name);
+  PetscCheck(imp->nterms < (PetscInt)(sizeof(imp->terms) / sizeof(imp->terms[0])), imp->sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_implicit_terms: at most %d terms", (int)(sizeof(imp->terms) / sizeof(imp->terms[0])));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    PetscBool same;
+    PetscCall(PetscStrcmp(imp->terms[k]->type, name, &same));
+    PetscCheck(!same, imp->sys->comm, PETSC_ERR_ARG_WRONG, "-msim_implicit_terms: '%s' given twice", name);
+  }
+  term      = new _n_MSimImplicitTerm();
+  term->imp = imp;
+  PetscCall(PetscStrncpy(term->type, name, sizeof(term->type)));
+  imp->terms[imp->nterms++] = term;
+  PetscCall((*create)(term));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[], MSimImplicit *imp)
+{
+  PetscErrorCode (*create)(MSimImplicitScheme);
+  const char **names;
+  int          nnames;
+  char         help[512] = "Energy terms of the implicit step's Phi, in order (registered:", *list[16];
+  PetscInt     nlist = 16;
+  PetscBool    set;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitRegisterAll());
+  if (!scheme) scheme = MSIMSCHEMEEULER;
+  PetscCall(PetscFunctionListFind(MSimSchemeList, scheme, &create));
+  PetscCheck(create, sys->comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "no implicit time scheme '%s' (see -msim_integrator in -help)", scheme);
+  *imp        = new _n_MSimImplicit();
+  (*imp)->sys = sys;
+  (*imp)->psd = PETSC_TRUE;
+  PetscCall(VecDuplicate(sys->X0, &(*imp)->Xn));
+  PetscCall(VecDuplicate(sys->X0, &(*imp)->Y));
+  (*imp)->scheme = new _n_MSimImplicitScheme();
+  PetscCall(PetscStrncpy((*imp)->scheme->type, scheme, sizeof((*imp)->scheme->type)));
+  (*imp)->scheme->beta  = 1;
+  (*imp)->scheme->gamma = 1;
+  PetscCall((*create)((*imp)->scheme));
+  /* the terms: every registered one unless -msim_implicit_terms names them */
+  PetscCall(PetscFunctionListGet(MSimTermList, &names, &nnames));
+  nnames--; /* PETSc counts the closing NULL */
+  for (int k = 0; k < nnames; k++) {
+    PetscCall(PetscStrlcat(help, k ? ", " : " ", sizeof(help)));
+    PetscCall(PetscStrlcat(help, names[k], sizeof(help)));
+  }
+  PetscCall(PetscStrlcat(help, ")", sizeof(help)));
+  PetscOptionsBegin(sys->comm, NULL, "msim implicit problem", NULL);
+  PetscCall(PetscOptionsStringArray("-msim_implicit_terms", help, NULL, list, &nlist, &set));
+  PetscOptionsEnd();
+  if (!set) {
+    for (int k = 0; k < nnames; k++) PetscCall(AddTerm(*imp, names[k]));
+  } else {
+    PetscErrorCode ierr = PETSC_SUCCESS;
+    for (PetscInt k = 0; k < nlist; k++) {
+      if (!ierr) ierr = AddTerm(*imp, list[k]);
+      PetscCall(PetscFree(list[k]));
+    }
+    PetscCall(ierr);
+  }
+  PetscCall(PetscFree(names));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
