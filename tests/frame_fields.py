@@ -2,7 +2,8 @@
 """The fields in every frame (-msim_output), read back from both series formats and checked against
 values this script computes itself from the frames' positions and an independent rest state:
 - `file_id` (point data): the input ids 0..nv-1 for generated scenes; for a mesh file, the file's
-  node at that id (read here from the file) is the vertex's rest position;
+  node at that id (read here from the file) is the vertex's rest position, also for a Gmsh file
+  with nodes on no tet (dropped by the reader: the file ids are then the nodes the tets name);
 - `velocity` (point data): symplectic and implicit Euler both end a step with v_n = (x_n - x_{n-1})/h,
   so every frame's velocity is the backward difference of two consecutive frames' positions (to
   roundoff); at t = 0 it is 0, and the fixed vertices move with -msim_fix_velocity;
@@ -139,6 +140,37 @@ def gmsh22_nodes(path):
     return np.array([[float(v) for v in line.split()[1:4]] for line in text[2:2 + n]])
 
 
+# cube5.msh with two nodes on no tet (a Gmsh model's points carry such nodes): the reader drops them,
+# the others keep their ids in the file
+DROPPED_MSH = """$MeshFormat
+2.2 0 8
+$EndMeshFormat
+$Nodes
+10
+1 5 5 5
+2 0 0 0
+3 1 0 0
+4 0 1 0
+5 1 1 0
+6 7 7 7
+7 0 0 1
+8 1 0 1
+9 0 1 1
+10 1 1 1
+$EndNodes
+$Elements
+6
+1 15 2 0 1 1
+2 4 2 1 1 2 3 4 7
+3 4 2 1 1 5 4 3 10
+4 4 2 1 1 8 3 7 10
+5 4 2 1 1 9 7 4 10
+6 4 2 1 1 3 4 7 10
+$EndElements
+"""
+DROPPED_USED = [1, 2, 3, 4, 6, 7, 8, 9]  # the nodes the tets name, from 0
+
+
 def off_vertices(path):
     rows = [l.split("#")[0].split() for l in open(path)]
     rows = [r for r in rows if r]
@@ -162,7 +194,7 @@ def series(args, np_, tmp, name, fmt):
     return frames
 
 
-def check_scene(name, args, np_, tmp, p=1.05, fix_velocity=(0.0, 0.0, 0.0), nspring=None, tets=False, file_nodes=None):
+def check_scene(name, args, np_, tmp, p=1.05, fix_velocity=(0.0, 0.0, 0.0), nspring=None, tets=False, file_nodes=None, used=None):
     base = args + ["-msim_output_every", "1", "-msim_fix_velocity", ",".join(str(v) for v in fix_velocity)]
     rest = series(args + ["-msim_steps", "1"], np_, tmp, name + "_rest", "vtu")
     runs = {fmt: series(base + ["-msim_prestretch", str(p)], np_, tmp, name, fmt) for fmt in ("vtu", "hdf5")}
@@ -184,6 +216,8 @@ def check_scene(name, args, np_, tmp, p=1.05, fix_velocity=(0.0, 0.0, 0.0), nspr
         else:
             ok = fid is not None and fid.min() >= 0 and fid.max() < len(file_nodes)
             check(ok and np.abs(file_nodes[fid] - x0).max() < 1e-12, f"{tag}: file_id names the file's node at each vertex's rest position")
+            if used is not None:
+                check(ok and sorted(fid) == used, f"{tag}: file_id lists the file's nodes on cells, {used} (got {None if fid is None else list(fid)})")
         # the springs drawn
         if nspring is not None:
             check(springs is not None and len(springs) == nspring, f"{tag}: {None if springs is None else len(springs)} springs drawn, want {nspring}")
@@ -252,6 +286,10 @@ def main():
             check_scene("cloth", cloth, np_, tmp, fix_velocity=(0.0, 0.0, 0.5), nspring=2 * n * (n - 1) + 2 * (n - 1) ** 2 + 2 * n * (n - 2))
             check_scene("box", box, np_, tmp, fix_velocity=(0.1, 0.0, 0.0), tets=True)
             check_scene("cube5.msh", tetfile, np_, tmp, tets=True, file_nodes=gmsh22_nodes(os.path.join(MESHES, "cube5.msh")))
+            dropped = os.path.join(tmp, "dropped.msh")
+            with open(dropped, "w") as f:
+                f.write(DROPPED_MSH)
+            check_scene("dropped.msh", tetfile[:3] + [dropped] + tetfile[4:], np_, tmp, tets=True, file_nodes=gmsh22_nodes(dropped), used=DROPPED_USED)
             check_scene("cube.off", surface, np_, tmp, p=0.98, file_nodes=off_vertices(os.path.join(MESHES, "cube.off")))
             check_inverted(np_, tmp, box)
     sys.exit(check.exit_code())

@@ -82,8 +82,8 @@ PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char
 
   /* the vertices this rank's cells and springs touch, and their ends as indices among them */
   const std::vector<PetscInt> &lines = sys->cell_size ? sys->out_springs : sys->out_cells;
-  std::vector<PetscInt>        touched(sys->out_cells);
-  touched.insert(touched.end(), lines.begin(), lines.end());
+  std::vector<PetscInt>        touched(lines);
+  if (sys->out_cell_size == 4) touched.insert(touched.end(), sys->out_cells.begin(), sys->out_cells.end());
   std::sort(touched.begin(), touched.end());
   touched.erase(std::unique(touched.begin(), touched.end()), touched.end());
   auto local = [&](const std::vector<PetscInt> &ends, std::vector<PetscInt> &loc) {

@@ -10,6 +10,7 @@
 #include <vector>
 #include <cerrno>
 #include <cstdlib>
+#include <cstdint>
 #include <cstring>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -24,7 +25,8 @@ struct _n_MSimOutput {
   /* .vtu: on rank 0, every vertex's flag and file id, the cells drawn (input ids) and their rest
      volumes (tets), a mesh's springs and the rest lengths of the springs drawn */
   std::vector<char>      fixed;
-  std::vector<PetscInt>  cells, file_id, springs;
+  std::vector<PetscInt>  cells, springs;
+  std::vector<int64_t>   file_id; /* as the .vtu stores it */
   std::vector<PetscReal> cell_V0, spring_L;
   char                  made[PETSC_MAX_PATH_LEN] = ""; /* the outermost directory SetUp created */
 };
@@ -103,7 +105,9 @@ PetscErrorCode MSimOutputSetUp(MSimOutput out)
   if (out->hdf5) PetscCall(MSimHDF5SeriesSetUp(&out->h5, out->sys, out->dir));
   else {
     PetscCall(MSimSystemGatherTopology(out->sys, out->fixed, out->cells));
-    PetscCall(MSimSystemGatherFrameTopology(out->sys, out->file_id, out->cell_V0, out->springs, out->spring_L));
+    std::vector<PetscInt> ids;
+    PetscCall(MSimSystemGatherFrameTopology(out->sys, ids, out->cell_V0, out->springs, out->spring_L));
+    out->file_id.assign(ids.begin(), ids.end());
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -175,14 +179,13 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], Pets
     const int                  k = sys->out_cell_size;
     const size_t               ncell = out->cells.size() / k, nspring = out->spring_L.size();
     const bool                 lines = out->springs.empty(); /* the cells are the springs */
-    const std::vector<int64_t> ids(out->file_id.begin(), out->file_id.end());
     std::vector<PetscReal>     strain(nspring), ratio(out->cell_V0.size());
     MSimFrameStrain(nspring, lines ? out->cells.data() : out->springs.data(), out->spring_L.data(), x.data(), strain.data());
     MSimFrameVolumeRatio(ratio.size(), out->cells.data(), out->cell_V0.data(), x.data(), ratio.data());
     const MSimVTUArray point[3] = {
-      {"fixed",    "UInt8",   1, out->fixed.data()},
-      {"file_id",  "Int64",   1, ids.data()       },
-      {"velocity", "Float64", 3, v.data()         }
+      {"fixed",    "UInt8",   1, out->fixed.data()  },
+      {"file_id",  "Int64",   1, out->file_id.data()},
+      {"velocity", "Float64", 3, v.data()           }
     };
     const MSimVTUArray cellstrain = {"strain", "Float64", 1, strain.data()}, cellratio = {"volume_ratio", "Float64", 1, ratio.data()};
     PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s.vtu", out->dir, base));
