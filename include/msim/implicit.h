@@ -117,7 +117,8 @@ struct _n_MSimImplicit {
 };
 
 /* Registries, PETSc style: -msim_integrator lists the schemes (each is an implicit integrator of
-   the same name), -msim_implicit_terms the terms. */
+   the same name), -msim_implicit_terms the terms. A new scheme or term is one file under
+   src/implicit/schemes/ or terms/ and its line in src/implicit/registry.cpp. */
 #define MSIMSCHEMEEULER "implicit_euler"
 #define MSIMTERMSPRINGS "springs"
 #define MSIMTERMDRAG    "drag"
@@ -174,8 +175,3 @@ PetscErrorCode MSimImplicitPDCreateShell(MSimImplicit imp, Mat *J);
 PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp);
 /* imp->pd filled with the PD steps and composed on dm, where the pd SNES type finds them */
 PetscErrorCode MSimImplicitPDCompose(MSimImplicit imp, DM dm);
-
-/* The registered schemes and terms (one file each) */
-PETSC_EXTERN PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme);
-PETSC_EXTERN PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
-PETSC_EXTERN PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);

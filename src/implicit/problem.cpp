@@ -39,10 +39,14 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
 
 PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer)
 {
+  char terms[512] = "";
+
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "implicit problem: scheme %s (beta %g), terms", imp->scheme->type, (double)imp->scheme->beta));
-  for (PetscInt k = 0; k < imp->nterms; k++) PetscCall(PetscViewerASCIIPrintf(viewer, "%s %s", k ? "," : "", imp->terms[k]->type));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "\n"));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    if (k) PetscCall(PetscStrlcat(terms, ", ", sizeof(terms)));
+    PetscCall(PetscStrlcat(terms, imp->terms[k]->type, sizeof(terms)));
+  }
+  PetscCall(PetscViewerASCIIPrintf(viewer, "implicit problem: scheme %s (beta %g), energy terms: %s\n", imp->scheme->type, (double)imp->scheme->beta, terms));
   if (imp->scheme->ops.view) PetscCall(imp->scheme->ops.view(imp->scheme, viewer));
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.view) PetscCall(imp->terms[k]->ops.view(imp->terms[k], viewer));

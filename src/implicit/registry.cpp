@@ -28,7 +28,11 @@ static PetscErrorCode MSimImplicitFinalizePackage(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* One line per scheme and per term. */
+/* One line per scheme and per term: each is a file of schemes/ or terms/. */
+PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme);
+PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
+PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
+
 PetscErrorCode MSimImplicitRegisterAll(void)
 {
   PetscFunctionBeginUser;

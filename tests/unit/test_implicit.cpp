@@ -11,7 +11,10 @@
    - implicit Euler stays bounded at h = 1/30 with k = 10^4 where both explicit Eulers diverge;
    - exact-Hessian Newton survives an indefinite Hessian by the PSD-projected fallback direction;
    - Newton's energy line search takes |g| down to roundoff (PETSc's bt stopped at 1e-7 of |g0|
-     there, where Phi no longer resolves the decrease). */
+     there, where Phi no longer resolves the decrease);
+   - Phi is the sum of its registered terms: leaving out the drag term (-msim_implicit_terms
+     springs) lowers Phi, g and the Hessian by exactly h c/2 |x - x_n|^2, h c (x - x_n) and h c I,
+     computed here from the vectors; an unknown term name is refused. */
 #include "harness.h"
 #include <cstdio>
 #include <vector>
@@ -422,9 +425,94 @@ static PetscErrorCode TestTrustRegionIndefinite(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Phi as a sum of registered terms: the problem without its drag term differs from the full one
+   by the drag's dissipation potential, its gradient and its Hessian, derived here directly. */
+static PetscErrorCode TestTermsSum(void)
+{
+  TestSim        s;
+  MSimImplicit   all, springs, bad = NULL;
+  Mat            Ja, Js;
+  Vec            X1, Ga, Gs, D, Y;
+  PetscReal      h = 0.02, c = 0.05, pa, ps, pd, d2, err, nrm;
+  PetscErrorCode ierr;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate("-msim_cloth_n 6 -msim_perturb 0.02 -msim_prestretch 0.95 -msim_damping 0.7 -msim_drag 0.05 -msim_wind 1,0,0", &s));
+  PetscCall(MSimImplicitCreate(s.sys, &all));
+  PetscCall(PetscOptionsSetValue(NULL, "-msim_implicit_terms", "springs"));
+  PetscCall(MSimImplicitCreate(s.sys, &springs));
+  PetscCall(PetscOptionsSetValue(NULL, "-msim_implicit_terms", "springs,no_such_term"));
+  PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+  ierr = MSimImplicitCreate(s.sys, &bad);
+  PetscCall(PetscPopErrorHandler());
+  CHECK(ierr == PETSC_ERR_ARG_UNKNOWN_TYPE, "an unknown term name gave error %d, not PETSC_ERR_ARG_UNKNOWN_TYPE", (int)ierr);
+  PetscCall(MSimImplicitDestroy(&bad));
+  PetscCall(PetscOptionsClearValue(NULL, "-msim_implicit_terms"));
+  CHECK(all->nterms == 2 && springs->nterms == 1, "terms: %d by default, %d with -msim_implicit_terms springs", (int)all->nterms, (int)springs->nterms);
+  PetscCall(VecSet(s.V, 0.3));
+  PetscCall(MSimImplicitBeginStep(all, 0.1, h, s.X, s.V));
+  PetscCall(MSimImplicitBeginStep(springs, 0.1, h, s.X, s.V));
+  PetscCall(VecDuplicate(s.X, &X1));
+  PetscCall(VecDuplicate(s.X, &Ga));
+  PetscCall(VecDuplicate(s.X, &Gs));
+  PetscCall(VecDuplicate(s.X, &D));
+  PetscCall(VecDuplicate(s.X, &Y));
+  {
+    PetscRandom r;
+    PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &r));
+    PetscCall(PetscRandomSetInterval(r, -0.01, 0.01));
+    PetscCall(VecSetRandom(D, r));
+    PetscCall(PetscRandomDestroy(&r));
+  }
+  PetscCall(VecWAXPY(X1, h, s.V, s.X));
+  PetscCall(VecAXPY(X1, 1.0, D));
+  /* the drag's part, from x_n = s.X: h c/2 |x1 - x_n|^2, h c (x1 - x_n), h c I */
+  PetscCall(VecWAXPY(D, -1.0, s.X, X1));
+  PetscCall(VecNorm(D, NORM_2, &d2));
+  PetscCall(MSimImplicitObjective(all, X1, &pa));
+  PetscCall(MSimImplicitObjective(springs, X1, &ps));
+  pd = 0.5 * h * c * d2 * d2;
+  NOTE("Phi %.15e, without drag %.15e: difference %.15e, h c/2 |x - x_n|^2 = %.15e\n", (double)pa, (double)ps, (double)(pa - ps), (double)pd);
+  CHECK(std::abs((pa - ps) - pd) <= 1e-12 * std::abs(pa), "Phi minus the springs-only Phi is %g, not the drag's %g", (double)(pa - ps), (double)pd);
+  PetscCall(MSimImplicitResidual(all, X1, Ga));
+  PetscCall(MSimImplicitResidual(springs, X1, Gs));
+  PetscCall(VecAXPY(Ga, -1.0, Gs));
+  PetscCall(VecAXPY(Ga, -h * c, D));
+  PetscCall(VecNorm(Ga, NORM_2, &err));
+  PetscCall(VecNorm(Gs, NORM_2, &nrm));
+  CHECK(err <= 1e-12 * nrm, "g minus the springs-only g is off the drag's h c (x - x_n) by %g relative", (double)(err / nrm));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &Ja));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &Js));
+  PetscCall(MSimImplicitJacobian(all, X1, Ja));
+  PetscCall(MSimImplicitJacobian(springs, X1, Js));
+  PetscCall(MatAXPY(Ja, -1.0, Js, SAME_NONZERO_PATTERN));
+  PetscCall(MatShift(Ja, -h * c));
+  PetscCall(MatNorm(Ja, NORM_FROBENIUS, &err));
+  PetscCall(MatNorm(Js, NORM_FROBENIUS, &nrm));
+  CHECK(err <= 1e-12 * nrm, "the Hessian minus the springs-only one is off h c I by %g relative", (double)(err / nrm));
+  /* no term limits the step today */
+  {
+    PetscReal alpha;
+    PetscCall(MSimImplicitMaxStep(all, X1, D, &alpha));
+    CHECK(alpha == 1, "springs and drag limited the line search's step to %g", (double)alpha);
+  }
+  PetscCall(MatDestroy(&Ja));
+  PetscCall(MatDestroy(&Js));
+  PetscCall(VecDestroy(&X1));
+  PetscCall(VecDestroy(&Ga));
+  PetscCall(VecDestroy(&Gs));
+  PetscCall(VecDestroy(&D));
+  PetscCall(VecDestroy(&Y));
+  PetscCall(MSimImplicitDestroy(&all));
+  PetscCall(MSimImplicitDestroy(&springs));
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode TestImplicit(void)
 {
   PetscFunctionBeginUser;
+  PetscCall(TestTermsSum());
   PetscCall(TestNewtonIndefinite());
   PetscCall(TestTrustRegionIndefinite());
   PetscCall(TestNewtonToRoundoff());
