@@ -30,6 +30,8 @@ DIRS = {
     "src": "the library every program and test links (msimcore), one folder per layer",
     "src/app": "the msim program",
     "src/implicit": "the implicit problem: Phi, its gradient and Hessian, PD's local and global steps, inertia correction",
+    "src/implicit/schemes": "time schemes of the implicit problem, one file each: y, beta, the first iterate and the velocity update",
+    "src/implicit/terms": "energy terms of the implicit problem, one file each: energy, gradient, Hessian blocks, PD projection",
     "src/integrators": "the integrator registry and the time loop",
     "src/integrators/impls": "one file per integrator type",
     "src/mesh": "mesh files in, validated, unique edges, TetGen",
@@ -59,7 +61,9 @@ def files():
     except (OSError, subprocess.CalledProcessError):
         names = []
         for d, subdirs, fs in os.walk(ROOT):
-            subdirs[:] = [s for s in subdirs if not (s.startswith(("build", ".git", "out", ".devpkg", "__pycache__")))]
+            # what .gitignore keeps out: build directories, /out/, /.devpkg/, __pycache__
+            subdirs[:] = [s for s in subdirs if not (s.startswith("build") or s in (".git", "__pycache__")
+                                                     or (d == ROOT and s in ("out", ".devpkg")))]
             names += [os.path.relpath(os.path.join(d, f), ROOT) for f in fs if not f.endswith(".tmp")]
     return sorted(n.replace(os.sep, "/") for n in names)
 
