@@ -4,18 +4,15 @@
    matrix A = M + the terms' weights is constant: factor once per h. */
 #include <msim/implicit.h>
 
-PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
+/* A = M + the diagonal terms' weights I + the other terms' PD weights, assembled once */
+static PetscErrorCode PDAssemble(MSimImplicit imp)
 {
   MSimSystem         sys = imp->sys;
   const PetscScalar *m;
   std::vector<PetscInt> dnz, onz;
-  PC                 pc;
   PetscReal          diag = 0; /* the diagonal terms' weights */
 
   PetscFunctionBeginUser;
-  if (imp->A) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
-  PetscCall(MSimImplicitStepUpdate(imp));
   PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
   PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
   PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
@@ -34,7 +31,15 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
+static PetscErrorCode PDDefaultSolver(MSimImplicit imp)
+{
+  MSimSystem sys = imp->sys;
+  PC         pc;
+
+  PetscFunctionBeginUser;
   /* The global step's solver, unless -pd_ksp_type / -pd_pc_type choose one (measured in
      runs/scaling/README.md):
      - msimllt (msim's factor: one sweep for x, y and z together), for cloths, chains and surfaces
@@ -63,6 +68,21 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
       PetscCall(PCSetType(pc, PCGAMG));
     }
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
+{
+  MSimSystem sys = imp->sys;
+  PC         pc;
+
+  PetscFunctionBeginUser;
+  if (imp->A) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
+  PetscCall(MSimImplicitStepUpdate(imp));
+  PetscCall(PDAssemble(imp));
+  PetscCall(PDDefaultSolver(imp));
+  PetscCall(KSPGetPC(imp->pdksp, &pc));
   PetscCall(KSPSetFromOptions(imp->pdksp));
   {
     /* preonly with msimllt: the solve reads the rhs Vec's interleaved x, y, z directly */
