@@ -50,7 +50,6 @@ CORPUS = [
     ("count_overflow.ele", "tet", "count_overflow.node line 2: point count 3000000000 is too large for this build's 32-bit indices"),
     ("count_huge.ele", "tet", "count_huge.node line 2: point count 99999999999999999999999 is too large"),
     ("crlf_short_vertex.off", "tet", "line 5: vertex 1 needs 3 coordinates, found 2"),
-    ("unreferenced.ele", "tet", "unreferenced.node line 11: vertex 8 belongs to no tet"),
     ("repeated_vertex.ele", "tet", "line 4: the tet uses vertex 2 twice"),
     ("open_surface.off", "tet", "line 12: the surface is not closed"),
     ("self_intersecting.off", "tet", "the surface intersects itself"),

@@ -19,6 +19,12 @@ typedef struct _n_MSimSceneData {
   PetscInt               nv = 0;       /* vertices of the whole scene (every rank knows it) */
   std::vector<PetscInt>  vid;          /* vertices made here: input ids ... */
   std::vector<PetscReal> vx;           /* ... and rest positions, 3 each */
+  std::vector<PetscInt>  vfile;        /* ... and their ids in the file (where nv_file > 0) */
+  /* where a file's ids differ from the input ids (it had vertices no cell uses, which are
+     dropped): the ids in the file's numbering in use, its vertices (dropped ones included) and then
+     those msim added (TetGen's new points, refinement's midpoints, numbered on from the file's);
+     0 where the two numberings are the same. Every rank knows it. */
+  PetscInt               nv_file = 0;
   std::vector<PetscInt>  si, sj;       /* springs held here, input ids (each spring on one rank) */
   std::vector<PetscReal> sk, sL;       /* stiffness and rest length */
   int                    cell_size = 0; /* 4 tets, 3 triangles, 0 none */
@@ -48,7 +54,9 @@ typedef struct _n_MSimSceneData {
   std::vector<char>      fixed;        /* fixed flags */
   std::vector<PetscReal> share;        /* each block vertex's share of the cells' volume or area */
   /* each block vertex's id in the file it was read from (the ids users type and frames carry);
-     empty where the two are the same (generated scenes, files with no dropped vertices) */
+     empty where the two are the same (generated scenes, files with no dropped vertices: nv_file
+     0). A vertex msim added has the id nv_file had before it plus its place among the added ones,
+     as its input id does, so ids stay unique and the same at any rank count. */
   std::vector<PetscInt>  file_id;
   /* global figures */
   PetscReal              diameter = 0; /* bounding-box diagonal of the rest state */
@@ -84,7 +92,8 @@ PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k);
 /* Fixed vertices from -msim_fix, -msim_fix_list, -msim_fix_plane, -msim_fix_box. */
 PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s);
 
-/* A mesh read on this rank becomes this rank's vertices and cells (the file's ids). */
+/* A mesh read on this rank becomes this rank's vertices and cells (input ids: the mesh's compact
+   indices; the file's ids, where they differ, in vfile and nv_file). */
 void MSimSceneTakeMesh(MSimMesh *mesh, MSimSceneData *s);
 
 /* The distributed steps (distribute.cpp, refine.cpp). Collective. */
@@ -102,5 +111,5 @@ PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm, MSimSceneData *);
 PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm, MSimSceneData *);
 PETSC_EXTERN PetscErrorCode MSimSceneGenerate_Box(MPI_Comm, MSimSceneData *);
 
-/* -msim_mesh_file and -msim_mesh_scale, shared by the tet and the surface scenes */
-PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set);
+/* -msim_mesh_file, -msim_mesh_format and -msim_mesh_scale, shared by the tet and the surface scenes */
+PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set, char format[], size_t flen);

@@ -1,6 +1,7 @@
 /* A libFuzzer harness for msim's mesh readers: the input is written to a file and read by one
    reader (chosen at compile time by MSIM_FUZZ_FORMAT: 0 OFF, 1 OBJ, 2 STL, 3 TetGen, 4 Gmsh
-   ASCII or binary), then validated as msim validates every mesh (MSimMeshCheck). A reader may
+   ASCII or binary, 5 Medit), then its unused vertices dropped and the rest validated as msim
+   does with every mesh (MSimMeshDropUnused, MSimMeshCheck). A reader may
    refuse an input (an error code: the one-line message users see); it must never crash, read or
    write out of bounds, overflow, or ask for memory the file cannot justify. TetGen's input is a
    .node and an .ele file: the fuzz input holds both, split at the first line "#ele".
@@ -39,7 +40,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
   MSimMesh          m;
   PetscErrorCode    ierr;
-  const char *const ext[] = {"off", "obj", "stl", "node", "msh"};
+  const char *const ext[] = {"off", "obj", "stl", "node", "msh", "mesh"};
   const std::string file  = dir + "/input." + ext[MSIM_FUZZ_FORMAT];
 
 #if MSIM_FUZZ_FORMAT == 3
@@ -59,9 +60,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
   ierr = MSimMeshReadSTL(file.c_str(), &m);
 #elif MSIM_FUZZ_FORMAT == 3
   ierr = MSimMeshReadTetGen(file.c_str(), &m);
-#else
+#elif MSIM_FUZZ_FORMAT == 4
   ierr = MSimMeshReadGmsh(file.c_str(), &m);
+#else
+  ierr = MSimMeshReadMedit(file.c_str(), &m);
 #endif
+  if (!ierr) ierr = MSimMeshDropUnused(&m);
   if (!ierr) (void)MSimMeshCheck(&m);
   return 0;
 }

@@ -12,7 +12,7 @@ set -euo pipefail
 cd "$(dirname "$0")/../.."
 each=${1:-600}
 shift || true
-formats=${*:-off obj stl tetgen gmsh options checkpoint}
+formats=${*:-off obj stl tetgen gmsh medit options checkpoint}
 target() { case $1 in options | checkpoint) echo fuzz_$1 ;; *) echo fuzz_mesh_$1 ;; esac; }
 cmake -S . -B build-fuzz -DCMAKE_C_COMPILER=clang -DCMAKE_CXX_COMPILER=clang++ -DMSIM_FUZZ=ON -DMSIM_SANITIZE=ON \
   -DBUILD_TESTING=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo > /dev/null

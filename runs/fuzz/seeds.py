@@ -12,8 +12,8 @@ import sys
 import tempfile
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-EXT = {"off": ".off", "obj": ".obj", "stl": ".stl", "gmsh": ".msh"}
-FORMATS = ["off", "obj", "stl", "tetgen", "gmsh", "options", "checkpoint"]
+EXT = {"off": ".off", "obj": ".obj", "stl": ".stl", "gmsh": ".msh", "medit": ".mesh"}
+FORMATS = ["off", "obj", "stl", "tetgen", "gmsh", "medit", "options", "checkpoint"]
 # fuzz_checkpoint.cpp's scene_options: the checkpoints must be of that scene
 CHECKPOINT_SCENE = "-msim_scene chain -msim_chain_n 8 -msim_fix edge"
 

@@ -11,7 +11,23 @@ MSimGmshType MSimGmshTypeOf(int64_t t)
   case 6: return {6, 3, "prism"};
   case 7: return {5, 3, "pyramid"};
   case 15: return {1, 0, "point"};
-  default: return {0, 0, ""};
+  /* higher-order elements (Gmsh's element types), named so that the message says why */
+  case 8: return {0, 1, "second-order line (3 nodes)"};
+  case 9: return {0, 2, "second-order triangle (6 nodes)"};
+  case 10: return {0, 2, "second-order quadrangle (9 nodes)"};
+  case 11: return {0, 3, "second-order tetrahedron (10 nodes)"};
+  case 12: return {0, 3, "second-order hexahedron (27 nodes)"};
+  case 13: return {0, 3, "second-order prism (18 nodes)"};
+  case 14: return {0, 3, "second-order pyramid (14 nodes)"};
+  case 16: return {0, 2, "second-order quadrangle (8 nodes)"};
+  case 17: return {0, 3, "second-order hexahedron (20 nodes)"};
+  case 18: return {0, 3, "second-order prism (15 nodes)"};
+  case 19: return {0, 3, "second-order pyramid (13 nodes)"};
+  case 20: return {0, 2, "third-order triangle (9 nodes)"};
+  case 21: return {0, 2, "third-order triangle (10 nodes)"};
+  case 26: return {0, 1, "third-order line (4 nodes)"};
+  case 29: return {0, 3, "third-order tetrahedron (20 nodes)"};
+  default: return {0, 0, NULL};
   }
 }
 
@@ -30,11 +46,12 @@ bool MSimGmshMesh::AddElement(int64_t type, const int64_t *nodes, int64_t where)
   if (g.dim < top_) return true;
   if (g.dim > top_) { /* a higher dimension: what came before were its faces, edges or points */
     top_ = g.dim;
+    types_.clear();
     cells_.clear();
     cwhere_.clear();
   }
-  if (g.dim >= 2 && type != (g.dim == 3 ? 4 : 2)) return false;
-  nper_ = g.nodes;
+  if (type == 7) return false;
+  types_.push_back((int8_t)type);
   cells_.insert(cells_.end(), nodes, nodes + g.nodes);
   cwhere_.push_back(where);
   return true;
@@ -46,32 +63,39 @@ PetscErrorCode MSimGmshMesh::Finish(const char file[], MSimMesh *m)
 
   PetscFunctionBeginUser;
   PetscCheck(top_ >= 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no tets or triangles (elements of dimension %d at most)", file, top_);
-  /* the nodes the kept elements use, in the file's order */
-  const PetscInt        nall = (PetscInt)xwhere_.size();
-  std::vector<PetscInt> to(nall, -1), at(cells_.size());
-  for (size_t k = 0; k < cells_.size(); k++) {
-    auto it = index_.find(cells_[k]);
-    PetscCheck(it != index_.end(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s %s %lld: node %lld is not in $Nodes", file, unit, (long long)cwhere_[k / nper_], (long long)cells_[k]);
-    at[k]          = it->second;
-    to[it->second] = 0;
-  }
-  m->file      = file;
-  m->cell_name = "element";
-  m->nper      = nper_;
-  m->nv        = 0;
-  m->x.clear();
-  m->vline.clear();
-  for (PetscInt v = 0; v < nall; v++)
-    if (!to[v]) {
-      to[v] = m->nv++;
-      m->x.insert(m->x.end(), x_.begin() + 3 * v, x_.begin() + 3 * v + 3);
-      m->vline.push_back(lines_ ? (PetscInt)xwhere_[v] : 0); /* 0: no line to name (mesh.h) */
-    }
-  m->ncell = (PetscInt)cwhere_.size();
-  m->cell.resize(cells_.size());
-  for (size_t k = 0; k < cells_.size(); k++) m->cell[k] = to[at[k]];
-  m->cline.assign(m->ncell, 0);
+  m->file        = file;
+  m->cell_name   = "element";
+  m->vertex_name = "nodes";
+  m->nper        = top_ == 3 ? 4 : 3;
+  /* every node, in the file's order: its id is its place in $Nodes */
+  m->nv = (PetscInt)xwhere_.size();
+  m->x.swap(x_);
+  m->vline.assign(m->nv, 0); /* 0: no line to name (mesh.h) */
   if (lines_)
-    for (PetscInt c = 0; c < m->ncell; c++) m->cline[c] = (PetscInt)cwhere_[c];
+    for (PetscInt v = 0; v < m->nv; v++) m->vline[v] = (PetscInt)xwhere_[v];
+  m->cell.clear();
+  m->cline.clear();
+  size_t k = 0;
+  for (size_t e = 0; e < types_.size(); e++) {
+    const MSimGmshType g     = MSimGmshTypeOf(types_[e]);
+    const PetscInt     where = lines_ ? (PetscInt)cwhere_[e] : 0;
+    PetscInt           id[8];
+    for (int q = 0; q < g.nodes; q++, k++) {
+      auto it = index_.find(cells_[k]);
+      PetscCheck(it != index_.end(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s %s %lld: node %lld is not in $Nodes", file, unit, (long long)cwhere_[e], (long long)cells_[k]);
+      id[q] = it->second;
+    }
+    switch (types_[e]) {
+    case 2:
+    case 4:
+      m->cell.insert(m->cell.end(), id, id + g.nodes);
+      m->cline.push_back(where);
+      break;
+    case 3: MSimMeshAddPolygon(m, id, 4, where); break;
+    case 5: MSimMeshAddHexahedron(m, id, where); break;
+    case 6: MSimMeshAddPrism(m, id, where); break;
+    }
+  }
+  m->ncell = (PetscInt)m->cline.size();
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,20 +1,25 @@
 /* What msim's two Gmsh readers (read_gmsh_ascii.cpp, read_gmsh_binary.cpp) share: Gmsh's element
    types, and the nodes and elements gathered while reading, turned into an MSimMesh at the end.
-   msim keeps the elements of the highest dimension (tets of a volume mesh, triangles of a surface
-   mesh; the edges and points before them are their boundaries) and the nodes those use, in the
-   file's order; tets keep Gmsh's orientation. */
+   msim keeps the elements of the highest dimension (tets, hexahedra and prisms of a volume mesh,
+   triangles and quadrangles of a surface mesh; the edges and points before them are their
+   boundaries), split into tets or triangles (mesh.h's rule), and every node, in the file's order:
+   a node's id is its place in $Nodes, and nodes on no kept element are dropped later
+   (MSimMeshDropUnused) without shifting the others' ids. Tets keep Gmsh's orientation. */
 #pragma once
 #include <msim/mesh.h>
 #include <cstdint>
 #include <unordered_map>
 #include <vector>
 
-/* A Gmsh element type: its nodes and dimension (nodes 0: a type msim does not read) */
+/* A Gmsh element type: its nodes and dimension (nodes 0: a type msim does not read; then name
+   says what it is where msim knows, e.g. "second-order tetrahedron (10 nodes)", for the message) */
 struct MSimGmshType {
   int         nodes, dim;
   const char *name;
 };
 MSimGmshType MSimGmshTypeOf(int64_t type);
+/* The message's end for a type msim does not read: what msim reads instead */
+#define MSIM_GMSH_READS "msim reads first-order elements: tets, hexahedra and prisms (split into tets), triangles and quadrangles, and their edges and points; Gmsh writes them with -order 1"
 
 class MSimGmshMesh {
 public:
@@ -30,11 +35,10 @@ public:
   /* False when the tag was seen before. */
   bool AddNode(int64_t tag, const PetscReal x[3], int64_t where);
   /* An element of a type msim reads (MSimGmshTypeOf(type).nodes > 0) with its node tags. False
-     when it is of the highest dimension so far but neither a tet nor a triangle (msim reads no
-     other cells). */
+     for a pyramid (the one element of the highest dimension msim does not split). */
   bool AddElement(int64_t type, const int64_t *nodes, int64_t where);
-  /* The kept elements and the nodes they use, into m; faults (no tets or triangles, a node not in
-     $Nodes) name the file and the line or byte. */
+  /* The kept elements, split into tets or triangles, and every node, into m; faults (no tets or
+     triangles, a node not in $Nodes) name the file and the line or byte. */
   PetscErrorCode Finish(const char file[], MSimMesh *m);
 
 private:
@@ -43,7 +47,7 @@ private:
   std::vector<PetscReal>                 x_;
   std::vector<int64_t>                   xwhere_;
   int                                    top_ = -1; /* highest element dimension seen */
-  int                                    nper_ = 0;
-  std::vector<int64_t>                   cells_; /* node tags of the elements of dimension top_ */
+  std::vector<int8_t>                    types_; /* the elements of dimension top_: their types ... */
+  std::vector<int64_t>                   cells_; /* ... and node tags */
   std::vector<int64_t>                   cwhere_;
 };

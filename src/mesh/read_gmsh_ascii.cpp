@@ -6,7 +6,9 @@
      4.1: $Nodes: "blocks nodes min max", per block "dim entity parametric n", its n tags, then
           its n coordinate lines "x y z [u v w]"; $Elements: "blocks elements min max", per
           block "dim entity type n", then n lines "tag nodes...".
-   Other sections are skipped; what is kept of the nodes and elements: gmsh_mesh.h. */
+   Other sections are skipped; what is kept of the nodes and elements: gmsh_mesh.h (hexahedra and
+   prisms become tets, quadrangles triangles; pyramids and higher-order elements are refused by
+   name). */
 #include <msim/mesh.h>
 #include "gmsh_mesh.h"
 #include "text_file.h"
@@ -38,10 +40,11 @@ struct Reader {
     int64_t            v[8];
 
     PetscFunctionBeginUser;
-    PetscCheck(g.nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": element type %lld (msim reads linear elements: tets, triangles and their edges and points)", MSIM_AT(tf), (long long)t);
+    PetscCheck(g.nodes || !g.name, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a %s (element type %lld): " MSIM_GMSH_READS, MSIM_AT(tf), g.name, (long long)t);
+    PetscCheck(g.nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": element type %lld: " MSIM_GMSH_READS, MSIM_AT(tf), (long long)t);
     PetscCall(tf.NeedTokens(first + g.nodes, first + g.nodes, "an element (its tag, then as many nodes as its type has)"));
     for (int k = 0; k < g.nodes; k++) PetscCall(tf.Int(first + k, "node", &v[k]));
-    PetscCheck(mesh.AddElement(t, v, tf.line), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a %s (msim reads %s)", MSIM_AT(tf), g.name, g.dim == 3 ? "tets" : "triangles");
+    PetscCheck(mesh.AddElement(t, v, tf.line), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a pyramid (element type 7): msim splits hexahedra and prisms into tets, not pyramids", MSIM_AT(tf));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscErrorCode Nodes(double version)

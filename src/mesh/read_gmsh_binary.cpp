@@ -12,7 +12,8 @@
           dim more when parametric); $Elements: 4 size_t, per block 3 ints (dim, entity, type) and
           size_t n, then n x (1 + the type's nodes) size_t.
    Other sections ($Entities, $PhysicalNames, ...) are skipped to their end line. What is kept:
-   gmsh_mesh.h. */
+   gmsh_mesh.h (hexahedra and prisms become tets, quadrangles triangles; pyramids and higher-order
+   elements are refused by name). */
 #include <msim/mesh.h>
 #include "gmsh_mesh.h"
 #include "text_file.h"
@@ -136,17 +137,16 @@ struct Reader {
   }
   PetscErrorCode Element(int64_t type, const int64_t *v, size_t at)
   {
-    const MSimGmshType g = MSimGmshTypeOf(type);
-
     PetscFunctionBeginUser;
-    PetscCheck(mesh.AddElement(type, v, (int64_t)at), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: a %s (msim reads %s)", in.file, at, g.name, g.dim == 3 ? "tets" : "triangles");
+    PetscCheck(mesh.AddElement(type, v, (int64_t)at), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: a pyramid (element type 7): msim splits hexahedra and prisms into tets, not pyramids", in.file, at);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscErrorCode Type(int64_t type, size_t at, MSimGmshType *g)
   {
     PetscFunctionBeginUser;
     *g = MSimGmshTypeOf(type);
-    PetscCheck(g->nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: element type %lld (msim reads linear elements: tets, triangles and their edges and points)", in.file, at, (long long)type);
+    PetscCheck(g->nodes || !g->name, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: a %s (element type %lld): " MSIM_GMSH_READS, in.file, at, g->name, (long long)type);
+    PetscCheck(g->nodes, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s byte %zu: element type %lld: " MSIM_GMSH_READS, in.file, at, (long long)type);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   /* 2.2's counts are a text line */

@@ -1,19 +1,23 @@
 /* Wavefront OBJ: "v x y z [w]" vertices, "f i j k ..." faces whose corners are "v", "v/vt",
    "v//vn" or "v/vt/vn" with 1-based or negative (relative) vertex ids. Texture coordinates,
-   normals, groups, materials and the other statements of the format are skipped; anything else is
-   an error, so a file that is not OBJ fails on its first line. */
+   normals, groups, materials, lines, points, crease tags (t) and the other statements of the
+   format are skipped, as common OBJ loaders do, with one note that lists them; anything else is an
+   error, so a file that is not OBJ fails on its first line. Vertices no face uses are kept here and
+   dropped by MSimMeshDropUnused, so the ids of the others stay the file's. */
 #include <msim/mesh.h>
 #include "text_file.h"
 #include <charconv>
 #include <cstring>
 
 /* the statements of the OBJ format that carry nothing msim uses */
-static const char *const kSkipped[] = {"vt", "vn", "vp", "l", "p", "g", "o", "s", "usemtl", "mtllib", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp", "end", "con", "mg", "bevel", "c_interp", "d_interp", "lod", "maplib", "usemap", "shadow_obj", "trace_obj", "ctech", "stech", "call", "csh"};
+static const char *const kSkipped[] = {"vt", "vn", "vp", "t", "vw", "l", "p", "g", "o", "s", "usemtl", "mtllib", "cstype", "deg", "bmat", "step", "curv", "curv2", "surf", "parm", "trim", "hole", "scrv", "sp", "end", "con", "mg", "bevel", "c_interp", "d_interp", "lod", "maplib", "usemap", "shadow_obj", "trace_obj", "ctech", "stech", "call", "csh"};
 
 PetscErrorCode MSimMeshReadOBJ(const char file[], MSimMesh *m)
 {
   MSimTextFile          tf;
   std::vector<PetscInt> ids;
+  const size_t          nkinds = sizeof kSkipped / sizeof kSkipped[0];
+  std::vector<PetscInt> skipped(nkinds, 0); /* lines of each skipped statement, for the note */
 
   PetscFunctionBeginUser;
   PetscCall(tf.Load(file));
@@ -49,13 +53,20 @@ PetscErrorCode MSimMeshReadOBJ(const char file[], MSimMesh *m)
       }
       MSimMeshAddPolygon(m, ids.data(), (PetscInt)ids.size(), tf.line);
     } else {
-      bool known = false;
-      for (const char *s : kSkipped) known = known || tf.Is(0, s);
-      PetscCheck(known, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": '%s' is not an OBJ statement", MSIM_AT(tf), tf.Show(0).c_str());
+      size_t kind = 0;
+      while (kind < nkinds && !tf.Is(0, kSkipped[kind])) kind++;
+      if (kind < nkinds) skipped[kind]++;
+      PetscCheck(kind < nkinds, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": '%s' is not an OBJ statement", MSIM_AT(tf), tf.Show(0).c_str());
     }
   }
   m->nv    = (PetscInt)m->vline.size();
   m->ncell = (PetscInt)m->cline.size();
   PetscCheck(m->nv > 0 && m->ncell > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: no %s", file, m->nv ? "faces" : "vertices");
+  {
+    std::string list;
+    for (size_t kind = 0; kind < nkinds; kind++)
+      if (skipped[kind]) list += (list.empty() ? "" : ", ") + std::string(kSkipped[kind]) + " (" + std::to_string(skipped[kind]) + (skipped[kind] == 1 ? " line)" : " lines)");
+    if (!list.empty()) m->notes.push_back(std::string(file) + ": skipped the statements msim has no use for: " + list);
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -64,11 +64,13 @@ static PetscErrorCode ReadBinary(const MSimTextFile &tf, uint32_t n, MSimMesh *m
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Expect(MSimTextFile &tf, const char *word, const char *word2, size_t ntok, const char *what)
+/* the next line: `word` [`word2`] and ntok tokens in all (0: any number); `what` is the line
+   expected, `why` (or "") a reason in parentheses after it */
+static PetscErrorCode Expect(MSimTextFile &tf, const char *word, const char *word2, size_t ntok, const char *what, const char *why = "")
 {
   PetscFunctionBeginUser;
-  PetscCheck(tf.NextLine(0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends inside a facet, expected '%s' (truncated?)", MSIM_AT(tf), what);
-  PetscCheck(tf.Is(0, word) && (!word2 || tf.Is(1, word2)) && (!ntok || tf.tok.size() == ntok), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": expected '%s', found '%s'", MSIM_AT(tf), what, tf.Show(0).c_str());
+  PetscCheck(tf.NextLine(0), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends inside a facet, expected '%s'%s (truncated?)", MSIM_AT(tf), what, why);
+  PetscCheck(tf.Is(0, word) && (!word2 || tf.Is(1, word2)) && (!ntok || tf.tok.size() == ntok), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": expected '%s'%s, found '%s'", MSIM_AT(tf), what, why, tf.Show(0).c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -96,7 +98,7 @@ static PetscErrorCode ReadASCII(MSimTextFile &tf, uint32_t n, MSimMesh *m)
       for (int c = 0; c < 3; c++) PetscCall(tf.Real(c + 1, "coordinate", &p[c]));
       m->cell.push_back(w.Add(m, p, tf.line));
     }
-    PetscCall(Expect(tf, "endloop", NULL, 1, "endloop (STL facets are triangles)"));
+    PetscCall(Expect(tf, "endloop", NULL, 1, "endloop", " (STL facets are triangles)"));
     PetscCall(Expect(tf, "endfacet", NULL, 1, "endfacet"));
     m->cline.push_back(line);
   }

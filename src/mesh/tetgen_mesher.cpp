@@ -110,6 +110,16 @@ PetscErrorCode MSimMeshTetrahedralize(const MSimMesh *surf, const char switches[
   tets->cell.assign(out.tetrahedronlist, out.tetrahedronlist + 4 * (size_t)out.numberoftetrahedra);
   tets->vline.assign(tets->nv, 0);
   tets->cline.assign(tets->ncell, 0);
+  tets->notes = surf->notes;
+  /* TetGen keeps the surface's vertices first, in their order (switch p), and adds its own after
+     them: these keep their file ids, the new ones are numbered on from the file's */
+  for (PetscInt v = 0; v < surf->nv; v++)
+    for (int c = 0; c < 3; c++) PetscCheck(v < tets->nv && tets->x[3 * v + c] == surf->x[3 * v + c], PETSC_COMM_SELF, PETSC_ERR_LIB, "%s: TetGen moved or renumbered the surface's vertex %" PetscInt_FMT " (-msim_tetgen_switches %s): msim needs the surface's vertices kept in order", surf->file.c_str(), MSimMeshFileId(surf, v), switches);
+  tets->nv_file = surf->nv_file + (tets->nv - surf->nv);
+  if (!surf->file_id.empty()) {
+    tets->file_id = surf->file_id;
+    for (PetscInt v = surf->nv; v < tets->nv; v++) tets->file_id.push_back(surf->nv_file + (v - surf->nv));
+  }
 #endif
   PetscCall(PetscLogEventEnd(MSIM_TetGen, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -102,6 +102,18 @@ static int ParseToken(const MSimToken &t, T *v)
   return r.ec == std::errc() && r.ptr == e ? 0 : 1;
 }
 
+bool MSimTextFile::IsInt(size_t k) const
+{
+  int64_t v;
+  return k < tok.size() && ParseToken(tok[k], &v) == 0;
+}
+
+bool MSimTextFile::IsReal(size_t k) const
+{
+  PetscReal v;
+  return k < tok.size() && ParseToken(tok[k], &v) == 0;
+}
+
 PetscErrorCode MSimTextFile::Int(size_t k, const char what[], int64_t *v) const
 {
   PetscFunctionBeginUser;

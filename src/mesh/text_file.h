@@ -34,6 +34,10 @@ public:
   PetscErrorCode Int(size_t k, const char what[], int64_t *v) const;
   PetscErrorCode Real(size_t k, const char what[], PetscReal *v) const;
   PetscErrorCode Count(size_t k, const char what[], PetscInt *n) const;
+  /* Whether token k is an integer, a real (without raising an error: for telling one kind of
+     line from another) */
+  bool IsInt(size_t k) const;
+  bool IsReal(size_t k) const;
   /* What to reserve for n records of at least min_bytes each: no more than the rest of the file
      can hold, so a corrupt count never allocates gigabytes (the reader then finds the file short
      and says so). */

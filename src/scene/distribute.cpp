@@ -7,6 +7,7 @@
 namespace {
 struct VertexRecord {
   PetscInt  id;
+  PetscInt  fid; /* id in the file (where the scene has file ids; in what would be padding) */
   PetscReal x[3];
 };
 struct CellRecord {
@@ -43,22 +44,28 @@ PetscErrorCode MSimSceneToDirectory(MPI_Comm comm, MSimSceneData *s)
   for (size_t k = 0; k < s->vid.size(); k++) {
     PetscCheck(s->vid[k] >= 0 && s->vid[k] < s->nv, PETSC_COMM_SELF, PETSC_ERR_PLIB, "the %s scene made vertex %" PetscInt_FMT " outside [0, %" PetscInt_FMT ")", s->name.c_str(), s->vid[k], s->nv);
     dest[k] = s->dir.Owner(s->vid[k]);
-    send[k].id = s->vid[k];
+    send[k].id  = s->vid[k];
+    send[k].fid = s->nv_file > 0 ? s->vfile[k] : s->vid[k];
     for (int c = 0; c < 3; c++) send[k].x[c] = s->vx[3 * k + c];
   }
   s->vid.clear();
   s->vid.shrink_to_fit();
   s->vx.clear();
   s->vx.shrink_to_fit();
+  s->vfile.clear();
+  s->vfile.shrink_to_fit();
   PetscCall(MSimExchange(comm, dest, std::move(send), recv));
   send.clear();
   send.shrink_to_fit();
   const PetscInt start = s->dir.Start(rank), count = s->dir.Count(rank);
   std::vector<char> seen(count, 0);
   s->x0.assign(3 * (size_t)count, 0.0);
+  if (s->nv_file > 0) s->file_id.assign(count, -1);
+  else s->file_id.clear();
   for (const VertexRecord &r : recv) {
     PetscCheck(!seen[r.id - start], PETSC_COMM_SELF, PETSC_ERR_PLIB, "the %s scene made vertex %" PetscInt_FMT " twice", s->name.c_str(), r.id);
     seen[r.id - start] = 1;
+    if (s->nv_file > 0) s->file_id[r.id - start] = r.fid;
     for (int c = 0; c < 3; c++) s->x0[3 * (size_t)(r.id - start) + c] = r.x[c];
   }
   PetscCheck((PetscInt)recv.size() == count, PETSC_COMM_SELF, PETSC_ERR_PLIB, "the %s scene left %" PetscInt_FMT " vertices of rank %d's block unmade", s->name.c_str(), count - (PetscInt)recv.size(), rank);

@@ -1,9 +1,33 @@
 /* Fixed vertices, set where each vertex has its directory. -msim_fix corners|edge mean what the grid
    or chain defines; meshes pick theirs by a plane (the vertices within -msim_fix_plane_tol of the
-   scene's extreme in one direction), a box, or a list of ids. Plane, box and list add to each
-   other; set alone, plane or box replace the default corners. */
+   scene's extreme in one direction), a box, or a list of ids (a file's own ids: its order from 0,
+   whatever vertices msim dropped, scene.h's file_id). Plane, box and list add to each other; set
+   alone, plane or box replace the default corners. */
 #include <msim/scene.h>
 #include <algorithm>
+
+/* -msim_fix_list where the file's ids differ from the input ids (the file had vertices no cell
+   uses): each rank fixes the vertices of its block whose file ids are listed; an id no rank has
+   names a dropped vertex, an error that says so */
+static PetscErrorCode FixFileIds(MPI_Comm comm, MSimSceneData *s, const std::vector<PetscInt> &list)
+{
+  std::vector<PetscInt> sorted(list), found(list.size(), 0);
+
+  PetscFunctionBeginUser;
+  for (PetscInt f : list) PetscCheck(f >= 0 && f < s->nv_file, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: vertex %" PetscInt_FMT " is out of range [0, %" PetscInt_FMT "] (the ids of %s)", f, s->nv_file - 1, s->source.c_str());
+  std::sort(sorted.begin(), sorted.end());
+  /* found[q]: whether some rank holds the vertex sorted[q] (each vertex is in one block only) */
+  for (size_t v = 0; v < s->file_id.size(); v++) {
+    auto at = std::lower_bound(sorted.begin(), sorted.end(), s->file_id[v]);
+    for (; at != sorted.end() && *at == s->file_id[v]; ++at) {
+      s->fixed[v]                  = 1;
+      found[at - sorted.begin()] = 1;
+    }
+  }
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, found.data(), (PetscMPIInt)found.size(), MPIU_INT, MPI_SUM, comm));
+  for (size_t q = 0; q < sorted.size(); q++) PetscCheck(found[q], comm, PETSC_ERR_ARG_WRONG, "-msim_fix_list: vertex %" PetscInt_FMT " of %s belongs to no %s and was dropped when the file was read (ids are the file's order from 0; fix one on the mesh)", sorted[q], s->source.c_str(), s->cell_size == 4 ? "tet" : "triangle");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s)
 {
@@ -21,17 +45,18 @@ PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s)
   const PetscInt start = s->dir.Start(rank), count = s->dir.Count(rank);
   {
     /* room for a list of every vertex, up to 2^20 ids: beyond that a plane or a box says it */
-    const PetscInt room = PetscMax(PetscMin(s->nv, 1 << 20), 1);
+    const PetscInt nids = s->nv_file > 0 ? s->nv_file : s->nv;
+    const PetscInt room = PetscMax(PetscMin(nids, 1 << 20), 1);
     PetscInt       nlist = room;
     list.resize(nlist);
     PetscOptionsBegin(comm, NULL, "msim fixed vertices", NULL);
     PetscCall(PetscOptionsEList("-msim_fix", "Fixed vertices: corners, edge (grids and chains), none, list", NULL, fixes, 4, fixes[ifix], &ifix, &fix_set));
-    PetscCall(MSimOptionsIntArray("-msim_fix_list", "Fixed vertex ids (input order, from 0)", NULL, list.data(), &nlist, &list_set));
+    PetscCall(MSimOptionsIntArray("-msim_fix_list", "Fixed vertex ids from 0: a mesh file's own order, whatever vertices msim drops", NULL, list.data(), &nlist, &list_set));
     PetscCall(PetscOptionsEList("-msim_fix_plane", "Fix the vertices on the scene's extreme plane in one direction", NULL, planes, 6, planes[0], &iplane, &plane_set));
-    PetscCall(MSimOptionsReal("-msim_fix_plane_tol", "Distance from the plane within which -msim_fix_plane fixes vertices, m (default 1e-6 of the scene's diameter)", NULL, tol, &tol, NULL));
+    PetscCall(MSimOptionsReal("-msim_fix_plane_tol", "Distance from the plane within which -msim_fix_plane fixes vertices, m (default 1e-6 of the scene's bounding-box diagonal)", NULL, tol, &tol, NULL));
     PetscCall(MSimOptionsRealArray("-msim_fix_box", "Fix the vertices in the box x0,x1,y0,y1,z0,z1 (m, bounds included)", NULL, box, &nbox, &box_set));
     PetscOptionsEnd();
-    PetscCheck(!list_set || nlist < room || room == s->nv, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: at most %" PetscInt_FMT " ids (fix large sets with -msim_fix_plane or -msim_fix_box)", room - 1);
+    PetscCheck(!list_set || nlist < room || room == nids, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: at most %" PetscInt_FMT " ids (fix large sets with -msim_fix_plane or -msim_fix_box)", room - 1);
     list.resize(list_set ? nlist : 0);
   }
   if (!fix_set && (plane_set || box_set)) ifix = 2;
@@ -44,10 +69,12 @@ PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s)
     for (PetscInt v : ifix == 0 ? s->corners : s->edge) mark(v);
   }
   PetscCheck(ifix != 3 || list_set, comm, PETSC_ERR_ARG_WRONG, "-msim_fix list needs -msim_fix_list i,j,...");
-  for (PetscInt v : list) {
-    PetscCheck(v >= 0 && v < s->nv, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: vertex %" PetscInt_FMT " is out of range [0, %" PetscInt_FMT "]", v, s->nv - 1);
-    mark(v);
-  }
+  if (s->nv_file > 0) PetscCall(FixFileIds(comm, s, list));
+  else
+    for (PetscInt v : list) {
+      PetscCheck(v >= 0 && v < s->nv, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_list: vertex %" PetscInt_FMT " is out of range [0, %" PetscInt_FMT "]", v, s->nv - 1);
+      mark(v);
+    }
   if (plane_set) {
     const int axis = (int)iplane / 2;
     PetscReal ext  = iplane % 2 ? -PETSC_MAX_REAL : PETSC_MAX_REAL;

@@ -136,6 +136,11 @@ PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s)
       s->vid[count + k] = s->nv + offset + (PetscInt)k;
       for (int c = 0; c < 3; c++) s->vx[3 * (count + k) + c] = made[k].mid[c];
     }
+    if (s->nv_file > 0) { /* file ids: the new vertices numbered on from the file's, as their input ids are */
+      s->vfile.assign(s->file_id.begin(), s->file_id.end());
+      for (size_t k = 0; k < made.size(); k++) s->vfile.push_back(s->nv_file + offset + (PetscInt)k);
+      s->nv_file += total;
+    }
     s->x0.clear();
     s->x0.shrink_to_fit();
     s->nv += total;

@@ -84,7 +84,7 @@ static PetscErrorCode MSimSceneView(MPI_Comm comm, const MSimSceneData *s)
   if (s->cell_size) PetscCall(PetscPrintf(comm, "%" PetscInt_FMT " %s, ", s->ncell, s->cell_size == 4 ? "tets" : "triangles"));
   PetscCall(PetscPrintf(comm, "%" PetscInt_FMT " springs\n", s->nspring));
   if (s->cell_size) PetscCall(PetscPrintf(comm, "  %s %.15g m^%d\n", s->cell_size == 4 ? "volume" : "area", (double)s->measure, s->cell_size == 4 ? 3 : 2));
-  PetscCall(PetscPrintf(comm, "  mass %.15g kg; stiffness %.6g to %.6g N/m; rest length %.6g to %.6g m; diameter %.6g m\n", (double)sum[0], (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)s->diameter));
+  PetscCall(PetscPrintf(comm, "  mass %.15g kg; stiffness %.6g to %.6g N/m; rest length %.6g to %.6g m; bounding-box diagonal %.6g m\n", (double)sum[0], (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)s->diameter));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

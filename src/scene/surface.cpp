@@ -5,27 +5,28 @@
 
 PetscErrorCode MSimSceneShareHeader(MPI_Comm comm, MSimSceneData *s);
 
-static PetscErrorCode ReadSurface(const char file[], PetscReal scale, MSimSceneData *s)
+static PetscErrorCode ReadSurface(const char file[], const char format[], PetscReal scale, MSimSceneData *s)
 {
   MSimMesh m;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimMeshReadFile(file, 3, &m));
+  PetscCall(MSimMeshReadFileAs(file, format, 3, &m));
   MSimMeshScale(&m, scale);
   PetscCall(MSimMeshCheck(&m));
+  PetscCall(MSimMeshPrintNotes(&m));
   MSimSceneTakeMesh(&m, s);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
 {
-  char      file[PETSC_MAX_PATH_LEN] = "", springs[64] = "edge";
+  char      file[PETSC_MAX_PATH_LEN] = "", springs[64] = "edge", format[64] = "auto";
   PetscReal scale = 1, kedge = 1000, kbend = 1000;
   PetscBool set, bending = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim mesh scene (a surface: springs on triangle edges)", NULL);
-  PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set));
+  PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set, format, sizeof(format)));
   PetscCall(PetscOptionsString("-msim_springs", "Spring families of a surface: edge, or edge,bending", NULL, springs, springs, sizeof(springs), NULL));
   PetscCall(MSimSceneGetStiffness("edge", &kedge));
   PetscCall(MSimSceneGetStiffness("bending", &kbend));
@@ -34,17 +35,25 @@ PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   {
+    /* Young's modulus sets the springs of solids; a shell's are -msim_stiffness_edge. Read here,
+       so that it is not reported as misspelled, and said to be irrelevant instead. */
+    PetscReal young;
+    PetscBool young_set;
+    PetscCall(PetscOptionsGetReal(NULL, NULL, "-msim_young", &young, &young_set));
+    if (young_set) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msim: note: -msim_young does not apply to -msim_scene mesh (a surface's springs take -msim_stiffness_edge, N/m); it sets the springs of the solid scenes tet and box\n"));
+  }
+  {
     PetscBool edge_only, both;
     PetscCall(PetscStrcmp(springs, "edge", &edge_only));
     PetscCall(PetscStrcmp(springs, "edge,bending", &both));
     PetscCheck(edge_only || both, comm, PETSC_ERR_ARG_WRONG, "-msim_springs %s: a surface has the families edge and edge,bending", springs);
     bending = both;
   }
-  PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene mesh needs -msim_mesh_file F (a surface .off/.obj/.stl, or a Gmsh .msh of triangles)");
+  PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene mesh needs -msim_mesh_file F (a surface .off/.obj/.stl, or a Gmsh .msh or Medit .mesh of triangles)");
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
   s->k_cell = kedge;
   s->k_bend = bending ? kbend : 0.0;
-  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadSurface(file, scale, s); }));
+  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadSurface(file, format, scale, s); }));
   PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,12 +1,17 @@
 /* Tetrahedral solid from a file: a closed surface (.off, .obj, .stl) tetrahedralized by TetGen, a
-   TetGen .node/.ele pair, or a Gmsh .msh. Read, checked and meshed on rank 0, which holds the
-   vertices and tets until the scene spreads them; springs come from the unique tet edges. */
+   TetGen .node/.ele pair, a Gmsh .msh (hexahedra and prisms split into tets) or a Medit .mesh.
+   Read, checked and meshed on rank 0, which holds the vertices and tets until the scene spreads
+   them; springs come from the unique tet edges. */
 #include <msim/scene.h>
 
-PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set)
+PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set, char format[], size_t flen)
 {
+  PetscFunctionList readers;
+
   PetscFunctionBeginUser;
-  PetscCall(PetscOptionsString("-msim_mesh_file", "Mesh file: .off .obj .stl (surfaces), TetGen .node/.ele, Gmsh .msh", NULL, file, file, len, set));
+  PetscCall(PetscOptionsString("-msim_mesh_file", "Mesh file: .off .obj .stl (surfaces), TetGen .node/.ele, Gmsh .msh, Medit .mesh", NULL, file, file, len, set));
+  PetscCall(MSimMeshReaderList(&readers));
+  PetscCall(PetscOptionsFList("-msim_mesh_format", "Mesh file format (auto: by the file's extension)", NULL, readers, format, format, flen, NULL));
   PetscCall(MSimOptionsReal("-msim_mesh_scale", "Multiply the mesh's coordinates by this (e.g. 0.001 for a file in mm), before TetGen", NULL, *scale, scale, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -17,19 +22,23 @@ void MSimSceneTakeMesh(MSimMesh *m, MSimSceneData *s)
   s->vid.resize(m->nv);
   for (PetscInt v = 0; v < m->nv; v++) s->vid[v] = v;
   s->vx.swap(m->x);
+  /* the file's ids, where they differ from the input ids (vertices were dropped) */
+  s->nv_file = m->file_id.empty() ? 0 : m->nv_file;
+  s->vfile.swap(m->file_id);
   s->cell_size = m->nper;
   s->cells.swap(m->cell);
   s->source = m->file;
   *m        = MSimMesh();
 }
 
-/* Rank 0's nv and source, for every rank */
+/* Rank 0's nv, nv_file and source, for every rank */
 PetscErrorCode MSimSceneShareHeader(MPI_Comm comm, MSimSceneData *s)
 {
   int len = (int)s->source.size();
 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Bcast(&s->nv, 1, MPIU_INT, 0, comm));
+  PetscCallMPI(MPI_Bcast(&s->nv_file, 1, MPIU_INT, 0, comm));
   PetscCallMPI(MPI_Bcast(&s->cell_size, 1, MPI_INT, 0, comm));
   PetscCallMPI(MPI_Bcast(&len, 1, MPI_INT, 0, comm));
   s->source.resize(len);
@@ -37,12 +46,12 @@ PetscErrorCode MSimSceneShareHeader(MPI_Comm comm, MSimSceneData *s)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode ReadTets(const char file[], const char switches[], PetscReal scale, MSimSceneData *s)
+static PetscErrorCode ReadTets(const char file[], const char format[], const char switches[], PetscReal scale, MSimSceneData *s)
 {
   MSimMesh m;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimMeshReadFile(file, 4, &m));
+  PetscCall(MSimMeshReadFileAs(file, format, 4, &m));
   MSimMeshScale(&m, scale);
   if (m.nper == 3) {
     MSimMesh tets;
@@ -52,30 +61,31 @@ static PetscErrorCode ReadTets(const char file[], const char switches[], PetscRe
     m = std::move(tets);
   }
   PetscCall(MSimMeshCheck(&m));
+  PetscCall(MSimMeshPrintNotes(&m));
   MSimSceneTakeMesh(&m, s);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
 {
-  char      file[PETSC_MAX_PATH_LEN] = "", switches[256] = "pq1.414Y";
+  char      file[PETSC_MAX_PATH_LEN] = "", switches[256] = "pq1.414Y", format[64] = "auto";
   PetscReal scale = 1, young = 0, k = 1000;
   PetscBool set;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim tet scene (a solid: springs on tet edges)", NULL);
-  PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set));
+  PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set, format, sizeof(format)));
   PetscCall(PetscOptionsString("-msim_tetgen_switches", "TetGen switches for a surface (p: keep the surface, q1.414: radius-edge ratio bound, Y: no new vertices on the surface, a0.1: tet volume bound)", NULL, switches, switches, sizeof(switches), NULL));
   PetscCall(MSimOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, or Gmsh .msh)");
+  PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, Gmsh .msh, or Medit .mesh)");
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
   PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
   PetscCall(MSimSceneGetStiffness(NULL, &k));
   s->k_cell = k;
   s->young  = young;
-  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, switches, scale, s); }));
+  PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, format, switches, scale, s); }));
   PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -8,9 +8,19 @@
    - springs from Young's modulus: under the uniform dilation x -> (1 + eps) x the springs store
      sum_e k_e (eps L_e)^2 / 2 = E eps^2 sum_e V_e / 2 = 3 E eps^2 V (every tet has 6 edges, V_e
      sums the volumes of the tets around edge e), for the box, the 5-tet cube and the Gmsh beam;
-   - masses by density add up to rho V. */
+   - masses by density add up to rho V;
+   - hexahedra and prisms split into tets (a Gmsh file written here: a sheared grid whose nodes are
+     listed in a shuffled order, so the split's rule on node ids meets every case): every tet
+     positive, their volumes add up to det(A) times the grid's, every triangle face is shared by
+     two tets or lies on the grid's boundary (a conforming split: neighbouring cells cut their
+     common quadrangle alike), and the boundary triangles' area adds up to the sheared box's. */
 #include "harness.h"
 #include <msim/scene.h>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <random>
 #include <vector>
 
 static const char *kScenes[][2] = {
@@ -145,9 +155,118 @@ static PetscErrorCode TestDilation(int which)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A grid of n[0] x n[1] x n[2] cells on the unit box, mapped by x -> A x, as a Gmsh 2.2 file of
+   hexahedra (prisms: each cell's xy square cut in two, the diagonal alternating), nodes listed in
+   a shuffled order under shuffled tags; then the split checked as the comment at the top says. */
+static PetscErrorCode TestSplit(bool prisms)
+{
+  const int       n[3] = {3, 4, 2};
+  const PetscReal A[3][3] = {{1.0, 0.3, 0.0}, {0.0, 0.8, 0.2}, {0.1, 0.0, 1.5}};
+  const PetscReal detA = A[0][0] * (A[1][1] * A[2][2] - A[1][2] * A[2][1]) - A[0][1] * (A[1][0] * A[2][2] - A[1][2] * A[2][0]) + A[0][2] * (A[1][0] * A[2][1] - A[1][1] * A[2][0]);
+  auto            node = [&](int i, int j, int k) { return (i * (n[1] + 1) + j) * (n[2] + 1) + k; };
+  const int       nn = (n[0] + 1) * (n[1] + 1) * (n[2] + 1);
+  std::vector<int> order(nn), tag(nn);
+  std::mt19937     rng(prisms ? 7 : 3);
+  PetscMPIInt      rank;
+  char             path[PETSC_MAX_PATH_LEN];
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  for (int v = 0; v < nn; v++) order[v] = tag[v] = v;
+  std::shuffle(order.begin(), order.end(), rng); /* order[q]: the grid node written q-th */
+  std::shuffle(tag.begin(), tag.end(), rng);
+  PetscCall(PetscSNPrintf(path, sizeof path, "/tmp/msim_test_split_%d_%d.msh", (int)getpid(), (int)rank));
+  FILE *f = fopen(path, "w");
+  PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
+  fprintf(f, "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n%d\n", nn);
+  for (int q = 0; q < nn; q++) {
+    const int v = order[q], i = v / ((n[1] + 1) * (n[2] + 1)), j = (v / (n[2] + 1)) % (n[1] + 1), k = v % (n[2] + 1);
+    const PetscReal p[3] = {(PetscReal)i / n[0], (PetscReal)j / n[1], (PetscReal)k / n[2]};
+    fprintf(f, "%d %.17g %.17g %.17g\n", tag[v] + 1, A[0][0] * p[0] + A[0][1] * p[1] + A[0][2] * p[2], A[1][0] * p[0] + A[1][1] * p[1] + A[1][2] * p[2], A[2][0] * p[0] + A[2][1] * p[1] + A[2][2] * p[2]);
+  }
+  std::vector<std::vector<int>> cells;
+  for (int i = 0; i < n[0]; i++)
+    for (int j = 0; j < n[1]; j++)
+      for (int k = 0; k < n[2]; k++) {
+        const int c[8] = {node(i, j, k), node(i + 1, j, k), node(i + 1, j + 1, k), node(i, j + 1, k), node(i, j, k + 1), node(i + 1, j, k + 1), node(i + 1, j + 1, k + 1), node(i, j + 1, k + 1)};
+        if (!prisms) cells.push_back({5, c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]});
+        else if ((i + j) % 2) {
+          cells.push_back({6, c[0], c[1], c[2], c[4], c[5], c[6]});
+          cells.push_back({6, c[0], c[2], c[3], c[4], c[6], c[7]});
+        } else {
+          cells.push_back({6, c[0], c[1], c[3], c[4], c[5], c[7]});
+          cells.push_back({6, c[1], c[2], c[3], c[5], c[6], c[7]});
+        }
+      }
+  fprintf(f, "$EndNodes\n$Elements\n%zu\n", cells.size());
+  for (size_t e = 0; e < cells.size(); e++) {
+    fprintf(f, "%zu %d 2 1 1", e + 1, cells[e][0]);
+    for (size_t q = 1; q < cells[e].size(); q++) fprintf(f, " %d", tag[cells[e][q]] + 1);
+    fprintf(f, "\n");
+  }
+  fprintf(f, "$EndElements\n");
+  fclose(f);
+
+  MSimMesh m;
+  PetscCall(MSimMeshReadFile(path, 4, &m));
+  PetscCall(MSimMeshCheck(&m)); /* every tet positive, none flat */
+  unlink(path);
+  PetscReal                                vol = 0, area = 0;
+  std::map<std::array<PetscInt, 3>, int> faces;
+  for (PetscInt t = 0; t < m.ncell; t++) {
+    const PetscInt *c = &m.cell[4 * t];
+    vol += MSimTetVolume(&m.x[3 * c[0]], &m.x[3 * c[1]], &m.x[3 * c[2]], &m.x[3 * c[3]]);
+    for (int o = 0; o < 4; o++) {
+      std::array<PetscInt, 3> tri = {c[(o + 1) % 4], c[(o + 2) % 4], c[(o + 3) % 4]};
+      std::sort(tri.begin(), tri.end());
+      faces[tri]++;
+    }
+  }
+  /* a face seen once must lie on the boundary: its corners on one face of the unit box (in the
+     grid's coordinates, found back from the file's order) */
+  std::vector<std::array<int, 3>> ijk(nn);
+  for (int q = 0; q < nn; q++) {
+    const int v = order[q];
+    ijk[q]      = {v / ((n[1] + 1) * (n[2] + 1)), (v / (n[2] + 1)) % (n[1] + 1), v % (n[2] + 1)};
+  }
+  PetscInt over = 0, inner = 0;
+  for (const auto &fc : faces) {
+    over += fc.second > 2;
+    if (fc.second != 1) continue;
+    bool on = false;
+    for (int d = 0; d < 3; d++)
+      for (int side : {0, n[d]}) {
+        bool all = true;
+        for (PetscInt v : fc.first) all = all && ijk[MSimMeshFileId(&m, v)][d] == side;
+        on = on || all;
+      }
+    inner += !on;
+    area += MSimTriangleArea(&m.x[3 * fc.first[0]], &m.x[3 * fc.first[1]], &m.x[3 * fc.first[2]]);
+  }
+  /* the sheared box's surface: |A e_a x A e_b| for each pair of axes, twice */
+  PetscReal want_area = 0;
+  for (int a = 0; a < 3; a++) {
+    const int       b = (a + 1) % 3;
+    const PetscReal u[3] = {A[0][a], A[1][a], A[2][a]}, w[3] = {A[0][b], A[1][b], A[2][b]};
+    const PetscReal cr[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+    want_area += 2 * std::sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]);
+  }
+  const char *what = prisms ? "prisms" : "hexahedra";
+  const int   per  = prisms ? 2 * 3 : 6; /* tets per grid cell */
+  CHECK(m.ncell == per * n[0] * n[1] * n[2], "%s: %" PetscInt_FMT " tets, want %d", what, m.ncell, per * n[0] * n[1] * n[2]);
+  CHECK(m.nv == nn && m.file_id.empty(), "%s: every node kept (%" PetscInt_FMT " of %d)", what, m.nv, nn);
+  CHECK(PetscAbsReal(vol - detA) < 1e-13, "%s: tets add up to %.15g, want det(A) = %.15g", what, (double)vol, (double)detA);
+  CHECK(over == 0 && inner == 0, "%s: %" PetscInt_FMT " faces in more than two tets, %" PetscInt_FMT " inside the grid in only one (a non-conforming split)", what, over, inner);
+  CHECK(PetscAbsReal(area - want_area) < 1e-12, "%s: boundary triangles add up to %.15g, want %.15g", what, (double)area, (double)want_area);
+  NOTE("%s split: %" PetscInt_FMT " tets, volume %.15g (det A %.15g), boundary area %.15g (%.15g)\n", what, m.ncell, (double)vol, (double)detA, (double)area, (double)want_area);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Main(void)
 {
   PetscFunctionBeginUser;
+  PetscCall(TestSplit(false));
+  PetscCall(TestSplit(true));
   PetscCall(TestBoxGeometry());
   PetscCall(TestBoxDirect());
   for (int k = 0; k < 3; k++) {
