@@ -102,8 +102,12 @@ def sections(text):
             head = title if title.lower().startswith("msim") else (sub or title)
         if not out or out[-1][0] != head:
             out.append((head, []))
-        if not any(e[0] == entry[0] for e in out[-1][1]):
+        same = [k for k, e in enumerate(out[-1][1]) if e[0] == entry[0]]
+        if not same:
             out[-1][1].append(entry)
+        elif out[-1][1][same[0]][3] == "viewer" and entry[3] != "viewer":
+            # a viewer's own description (PetscOptionsViewer's "-NAME <>: text") after its forms
+            out[-1][1][same[0]] = (entry[0], "", entry[2], "viewer")
     return out
 
 

@@ -41,7 +41,7 @@ PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
   PetscFunctionBeginUser;
   *out = NULL;
   PetscOptionsBegin(sys->comm, NULL, "msim output", NULL);
-  PetscCall(PetscOptionsString("-msim_output", "Directory for the ParaView series (.vtu frames + series.pvd)", NULL, dir, dir, sizeof(dir), &set));
+  PetscCall(PetscOptionsString("-msim_output", "Directory for the ParaView series: frames of positions, velocity, file_id, spring strain and tet volume ratio", NULL, dir, dir, sizeof(dir), &set));
   PetscCall(MSimOptionsInt("-msim_output_every", "Write a frame every k steps", NULL, every, &every, NULL));
   format = 0;
   PetscCall(PetscOptionsEList("-msim_output_format", "Series format: vtu (rank 0 writes .vtu + .pvd), hdf5 (all ranks write HDF5 + XDMF), auto (vtu up to 10^6 vertices)", NULL, formats, 3, formats[0], &format, NULL));
