@@ -6,9 +6,9 @@
    of the springs drawn) and for tets "/volume_ratio" (one per cell). DIR/series.xdmf lists them
    for ParaView (XDMF 3, a temporal collection; a mesh's frame is a spatial collection of two
    grids, its cells and its springs, on the same points). Each rank computes the fields of its
-   own cells and springs from the positions of the vertices they touch. Each file is written under a temporary name and renamed once closed, and
-   series.xdmf is rewritten whole after each frame: a killed run leaves no truncated file and a
-   collection of exactly the frames on disk. */
+   own cells and springs from the positions of the vertices they touch. Each file is written
+   under a temporary name and renamed once closed, and series.xdmf is rewritten whole after each
+   frame: a killed run leaves no truncated file and a collection of exactly the frames on disk. */
 #include "hdf5_series.h"
 #include "frame_fields.h"
 #include <petscviewerhdf5.h>
