@@ -10,7 +10,9 @@ against a reader written here, independently of msim's:
 - OBJ (loose vertices, quadrangles, vt, t, o, usemtl, mtllib lines) and Medit (written by Gmsh).
 Also: a mixed tet and prism file (Gmsh's tutorial t3) reads; the OBJ note lists the statements
 skipped; the tet meshes are conforming (every triangle in at most two tets, and V - E + F - T
-equals the number of pieces, each a ball, for the two-piece t2).
+equals the number of pieces, each a ball, for the two-piece t2); the messages of issue 36 (a
+pyramid, a second-order tet, a .node without its header, a quadrangle in an STL facet, a Medit id
+out of range, Medit hexahedra; -msim_scene_view's bounding-box diagonal; -msim_young on a shell).
 Usage: mesh_corpus.py path/to/msim [--np N]"""
 import os
 import re
@@ -219,6 +221,34 @@ def main():
                 r = mt.run(msim, ["-msim_scene", "tet", "-msim_mesh_file", path, "-msim_steps", "1"], np)
                 errors = mt.lines(r.stderr)
                 check(r.returncode and len(errors) == 1 and message in errors[0], f"np={np}: one error '{message}', got {errors}")
+        # messages: each one line, at every rank count
+        cube = "0 0 0 0\n1 1 0 0\n2 0 1 0\n3 1 1 0\n4 0 0 1\n5 1 0 1\n6 0 1 1\n7 1 1 1\n"
+        tets = "5 4 0\n0 0 1 2 4\n1 3 2 1 7\n2 5 1 4 7\n3 6 4 2 7\n4 1 2 4 7\n"
+        open(os.path.join(tmp, "noheader.node"), "w").write(cube)
+        open(os.path.join(tmp, "noheader.ele"), "w").write(tets)
+        # the issue's case: real coordinates where the header's dimension should be
+        open(os.path.join(tmp, "noheader_real.node"), "w").write("".join(f"{l.split()[0]} {float(l.split()[1]) - 0.31} {l.split()[2]} {l.split()[3]}\n" for l in cube.splitlines()))
+        open(os.path.join(tmp, "noheader_real.ele"), "w").write(tets)
+        stl = "solid q\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 1 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid q\n"
+        open(os.path.join(tmp, "quad.stl"), "w").write(stl)
+        medit_bad = "MeshVersionFormatted 1\nDimension 3\nVertices\n4\n0 0 0 0\n1 0 0 0\n0 1 0 0\n0 0 1 0\nTetrahedra\n1\n1 2 3 5 0\nEnd\n"
+        open(os.path.join(tmp, "bad.mesh"), "w").write(medit_bad)
+        open(os.path.join(tmp, "hex.mesh"), "w").write("MeshVersionFormatted 1\nDimension 3\nVertices\n0\nHexahedra\n0\nEnd\n")
+        for path, scene, message in ((os.path.join(tmp, "noheader.ele"), "tet", "noheader.node line 1: the header line is missing"),
+                                     (os.path.join(tmp, "noheader_real.ele"), "tet", "noheader_real.node line 1: the header line is missing"),
+                                     (os.path.join(tmp, "quad.stl"), "mesh", "quad.stl line 7: expected 'endloop' (STL facets are triangles), found 'vertex'"),
+                                     (os.path.join(tmp, "bad.mesh"), "tet", "bad.mesh line 11: the tet names vertex 5, outside [1, 4]"),
+                                     (os.path.join(tmp, "hex.mesh"), "tet", "hex.mesh line 5: Medit Hexahedra: msim reads Medit's Tetrahedra")):
+            for np in mt.ranks():
+                r = mt.run(msim, ["-msim_scene", scene, "-msim_mesh_file", path, "-msim_steps", "1"], np)
+                errors = mt.lines(r.stderr)
+                check(r.returncode and len(errors) == 1 and message in errors[0], f"np={np}: one error '{message}', got {errors}")
+        for np in mt.ranks():
+            got, r = scene_view(msim, ["-msim_scene", "mesh", "-msim_mesh_file", os.path.join(CORPUS, "gmsh_quad_box_surface.msh"), "-msim_young", "1e5"], np)
+            err = mt.lines(r.stderr)
+            check("bounding-box diagonal 0.374166 m" in r.stdout and "diameter" not in r.stdout, f"np={np}: -msim_scene_view names the bounding-box diagonal (of the 0.3 x 0.2 x 0.1 box, 0.374166)")
+            check(any("note: -msim_young does not apply to -msim_scene mesh" in l for l in err) and not any("never used" in l for l in err),
+                  f"np={np}: -msim_young on a shell is a note that it does not apply, not an unused option: {err}")
     sys.exit(check.exit_code())
 
 

@@ -30,8 +30,9 @@ static PetscErrorCode ReadNodes(const char file[], MSimMesh *m, int64_t *base)
   PetscCall(tf.Load(file));
   PetscCheck(tf.NextLine('#'), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: empty file", file);
   {
-    /* a point line "id x y z ..." where the header should be: its second value is a coordinate */
-    const bool header = tf.tok.size() >= 2 && tf.tok.size() <= 4 && tf.IsInt(1);
+    /* a point line "id x y z ..." where the header should be: its second value is a coordinate,
+       not the dimension 3 (a header of 4 values has 3 there) */
+    const bool header = tf.tok.size() >= 2 && tf.tok.size() <= 4 && tf.IsInt(1) && (tf.tok.size() < 4 || tf.Is(1, "3"));
     PetscCheck(header || !(tf.tok.size() >= 4 && tf.IsReal(1)), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the header line is missing: a .node file starts with '<points> 3 <attributes> <boundary markers>', and this line looks like a point (id x y z)", MSIM_AT(tf));
   }
   PetscCall(tf.NeedTokens(2, 4, "the header (points, dimension, attributes, boundary markers)"));
@@ -40,7 +41,7 @@ static PetscErrorCode ReadNodes(const char file[], MSimMesh *m, int64_t *base)
   nattr = nmark = 0;
   if (tf.tok.size() > 2) PetscCall(tf.Int(2, "attribute count", &nattr));
   if (tf.tok.size() > 3) PetscCall(tf.Int(3, "boundary marker flag", &nmark));
-  PetscCheck(dim == 3, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": dimension %lld (msim reads 3-D meshes)%s", MSIM_AT(tf), (long long)dim, tf.tok.size() == 4 ? "; or is the header line missing?" : "");
+  PetscCheck(dim == 3, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": dimension %lld (msim reads 3-D meshes)", MSIM_AT(tf), (long long)dim);
   PetscCheck(nattr >= 0 && nattr <= 1000, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": attribute count %lld is not in [0, 1000]", MSIM_AT(tf), (long long)nattr);
   PetscCheck(nmark == 0 || nmark == 1, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the boundary marker flag is %lld (0 or 1)", MSIM_AT(tf), (long long)nmark);
   PetscCheck(nv > 0, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": no points", MSIM_AT(tf));
