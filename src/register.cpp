@@ -1,16 +1,16 @@
-/* Package initialization: log events, registries, msim's SNES type, the one-line error handler
-   (errors.cpp). */
-#include <msim/sys.h>
+/* Package initialization: the one place that includes every layer, so that each registers its
+   types here (scenes, partitioners, integrators, solvers) and none of util, scene or springs
+   needs to know the others. Also the process settings made with it: log events, one BLAS thread,
+   the one-line error handler (errors.cpp). */
+#include <msim/init.h>
+#include <msim/log.h>
+#include <msim/errors.h>
 #include <msim/scene.h>
+#include <msim/partition.h>
 #include <msim/integrator.h>
 #include <msim/solvers.h>
 #include <dlfcn.h>
 #include <cstdlib>
-
-PetscClassId  MSIM_CLASSID;
-PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor, MSIM_LLTSweep;
-PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
-PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, MSIM_StageRefine, MSIM_StageSetup, MSIM_StageStep;
 
 /* OpenBLAS's threads fight the MPI ranks for the cores and make PETSc's small BLAS-1 calls slow
    (a 30k-entry VecAXPY took 1.5 ms with two threads on two cores): one thread per rank unless
@@ -30,37 +30,13 @@ PetscErrorCode MSimInitialize(void)
 
   PetscFunctionBeginUser;
   MSimSingleThreadedBLAS();
+  /* before any options block, so its errors are one line too; listed for -help by main */
   PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_traceback", &trace, NULL));
   if (!trace) PetscCall(PetscPushErrorHandler(MSimErrorHandler, NULL));
   msim_handler_pushed = (PetscBool)!trace;
-  /* the default log keeps event counts; msim reads them (MSimFactorizationCount), -log_view prints them */
-  PetscCall(PetscLogDefaultBegin());
-  PetscCall(PetscClassIdRegister("msim", &MSIM_CLASSID));
-  PetscCall(PetscLogEventRegister("MSimSetup", MSIM_CLASSID, &MSIM_Setup));
-  PetscCall(PetscLogEventRegister("MSimForce", MSIM_CLASSID, &MSIM_Force));
-  PetscCall(PetscLogEventRegister("MSimEnergy", MSIM_CLASSID, &MSIM_Energy));
-  PetscCall(PetscLogEventRegister("MSimStep", MSIM_CLASSID, &MSIM_Step));
-  PetscCall(PetscLogEventRegister("MSimOutput", MSIM_CLASSID, &MSIM_Output));
-  PetscCall(PetscLogEventRegister("MSimResidual", MSIM_CLASSID, &MSIM_Residual));
-  PetscCall(PetscLogEventRegister("MSimJacobian", MSIM_CLASSID, &MSIM_Jacobian));
-  PetscCall(PetscLogEventRegister("MSimPDSetUp", MSIM_CLASSID, &MSIM_PDSetUp));
-  PetscCall(PetscLogEventRegister("MSimPDLocal", MSIM_CLASSID, &MSIM_PDLocal));
-  PetscCall(PetscLogEventRegister("MSimPDGlobal", MSIM_CLASSID, &MSIM_PDGlobal));
-  PetscCall(PetscLogEventRegister("MSimSpectrum", MSIM_CLASSID, &MSIM_Spectrum));
-  PetscCall(PetscLogEventRegister("MSimLLTFactor", MSIM_CLASSID, &MSIM_LLTFactor));
-  PetscCall(PetscLogEventRegister("MSimLLTSweep", MSIM_CLASSID, &MSIM_LLTSweep));
-  PetscCall(PetscLogEventRegister("MSimMeshRead", MSIM_CLASSID, &MSIM_MeshRead));
-  PetscCall(PetscLogEventRegister("MSimMeshCheck", MSIM_CLASSID, &MSIM_MeshCheck));
-  PetscCall(PetscLogEventRegister("MSimMeshEdges", MSIM_CLASSID, &MSIM_MeshEdges));
-  PetscCall(PetscLogEventRegister("MSimTetGen", MSIM_CLASSID, &MSIM_TetGen));
-  /* -log_view's stages: where setup goes at scale, apart from stepping */
-  PetscCall(PetscLogStageRegister("Read", &MSIM_StageRead));
-  PetscCall(PetscLogStageRegister("Partition", &MSIM_StagePartition));
-  PetscCall(PetscLogStageRegister("Distribution", &MSIM_StageDistribute));
-  PetscCall(PetscLogStageRegister("Refinement", &MSIM_StageRefine));
-  PetscCall(PetscLogStageRegister("Setup", &MSIM_StageSetup));
-  PetscCall(PetscLogStageRegister("Stepping", &MSIM_StageStep));
+  PetscCall(MSimLogRegister());
   PetscCall(MSimSceneRegisterAll());
+  PetscCall(MSimPartitionerRegisterAll());
   PetscCall(MSimIntegratorRegisterAll());
   PetscCall(MSimSolversRegisterAll());
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -73,23 +49,7 @@ PetscErrorCode MSimFinalize(void)
   if (msim_handler_pushed) PetscCall(PetscPopErrorHandler());
   msim_handler_pushed = PETSC_FALSE;
   PetscCall(MSimSceneFinalizePackage());
+  PetscCall(MSimPartitionerFinalizePackage());
   PetscCall(MSimIntegratorFinalizePackage());
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimFactorizationCount(PetscInt *count)
-{
-  PetscLogEvent      ev;
-  PetscEventPerfInfo info;
-
-  PetscFunctionBeginUser;
-  *count = 0;
-  /* a factor PC (PETSc's Cholesky/LU or msimllt) factors exactly when it sets up: PCSetUp returns
-     before logging when the operator is unchanged */
-  for (const char *name : {"PCSetUp"}) {
-    PetscCall(PetscLogEventGetId(name, &ev));
-    PetscCall(PetscLogEventGetPerfInfo(0, ev, &info));
-    *count += info.count;
-  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -61,9 +61,6 @@ PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec 
 PetscErrorCode MSimIntegratorView(MSimIntegrator integ, PetscViewer viewer);
 PetscErrorCode MSimIntegratorDestroy(MSimIntegrator *integ);
 
-/* a = M^-1 F (pointwise) */
-PetscErrorCode MSimSystemAcceleration(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A);
-
 PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_ExplicitEuler(MSimIntegrator);
 PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_SymplecticEuler(MSimIntegrator);
 PETSC_EXTERN PetscErrorCode MSimIntegratorCreate_RK4(MSimIntegrator);

@@ -6,7 +6,8 @@
    springs from its cells' unique edges, and sets fixed vertices and masses there. No rank holds
    more than its part (but rank 0 holding a file it read). MSimSystemCreate partitions it. */
 #pragma once
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
+#include <msim/options.h>
 #include <msim/mesh.h>
 #include <msim/exchange.h>
 #include <vector>
@@ -15,6 +16,10 @@
 enum MSimSpringFamily { MSIM_STRUCTURAL = 0, MSIM_SHEAR = 1, MSIM_BENDING = 2, MSIM_EDGE = 3 };
 
 typedef struct _n_MSimSceneData {
+  /* read by MSimSceneCreateFromOptions before the generator runs: -msim_stiffness, the spring
+     constant of every spring a generator makes unless one of its families overrides it
+     (MSimSceneOptionsFamilyStiffness); the default here is the one default of every scene */
+  PetscReal              stiffness = 1000.0;
   /* made by the generator on this rank */
   PetscInt               nv = 0;       /* vertices of the whole scene (every rank knows it) */
   std::vector<PetscInt>  vid;          /* vertices made here: input ids ... */
@@ -62,6 +67,10 @@ typedef struct _n_MSimSceneData {
   PetscReal              diameter = 0; /* bounding-box diagonal of the rest state */
   PetscReal              measure = 0;  /* total volume or area of the cells */
   PetscInt               nspring = 0, ncell = 0;
+  /* the options that define the scene: those the user set that its creation (the scene's own
+     block, the generator, fixed vertices, the mesh readers) read, one "-name value" line each,
+     sorted; a checkpoint stores them and a restart compares them */
+  std::string            identity;
 } MSimSceneData;
 
 typedef struct _n_MSimScene *MSimScene;
@@ -86,8 +95,10 @@ PetscErrorCode MSimSceneDestroy(MSimScene *scene);
 PetscReal      MSimSceneHash(PetscInt v, PetscInt c);
 
 /* Helpers for generators */
-void           MSimSceneAddSpring(MSimSceneData *s, PetscInt i, PetscInt j, PetscReal k);
-PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k);
+/* -msim_stiffness_<family>, inside the generator's options block: the family's spring constant, N/m
+   (s->stiffness where not set); errors name the option */
+PetscErrorCode MSimSceneOptionsFamilyStiffness_Private(PetscOptionItems *PetscOptionsObject, const MSimSceneData *s, const char family[], const char help[], PetscReal *k);
+#define MSimSceneOptionsFamilyStiffness(s, family, help, k) MSimSceneOptionsFamilyStiffness_Private(PetscOptionsObject, s, family, help, k)
 
 /* Fixed vertices from -msim_fix, -msim_fix_list, -msim_fix_plane, -msim_fix_box. */
 PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s);

@@ -94,9 +94,11 @@ struct _n_MSimSystem {
   int                   cell_size;     /* 4 tets, 3 triangles, 0 none */
   PetscInt              nspring_total; /* every spring of the scene, those between fixed vertices too */
   std::string           scene_name;
+  std::string           scene_identity; /* the options that defined the scene (MSimSceneData::identity) */
 };
 
-/* Collective. Reads the physics options (-msim_gravity, wind, drag, damping, -msim_partition).
+/* Collective. Reads the physics options (-msim_gravity, wind, drag, damping; the partitioner reads
+   -msim_partition).
    Takes the scene's springs (its spring lists are empty afterwards: one system per scene; at scale
    they are the largest part of setup's memory). */
 PetscErrorCode MSimSystemCreate(MPI_Comm comm, MSimScene scene, MSimSystem *sys);
@@ -126,6 +128,8 @@ PetscErrorCode MSimSystemBoundary(MSimSystem sys, PetscReal t, PetscReal *b); /*
 /* F = f_springs(x) + f_damping(x, v) + m g + drag (wind - v). V may be NULL when damping and drag
    are zero. */
 PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec F);
+/* a = M^-1 F (pointwise) */
+PetscErrorCode MSimSystemAcceleration(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A);
 /* Spring energy + gravity potential of the free vertices; kinetic energy of V (may be NULL). */
 PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V, PetscReal *kinetic, PetscReal *potential);
 /* F += the sweep of msim/spring_sweep.h over every owned spring (c = k (alpha + beta L/l) along

@@ -1,4 +1,6 @@
 /* msim: mass-spring simulation on PETSc. Creates the objects from options, runs, destroys. */
+#include <msim/init.h>
+#include <msim/options.h>
 #include <msim/run.h>
 #include <msim/spectrum.h>
 #include <slepcsys.h>

@@ -2,14 +2,14 @@
    stepping loop carries (free positions and velocities in input vertex order, so that any rank
    count can read them; the step, time, step size, the initial energy the divergence check
    compares with) with a format version and what identifies the scene (its vertex and moving-spring
-   counts and the options that define it), through PETSc's binary viewer, collectively, to F.tmp
-   renamed to F once closed: a killed run leaves its previous checkpoint whole. -msim_restart F
+   counts and the options that define it, which the scene records where it reads them), through
+   PETSc's binary viewer, collectively, to F.tmp renamed to F once closed: a killed run leaves its previous checkpoint whole. -msim_restart F
    continues from one. The integrators carry nothing else from step to step (the accelerated
    solvers' histories start afresh each step), so a restarted run repeats the uninterrupted one
    bit for bit at the same rank count. */
 #include <msim/output.h>
-#include <msim/mesh.h>
-#include <algorithm>
+#include <msim/options.h>
+#include <msim/log.h>
 #include <sstream>
 #include <string>
 #include <sys/stat.h>
@@ -26,42 +26,6 @@ struct _n_MSimCheckpoint {
   std::string ident;
 };
 
-/* The options that define the scene, one "-name value" line each, sorted: a checkpoint of another
-   scene differs in one of them (or in its counts). */
-static PetscErrorCode SceneIdentity(std::string &ident)
-{
-  char                    *all = NULL;
-  std::vector<std::string> lines;
-  std::stringstream        ss;
-  std::string              tok, name;
-  const char              *defining[] = {"msim_scene", "msim_cloth_", "msim_chain_", "msim_mesh_", "msim_box_", "msim_tetgen_", "msim_refine", "msim_stiffness", "msim_young", "msim_mass", "msim_density", "msim_fix", "msim_springs", "msim_prestretch", "msim_perturb"};
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscOptionsGetAll(NULL, &all));
-  ss << all;
-  PetscCall(PetscFree(all));
-  auto flush = [&](const std::string &value) {
-    for (const char *d : defining)
-      if (!name.compare(1, strlen(d), d)) {
-        lines.push_back(name + (value.empty() ? "" : " " + value));
-        break;
-      }
-    name.clear();
-  };
-  while (ss >> tok) {
-    const bool is_name = tok.size() > 1 && tok[0] == '-' && !isdigit((unsigned char)tok[1]) && tok[1] != '.';
-    if (is_name) {
-      if (!name.empty()) flush("");
-      name = tok;
-    } else if (!name.empty()) flush(tok);
-  }
-  if (!name.empty()) flush("");
-  std::sort(lines.begin(), lines.end());
-  ident.clear();
-  for (const std::string &l : lines) ident += l + "\n";
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
 {
   PetscBool set;
@@ -77,7 +41,8 @@ PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
   PetscOptionsEnd();
   PetscCheck((*ck)->every >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_checkpoint_every must be >= 1 (got %" PetscInt_FMT ")", (*ck)->every);
   PetscCheck(!set || (*ck)->path[0], sys->comm, PETSC_ERR_ARG_WRONG, "-msim_checkpoint_every needs -msim_checkpoint F");
-  PetscCall(SceneIdentity((*ck)->ident));
+  /* the options that define the scene, from where the scene read them */
+  (*ck)->ident = sys->scene_identity;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -107,7 +107,7 @@ static void BoxSprings(MSimSceneData *s, const PetscInt n[3], const PetscReal si
 PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
 {
   PetscInt    n[3] = {4, 4, 4}, nn = 3, nl = 3;
-  PetscReal   size[3] = {1, 1, 1}, young = 0, k = 1000;
+  PetscReal   size[3] = {1, 1, 1}, young = 0;
   PetscBool   nset, lset;
   PetscMPIInt rank, nranks;
   PetscInt    way = 0;
@@ -129,7 +129,6 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
   }
   PetscCheck((double)(n[0] + 1) * (n[1] + 1) * (n[2] + 1) < PETSC_MAX_INT / 4 && 6.0 * n[0] * n[1] * n[2] < PETSC_MAX_INT / 4, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_box_n %" PetscInt_FMT ",%" PetscInt_FMT ",%" PetscInt_FMT ": too many tets for this build's %d-bit indices", n[0], n[1], n[2], (int)(8 * sizeof(PetscInt)));
   PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
-  PetscCall(MSimSceneGetStiffness(NULL, &k));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &nranks));
 
@@ -146,7 +145,7 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
      a large box's setup memory) */
   const PetscBool store = (PetscBool)(s->cells_wanted || way != 0);
   if (store) s->cells.reserve(24 * (size_t)(last - first));
-  s->k_cell    = k;
+  s->k_cell    = s->stiffness;
   s->young     = young;
   s->source    = "box";
   for (PetscInt v = first; v < last; v++) {
@@ -169,6 +168,6 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
       s->cells.insert(s->cells.end(), t, t + 4);
     }
   }
-  if (way == 0) BoxSprings(s, n, size, first, last, k, young);
+  if (way == 0) BoxSprings(s, n, size, first, last, s->stiffness, young);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

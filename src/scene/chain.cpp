@@ -7,7 +7,7 @@
 PetscErrorCode MSimSceneGenerate_Chain(MPI_Comm comm, MSimSceneData *s)
 {
   PetscInt    N = 10;
-  PetscReal   length = 1.0, k = 1000.0;
+  PetscReal   length = 1.0;
   PetscMPIInt rank, size;
 
   PetscFunctionBeginUser;
@@ -18,7 +18,6 @@ PetscErrorCode MSimSceneGenerate_Chain(MPI_Comm comm, MSimSceneData *s)
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(N >= 2, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_chain_n must be >= 2 (got %" PetscInt_FMT ")", N);
   PetscCheck(length > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_chain_length must be > 0 m (got %g)", (double)length);
-  PetscCall(MSimSceneGetStiffness(NULL, &k));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &size));
   MSimBlockLayout block;
@@ -30,7 +29,7 @@ PetscErrorCode MSimSceneGenerate_Chain(MPI_Comm comm, MSimSceneData *s)
     if (i + 1 < N) {
       s->si.push_back(i);
       s->sj.push_back(i + 1);
-      s->sk.push_back(k);
+      s->sk.push_back(s->stiffness);
       s->sL.push_back(length / (N - 1));
     }
   }

@@ -8,7 +8,7 @@
 PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm comm, MSimSceneData *s)
 {
   PetscInt    N = 20;
-  PetscReal   size = 1.0, kst, ksh, kbe;
+  PetscReal   size = 1.0, kst, ksh, kbe; /* the families' stiffness: the scene's unless overridden */
   char        springs[256] = "structural,shear,bending";
   PetscBool   structural = PETSC_FALSE, shear = PETSC_FALSE, bending = PETSC_FALSE;
   PetscMPIInt rank, nranks;
@@ -18,13 +18,9 @@ PetscErrorCode MSimSceneGenerate_Cloth(MPI_Comm comm, MSimSceneData *s)
   PetscCall(MSimOptionsInt("-msim_cloth_n", "Vertices per side of the cloth", NULL, N, &N, NULL));
   PetscCall(MSimOptionsReal("-msim_cloth_size", "Side length of the cloth, m", NULL, size, &size, NULL));
   PetscCall(PetscOptionsString("-msim_springs", "Spring families: any of structural,shear,bending", NULL, springs, springs, sizeof(springs), NULL));
-  kst = ksh = kbe = 1000.0;
-  PetscCall(MSimSceneGetStiffness("structural", &kst));
-  PetscCall(MSimSceneGetStiffness("shear", &ksh));
-  PetscCall(MSimSceneGetStiffness("bending", &kbe));
-  PetscCall(MSimOptionsReal("-msim_stiffness_structural", "Stiffness of structural springs, N/m", NULL, kst, &kst, NULL));
-  PetscCall(MSimOptionsReal("-msim_stiffness_shear", "Stiffness of shear springs, N/m", NULL, ksh, &ksh, NULL));
-  PetscCall(MSimOptionsReal("-msim_stiffness_bending", "Stiffness of bending springs, N/m", NULL, kbe, &kbe, NULL));
+  PetscCall(MSimSceneOptionsFamilyStiffness(s, "structural", "Stiffness of structural springs, N/m", &kst));
+  PetscCall(MSimSceneOptionsFamilyStiffness(s, "shear", "Stiffness of shear springs, N/m", &ksh));
+  PetscCall(MSimSceneOptionsFamilyStiffness(s, "bending", "Stiffness of bending springs, N/m", &kbe));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(N >= 2, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_cloth_n must be >= 2 (got %" PetscInt_FMT ")", N);

@@ -1,6 +1,7 @@
 /* Scene registry, the options every scene shares (stiffness, mass; fixed vertices: fix.cpp), and the
    order of the distributed steps after a generator ran. */
 #include <msim/scene.h>
+#include <msim/log.h>
 #include <memory>
 #include <cmath>
 #include <algorithm>
@@ -37,25 +38,16 @@ PetscErrorCode MSimSceneFinalizePackage(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* -msim_stiffness k, overridden per family by -msim_stiffness_<family>. Read inside the caller's
-   options block so -help lists them with the scene. */
-PetscErrorCode MSimSceneGetStiffness(const char family[], PetscReal *k)
+PetscErrorCode MSimSceneOptionsFamilyStiffness_Private(PetscOptionItems *PetscOptionsObject, const MSimSceneData *s, const char family[], const char help[], PetscReal *k)
 {
   char      name[64];
-  PetscReal kf;
   PetscBool set;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscOptionsGetReal(NULL, NULL, "-msim_stiffness", k, NULL));
-  PetscCheck(*k > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)*k);
-  if (family) {
-    PetscCall(PetscSNPrintf(name, sizeof(name), "-msim_stiffness_%s", family));
-    PetscCall(PetscOptionsGetReal(NULL, NULL, name, &kf, &set));
-    if (set) {
-      PetscCheck(kf > 0, PETSC_COMM_WORLD, PETSC_ERR_ARG_OUTOFRANGE, "%s must be > 0 N/m (got %g)", name, (double)kf);
-      *k = kf;
-    }
-  }
+  PetscCall(PetscSNPrintf(name, sizeof(name), "-msim_stiffness_%s", family));
+  *k = s->stiffness; /* PETSc leaves the value alone where the option is not set */
+  PetscCall(MSimOptionsReal_Private(PetscOptionsObject, name, help, NULL, s->stiffness, k, &set));
+  PetscCheck(!set || *k > 0, PetscOptionsObject->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s must be > 0 N/m (got %g)", name, (double)*k);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -93,31 +85,38 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   MSimScene          sc;
   char               type[64] = "cloth";
   MSimSceneGenerator gen;
-  PetscReal          mass = 1.0, density = 0, k = 1000.0;
-  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set, keep_cells = PETSC_FALSE;
+  PetscReal          mass = 1.0, density = 0;
+  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set, keep_cells = PETSC_FALSE, drawn;
   PetscInt           refine = 0;
+  MSimOptionsWatch   watch;
 
   PetscFunctionBeginUser;
   PetscCall(MSimSceneRegisterAll());
   std::unique_ptr<_n_MSimScene> owner(new _n_MSimScene()); /* freed if the scene is refused */
   sc = owner.get();
+  MSimSceneData &S = sc->data;
   sc->fix_velocity[0] = sc->fix_velocity[1] = sc->fix_velocity[2] = 0.0;
   sc->prestretch = 1.0;
   sc->perturb    = 0.0;
+  PetscCall(MSimSceneCellsDrawn(&drawn));
   PetscOptionsBegin(comm, NULL, "msim scene", NULL);
+  /* what is printed and kept of the scene, not what the scene is: read before the watch */
+  PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
+  PetscCall(PetscOptionsBool("-msim_scene_keep_cells", "Keep the scene's cells when nothing draws or refines them (for code that reads them)", NULL, keep_cells, &keep_cells, NULL));
+  /* from here to MSimOptionsWatchEnd every option the user set that is read defines the scene
+     (S.identity): whoever reads it, the scene, its generator, fixed vertices or a mesh reader */
+  PetscCall(MSimOptionsWatchBegin(&watch));
   PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimSceneList, type, type, sizeof(type), NULL));
-  PetscCall(MSimOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, k, &k, NULL));
+  PetscCall(MSimOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, S.stiffness, &S.stiffness, NULL));
   PetscCall(MSimOptionsReal("-msim_mass", "Total mass, kg, lumped to the vertices: equally on grids and chains, by volume or area on meshes", NULL, mass, &mass, &mass_set));
   PetscCall(MSimOptionsReal("-msim_density", "Mass per volume (tets, kg/m^3) or per area (surfaces, kg/m^2), instead of -msim_mass", NULL, density, &density, &density_set));
   PetscCall(MSimOptionsVec3("-msim_fix_velocity", "Velocity of the fixed vertices (moving handles), m/s", sc->fix_velocity, NULL));
   PetscCall(MSimOptionsReal("-msim_prestretch", "Initial positions = prestretch * rest positions", NULL, sc->prestretch, &sc->prestretch, NULL));
   PetscCall(MSimOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
-  PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
   PetscCall(MSimOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
-  PetscCall(PetscOptionsBool("-msim_scene_keep_cells", "Keep the scene's cells when nothing draws or refines them (for code that reads them)", NULL, keep_cells, &keep_cells, NULL));
   PetscOptionsEnd();
   PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
-  PetscCheck(k > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)k);
+  PetscCheck(S.stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)S.stiffness);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
   PetscCheck(!density_set || density > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_density must be > 0 (got %g)", (double)density);
   PetscCheck(!(mass_set && density_set), comm, PETSC_ERR_ARG_WRONG, "-msim_mass and -msim_density both set: give the total mass or the density, not both");
@@ -126,15 +125,11 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
 
   PetscCall(PetscFunctionListFind(MSimSceneList, type, &gen));
   PetscCheck(gen, comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_scene %s is not a known scene", type);
-  sc->data.name = type;
-  {
-    PetscBool drawn;
-    PetscCall(MSimSceneCellsDrawn(&drawn));
-    sc->data.cells_wanted = (PetscBool)(drawn || refine > 0 || keep_cells);
-  }
+  S.name         = type;
+  S.cells_wanted = (PetscBool)(drawn || refine > 0 || keep_cells);
   /* the Read stage holds reading a file or generating the scene's blocks */
   PetscCall(PetscLogStagePush(MSIM_StageRead));
-  PetscCall((*gen)(comm, &sc->data));
+  PetscCall((*gen)(comm, &S));
   PetscCall(PetscLogStagePop());
 
   /* -help lists every scene's options, not only the chosen one's: the other generators read
@@ -151,13 +146,13 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
         MSimSceneGenerator g;
         if (!strcmp(names[q], type)) continue;
         scratch.options_only = PETSC_TRUE;
+        scratch.stiffness    = S.stiffness;
         PetscCall(PetscFunctionListFind(MSimSceneList, names[q], &g));
         PetscCall((*g)(comm, &scratch));
       }
       PetscCall(PetscFree(names));
     }
   }
-  MSimSceneData &S = sc->data;
   PetscCheck(!refine_set || S.cell_size == 4, comm, PETSC_ERR_ARG_WRONG, "-msim_refine refines tets: use it with -msim_scene tet or box, not %s", type);
 
   /* the distributed steps: vertices to their directory, cells spread, refined, springs from the
@@ -214,7 +209,8 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
     S.share.shrink_to_fit();
   }
   PetscCall(PetscLogStagePop());
-  if (view) PetscCall(MSimSceneView(comm, &sc->data));
+  PetscCall(MSimOptionsWatchEnd(&watch, S.identity));
+  if (view) PetscCall(MSimSceneView(comm, &S));
   *scene = owner.release();
   PetscFunctionReturn(PETSC_SUCCESS);
 }

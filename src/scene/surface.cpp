@@ -21,17 +21,15 @@ static PetscErrorCode ReadSurface(const char file[], const char format[], PetscR
 PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
 {
   char      file[PETSC_MAX_PATH_LEN] = "", springs[64] = "edge", format[64] = "auto";
-  PetscReal scale = 1, kedge = 1000, kbend = 1000;
+  PetscReal scale = 1, kedge, kbend;
   PetscBool set, bending = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim mesh scene (a surface: springs on triangle edges)", NULL);
   PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set, format, sizeof(format)));
   PetscCall(PetscOptionsString("-msim_springs", "Spring families of a surface: edge, or edge,bending", NULL, springs, springs, sizeof(springs), NULL));
-  PetscCall(MSimSceneGetStiffness("edge", &kedge));
-  PetscCall(MSimSceneGetStiffness("bending", &kbend));
-  PetscCall(MSimOptionsReal("-msim_stiffness_edge", "Stiffness of the springs on a surface's edges, N/m", NULL, kedge, &kedge, NULL));
-  PetscCall(MSimOptionsReal("-msim_stiffness_bending", "Stiffness of bending springs, N/m", NULL, kbend, &kbend, NULL));
+  PetscCall(MSimSceneOptionsFamilyStiffness(s, "edge", "Stiffness of the springs on a surface's edges, N/m", &kedge));
+  PetscCall(MSimSceneOptionsFamilyStiffness(s, "bending", "Stiffness of bending springs, N/m", &kbend));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   {

@@ -69,7 +69,7 @@ static PetscErrorCode ReadTets(const char file[], const char format[], const cha
 PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
 {
   char      file[PETSC_MAX_PATH_LEN] = "", switches[256] = "pq1.414Y", format[64] = "auto";
-  PetscReal scale = 1, young = 0, k = 1000;
+  PetscReal scale = 1, young = 0;
   PetscBool set;
 
   PetscFunctionBeginUser;
@@ -82,8 +82,7 @@ PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
   PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, Gmsh .msh, or Medit .mesh)");
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
   PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
-  PetscCall(MSimSceneGetStiffness(NULL, &k));
-  s->k_cell = k;
+  s->k_cell = s->stiffness;
   s->young  = young;
   PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, format, switches, scale, s); }));
   PetscCall(MSimSceneShareHeader(comm, s));

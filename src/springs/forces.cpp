@@ -170,3 +170,14 @@ PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
   *omega2 = best;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+PetscErrorCode MSimSystemAcceleration(MSimSystem sys, PetscReal t, Vec X, Vec V, Vec A)
+{
+  Vec massinv;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemGetInverseMass(sys, &massinv));
+  PetscCall(MSimSystemComputeForce(sys, t, X, V, A));
+  PetscCall(VecPointwiseMult(A, A, massinv));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -2,9 +2,11 @@
    (owned, ghost, fixed), the owned springs by slices, the halo, Vecs, scatters, the initial state,
    and the natural-order Vec that output goes through. */
 #include "system_distribute.h"
+#include <msim/partition.h>
 #include <algorithm>
+#include <memory>
 
-static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], size_t len, PetscBool *view_partition, PetscInt *order)
+static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_partition, PetscInt *order)
 {
   PetscFunctionBeginUser;
   sys->gravity[0] = sys->gravity[1] = 0.0;
@@ -16,7 +18,6 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscCall(MSimOptionsVec3("-msim_wind", "Air velocity, m/s (acts through -msim_drag)", sys->wind, NULL));
   PetscCall(MSimOptionsReal("-msim_drag", "Air drag per vertex, N s/m: f = drag (wind - v)", NULL, sys->drag, &sys->drag, NULL));
   PetscCall(MSimOptionsReal("-msim_damping", "Spring damping along the spring, N s/m", NULL, sys->damping, &sys->damping, NULL));
-  PetscCall(PetscOptionsString("-msim_partition", "Distribution of vertices across ranks: metis (on rank 0), ptscotch (parallel) or natural", NULL, partition, partition, len, NULL));
   PetscCall(PetscOptionsBool("-msim_partition_view", "Print the scene's counts, the edge cut, ghosts per rank and the load balance", NULL, *view_partition, view_partition, NULL));
   {
     const char *orders[] = {"auto", "input", "morton"};
@@ -29,10 +30,15 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, char partition[], si
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* the partitioner, destroyed whichever way SystemBuild returns */
+struct PartitionerDestroyer {
+  void operator()(MSimPartitioner p) const { (void)MSimPartitionerDestroy(&p); }
+};
+
 static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys)
 {
   MSimSceneData       &S = scene->data;
-  char                 partition[32];
+  MSimPartitioner      partitioner;
   PetscBool            view_partition = PETSC_FALSE;
   PetscInt             order          = 0;
   MSimLocalPart        L;
@@ -42,10 +48,13 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   sys->comm = comm;
   PetscCallMPI(MPI_Comm_rank(comm, &sys->rank));
   PetscCallMPI(MPI_Comm_size(comm, &sys->size));
-  PetscCall(PetscStrncpy(partition, sys->size > 1 ? "metis" : "natural", sizeof(partition)));
-  PetscCall(MSimSystemReadPhysics(sys, partition, sizeof(partition), &view_partition, &order));
+  PetscCall(MSimSystemReadPhysics(sys, &view_partition, &order));
+  PetscCall(MSimPartitionerCreate(comm, &partitioner));
+  std::unique_ptr<_n_MSimPartitioner, PartitionerDestroyer> partitioner_owner(partitioner);
+  PetscCall(MSimPartitionerSetFromOptions(partitioner));
   sys->nv            = S.nv;
   sys->scene_name    = S.name;
+  sys->scene_identity = S.identity;
   sys->diameter      = S.diameter;
   sys->cell_size     = S.cell_size;
   sys->ncell_global  = S.ncell;
@@ -88,7 +97,7 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     sys->out_cell_V0.resize(ntet);
     for (size_t c = 0; c < ntet; c++) sys->out_cell_V0[c] = MSimTetVolume(&x[12 * c], &x[12 * c + 3], &x[12 * c + 6], &x[12 * c + 9]);
   }
-  PetscCall(MSimSystemDistribute(comm, S, partition, morton, L));
+  PetscCall(MSimSystemDistribute(comm, S, partitioner, morton, L));
   PetscCall(PetscLogStagePush(MSIM_StageSetup));
   sys->nfree          = L.nfree;
   sys->nfix_global    = L.nfix_global;
@@ -225,7 +234,11 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     sys->nat_gnum = std::move(L.dir_gnum);
   }
   PetscCall(PetscLogStagePop());
-  if (view_partition) PetscCall(MSimSystemViewPartition(sys, partition, L.cut, L.between_free));
+  if (view_partition) {
+    const char *type;
+    PetscCall(MSimPartitionerGetType(partitioner, &type));
+    PetscCall(MSimSystemViewPartition(sys, type, L.cut, L.between_free));
+  }
   PetscCall(PetscLogEventEnd(MSIM_Setup, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

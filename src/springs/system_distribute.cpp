@@ -4,7 +4,6 @@
    to the owner of its first free end, with a copy (a halo spring) to the owner of the other end
    where that differs. All exchanges are personalized all-to-alls of what each rank holds. */
 #include "system_distribute.h"
-#include <msim/partition.h>
 #include <algorithm>
 #include <cstdint>
 
@@ -88,7 +87,7 @@ static PetscErrorCode MortonOrder(std::vector<Migrant> &v)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L)
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, MSimPartitioner partitioner, PetscBool morton, MSimLocalPart &L)
 {
   PetscMPIInt           rank, size;
   std::vector<PetscInt> fid, xadj, adjncy;
@@ -127,10 +126,10 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, const char 
      (natural blocks and one rank need none) */
   PetscCall(PetscLogStagePush(MSIM_StagePartition));
   E.Build(S);
-  PetscBool natural;
-  PetscCall(PetscStrcmp(partition, "natural", &natural));
+  PetscBool uses_graph;
+  PetscCall(MSimPartitionerUsesGraph(partitioner, &uses_graph));
   xadj.assign(nfl + 1, 0);
-  if (!natural && size > 1) {
+  if (uses_graph && size > 1) {
     std::vector<PetscInt>  efid;
     std::vector<Adjacency> send, got;
     PetscCall(MSimFetch(comm, S.dir, fid, E.ends, efid));
@@ -154,7 +153,7 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, const char 
     }
     for (PetscInt k = 0; k < nfl; k++) xadj[k + 1] += xadj[k];
   }
-  PetscCall(MSimPartition(comm, partition, L.nfree, fstart, nfl, xadj, adjncy, part));
+  PetscCall(MSimPartitionerPartition(partitioner, L.nfree, fstart, nfl, xadj, adjncy, part));
   xadj.clear();
   xadj.shrink_to_fit();
   adjncy.clear();

@@ -1,6 +1,7 @@
 /* What MSimSystemDistribute leaves on each rank for MSimSystemCreate to build on. */
 #pragma once
 #include <msim/system.h>
+#include <msim/partition.h>
 
 /* A spring as its owner (or, a halo copy, the owner of its other end) receives it: ends by global
    free number (-1: fixed) and input id. 32 bytes: whether a copy is the halo one follows from who
@@ -24,4 +25,4 @@ struct MSimLocalPart {
 
 /* morton: number each rank's vertices along a Z-order curve (else in input order). The scene's
    spring lists (si, sj, sk, sL) are handed over: empty on return. */
-PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, const char partition[], PetscBool morton, MSimLocalPart &L);
+PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, MSimPartitioner partitioner, PetscBool morton, MSimLocalPart &L);

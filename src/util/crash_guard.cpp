@@ -2,7 +2,7 @@
    must not take msim down without its one-line error: a crash signal inside the call jumps back
    to it, and the caller reports the input as bad. The library's state is abandoned, not reused:
    msim exits with the error. */
-#include <msim/sys.h>
+#include <msim/crash_guard.h>
 #include <csetjmp>
 #include <csignal>
 #include <cstring>

@@ -1,7 +1,8 @@
 /* What a user sees when the input is wrong: each error as one line ("msim: error: ...") from rank 0,
    including errors inside SlepcInitialize (an options file that does not open or parse), which
-   come before msim's handler exists, and a warning for every option set but never read. */
-#include <msim/sys.h>
+   come before msim's handler exists. */
+#include <msim/errors.h>
+#include <msim/init.h>
 #include <cerrno>
 #include <cstdarg>
 #include <cstring>
@@ -149,25 +150,4 @@ int MSimInitializeEnd(PetscErrorCode ierr)
     MPI_Finalize();
   }
   return 1;
-}
-
-PetscErrorCode MSimWarnUnusedOptions(MPI_Comm comm)
-{
-  PetscBool left;
-  PetscInt  n;
-  char    **names, **values;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-options_left", &left));
-  if (left) PetscFunctionReturn(PETSC_SUCCESS); /* PetscFinalize lists them */
-  PetscCall(PetscOptionsLeftGet(NULL, &n, &names, &values));
-  for (PetscInt i = 0; i < n; i++) {
-    /* read by PetscFinalize, after this check */
-    PetscBool at_finalize = PETSC_FALSE;
-    for (const char *f : {"options_view", "objects_dump", "malloc_view", "memory_view", "log_view", "log_view_memory"})
-      if (!strcmp(names[i], f)) at_finalize = PETSC_TRUE;
-    if (!at_finalize) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msim: warning: -%s was set but never used (misspelled? -help lists every option)\n", names[i]));
-  }
-  PetscCall(PetscOptionsLeftRestore(NULL, &n, &names, &values));
-  PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -7,7 +7,7 @@
    (runs/scaling/README.md). glibc reads these tunables when a process starts, so msim sets
    GLIBC_TUNABLES and runs itself once more, before MPI starts; a GLIBC_TUNABLES the user set
    stays, MSIM_MALLOC_DEFAULTS=0 keeps glibc's own, and nothing is done under valgrind. */
-#include <msim/sys.h>
+#include <msim/init.h>
 #include <cstdlib>
 #include <cstring>
 #include <gnu/libc-version.h>

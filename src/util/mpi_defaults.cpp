@@ -9,7 +9,7 @@
    round trip. Sent eagerly, the data are in the receiver's queue by then. Measured at N = 256 on
    two ranks: 20-22 -> 7-10 us in VecScatterEnd on the rank that waits, 4-6 -> 4 us in Begin, of a
    ~305-us force. */
-#include <msim/sys.h>
+#include <msim/init.h>
 #include <cstdlib>
 
 void MSimSetMPIDefaults(void)

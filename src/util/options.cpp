@@ -4,7 +4,7 @@
    "-msim_wind a,b,c" are errors that name the option, raised once on the options' communicator
    (PETSc's own conversion would accept inf and nan, wrap an overflowing integer round to a
    negative number, and name only the value, once per rank). */
-#include <msim/sys.h>
+#include <msim/options.h>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>

@@ -1,7 +1,7 @@
 /* Work that one rank does for all (reading a file, running TetGen), with errors that reach every
    rank: the error is caught on rank 0, its message broadcast, and raised again on the whole
    communicator, so msim's handler prints it once and every rank exits the same way. */
-#include <msim/mesh.h>
+#include <msim/errors.h>
 #include <new>
 
 static PetscErrorCode MSimCaptureHandler(MPI_Comm comm, int line, const char *fun, const char *file, PetscErrorCode n, PetscErrorType p, const char *mess, void *ctx)
@@ -12,7 +12,7 @@ static PetscErrorCode MSimCaptureHandler(MPI_Comm comm, int line, const char *fu
 }
 
 /* Runs fn with errors kept quiet: returns fn's error code and its first message. */
-PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, std::string &message)
+static PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, std::string &message)
 {
   PetscErrorCode ierr;
 

@@ -2,7 +2,7 @@
    notes the signal; the time loop stops after the step in progress. The ranks agree on the step
    to stop at through a non-blocking reduction started after each step and completed after the
    next, so the stepping never waits for it (and at one rank there is none). */
-#include <msim/sys.h>
+#include <msim/signals.h>
 #include <csignal>
 
 static volatile sig_atomic_t msim_signal_seen = 0;

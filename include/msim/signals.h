@@ -1,0 +1,17 @@
+/* stop_signal.cpp: SIGINT/SIGTERM noted during stepping; every rank stops after the same step. */
+#pragma once
+#include <msim/petsc_compat.h>
+#include <csignal>
+
+typedef struct {
+  MPI_Comm         comm;
+  PetscMPIInt      size;
+  MPI_Request      request;
+  int              local, global;
+  PetscBool        active;
+  struct sigaction old_int, old_term;
+} MSimStopSignal;
+PetscErrorCode MSimStopSignalBegin(MPI_Comm comm, MSimStopSignal *s);
+/* after each step: *signal_seen is SIGINT or SIGTERM when every rank is to stop now (collective) */
+PetscErrorCode MSimStopSignalPoll(MSimStopSignal *s, int *signal_seen);
+PetscErrorCode MSimStopSignalEnd(MSimStopSignal *s); /* handlers restored; safe to call twice */
