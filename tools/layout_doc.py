@@ -36,6 +36,7 @@ DIRS = {
     "src/integrators/impls": "one file per integrator type",
     "src/mesh": "mesh files in, validated, unique edges, TetGen",
     "src/output": "series (.vtu and HDF5), monitors, checkpoints, progress lines",
+    "src/partition/impls": "one file per partitioner type",
     "src/partition": "partitions of the distributed vertex graph",
     "src/scene": "scene generators and the options every scene shares; distribution and refinement",
     "src/solvers": "msim's SNES types (pd, ntr), its PC (msimllt) and Newton's energy line search",
