@@ -42,7 +42,8 @@ typedef struct {
   PetscErrorCode (*guess)(MSimImplicitScheme, MSimImplicit, Vec V, Vec X);
   /* X holds the minimizer on entry: x_{n+1} into X and v_{n+1} into V */
   PetscErrorCode (*end_step)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
-  /* the vectors an exact restart needs besides x and v (none for Euler; BDF2: x_{n-1}) */
+  /* the vectors an exact restart needs besides x and v, the scheme's own (none for Euler; BDF2:
+     x_{n-1}, v_{n-1}; Newmark: a_n): a checkpoint writes them, a restart loads them in place */
   PetscErrorCode (*get_history)(MSimImplicitScheme, PetscInt *n, Vec **history);
   PetscErrorCode (*view)(MSimImplicitScheme, PetscViewer);
   PetscErrorCode (*destroy)(MSimImplicitScheme);
@@ -50,10 +51,14 @@ typedef struct {
 
 struct _n_MSimImplicitScheme {
   char                  type[64];
+  MSimImplicit          imp;   /* the problem it belongs to (set before its create function) */
   PetscReal             beta;  /* h2 = beta h^2 */
   PetscReal             gamma; /* hd = gamma h (Euler 1; BDF2 2/3; midpoint and Newmark 1/2) */
   MSimImplicitSchemeOps ops;
   void                 *data;
+  /* get_history's vectors hold the previous step's history: set by end_step, and by a restart
+     that loaded them; while false, begin_step starts the scheme up from (x_n, v_n) alone */
+  PetscBool             history_valid;
 };
 
 /* An energy term. Every op is optional but energy and gradient; a term with a diagonal op is the
@@ -119,7 +124,10 @@ struct _n_MSimImplicit {
 /* Registries, PETSc style: -msim_integrator lists the schemes (each is an implicit integrator of
    the same name), -msim_implicit_terms the terms. A new scheme or term is one file under
    src/implicit/schemes/ or terms/ and its line in src/implicit/registry.cpp. */
-#define MSIMSCHEMEEULER "implicit_euler"
+#define MSIMSCHEMEEULER    "implicit_euler"
+#define MSIMSCHEMEBDF2     "bdf2"
+#define MSIMSCHEMEMIDPOINT "implicit_midpoint"
+#define MSIMSCHEMENEWMARK  "newmark"
 #define MSIMTERMSPRINGS "springs"
 #define MSIMTERMDRAG    "drag"
 PetscErrorCode MSimImplicitSchemeRegister(const char name[], PetscErrorCode (*create)(MSimImplicitScheme));
@@ -144,6 +152,10 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X);
 PetscErrorCode MSimImplicitEndStep(MSimImplicit imp, Vec X, Vec V);
 /* Y += s (g + c w / m): the constant external acceleration, for the schemes' y */
 PetscErrorCode MSimImplicitAddExternalAcceleration(MSimImplicit imp, PetscReal s, Vec Y);
+/* Y += s M^-1 f_d(P, U): the dissipative forces (spring damping with P's axes and the handles'
+   velocity, drag -c U) at (P, U) and time t, for the second-order schemes' y (F, W: work vectors;
+   src/implicit/schemes/dissipation.cpp says why) */
+PetscErrorCode MSimImplicitAddDissipativeAcceleration(MSimImplicit imp, PetscReal s, PetscReal t, Vec P, Vec U, Vec F, Vec W, Vec Y);
 PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G);
 PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi);
 PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);

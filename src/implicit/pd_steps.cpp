@@ -316,10 +316,44 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The PD solver's global step from the current iterate guess; where a term has a feasible set
+   (contact barriers), the step from guess is shortened by the terms' max_step so that PD's
+   iterates stay inside it, and then halved until Phi does not rise. */
 static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
+  MSimImplicit imp      = (MSimImplicit)ctx;
+  PetscBool    feasible = PETSC_TRUE;
+  Vec          X0       = NULL, D;
+  PetscReal    alpha;
+
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitPDSolve((MSimImplicit)ctx, rhs, guess, X));
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
+  if (!feasible && guess) {
+    PetscCall(VecDuplicate(guess, &X0));
+    PetscCall(VecCopy(guess, X0));
+  }
+  PetscCall(MSimImplicitPDSolve(imp, rhs, guess, X));
+  if (!X0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecDuplicate(X0, &D));
+  PetscCall(VecWAXPY(D, -1.0, X, X0)); /* X = x_k - D */
+  PetscCall(MSimImplicitMaxStep(imp, X0, D, &alpha));
+  if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, X0));
+  {
+    /* With the barrier's force lagged in the right-hand side, D = A^-1 g(x_k) (A x - rhs(x) is
+       Phi's gradient), a descent direction but not a contraction where the barrier is stiffer
+       than A: halve the step until Phi does not rise. */
+    PetscReal phi0, phi;
+    PetscCall(MSimImplicitObjective(imp, X0, &phi0));
+    PetscCall(MSimImplicitObjective(imp, X, &phi));
+    for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
+      alpha *= 0.5;
+      PetscCall(VecWAXPY(X, -alpha, D, X0));
+      PetscCall(MSimImplicitObjective(imp, X, &phi));
+    }
+  }
+  PetscCall(VecDestroy(&D));
+  PetscCall(VecDestroy(&X0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

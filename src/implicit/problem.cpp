@@ -79,8 +79,23 @@ PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h,
 
 PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
 {
+  PetscBool feasible = PETSC_TRUE;
+
   PetscFunctionBeginUser;
   PetscCall(imp->scheme->ops.guess(imp->scheme, imp, V, X));
+  /* a term with a feasible set (contact barriers) needs a first iterate inside it: the guess is
+     pulled back towards x_n, which is feasible, as far as the terms' max_step says */
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
+  if (!feasible) {
+    Vec       D;
+    PetscReal alpha;
+    PetscCall(VecDuplicate(X, &D));
+    PetscCall(VecWAXPY(D, -1.0, X, imp->Xn)); /* X = x_n - D */
+    PetscCall(MSimImplicitMaxStep(imp, imp->Xn, D, &alpha));
+    if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, imp->Xn));
+    PetscCall(VecDestroy(&D));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -30,6 +30,9 @@ static PetscErrorCode MSimImplicitFinalizePackage(void)
 
 /* One line per scheme and per term: each is a file of schemes/ or terms/. */
 PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme);
+PetscErrorCode MSimImplicitSchemeCreate_BDF2(MSimImplicitScheme);
+PetscErrorCode MSimImplicitSchemeCreate_Midpoint(MSimImplicitScheme);
+PetscErrorCode MSimImplicitSchemeCreate_Newmark(MSimImplicitScheme);
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
 
@@ -40,6 +43,9 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   MSimImplicitRegistered = PETSC_TRUE;
   PetscCall(PetscRegisterFinalize(MSimImplicitFinalizePackage));
   PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEEULER, MSimImplicitSchemeCreate_Euler));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEBDF2, MSimImplicitSchemeCreate_BDF2));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEMIDPOINT, MSimImplicitSchemeCreate_Midpoint));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMENEWMARK, MSimImplicitSchemeCreate_Newmark));
   PetscCall(MSimImplicitTermRegister(MSIMTERMSPRINGS, MSimImplicitTermCreate_Springs));
   PetscCall(MSimImplicitTermRegister(MSIMTERMDRAG, MSimImplicitTermCreate_Drag));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -101,6 +107,7 @@ PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[],
   PetscCall(PetscStrncpy((*imp)->scheme->type, scheme, sizeof((*imp)->scheme->type)));
   (*imp)->scheme->beta  = 1;
   (*imp)->scheme->gamma = 1;
+  (*imp)->scheme->imp   = *imp;
   PetscCall((*create)((*imp)->scheme));
   /* the terms: every registered one unless -msim_implicit_terms names them */
   PetscCall(PetscFunctionListGet(MSimTermList, &names, &nnames));

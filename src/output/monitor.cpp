@@ -1,6 +1,7 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
    with wall time. Energies: kinetic, potential (springs + gravity), total. */
 #include <msim/output.h>
+#include <msim/contact.h>
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
@@ -16,7 +17,7 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
   mon->csv_path[0] = 0;
   PetscOptionsBegin(comm, NULL, "msim monitors", NULL);
   PetscCall(PetscOptionsBool("-msim_monitor", "Print one line per step: energies, iterations, residual", NULL, mon->ascii, &mon->ascii, NULL));
-  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
+  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
   PetscOptionsEnd();
   PetscCall(PetscTime(&mon->wall0));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -38,7 +39,7 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume
     PetscBool kept = PETSC_FALSE;
     if (resume_step >= 0) PetscCall(MSimCSVKeepSteps(mon->csv_path, resume_step, &kept));
     mon->csv = fopen(mon->csv_path, kept ? "a" : "w");
-    if (mon->csv && !kept) ok = fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,wall_s\n") > 0 && fflush(mon->csv) == 0;
+    if (mon->csv && !kept) ok = fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s\n") > 0 && fflush(mon->csv) == 0;
     else ok = mon->csv != NULL;
   }
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
@@ -112,9 +113,13 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
 
   PetscFunctionBeginUser;
   if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e phi %.10e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi));
+  /* the obstacles' total contact force and vertices in contact (msim/contact.h; zeros without) */
+  PetscReal fc[3] = {0, 0, 0};
+  PetscInt  nc    = 0;
+  if (mon->csv_path[0]) PetscCall(MSimContactTotals(comm, fc, &nc)); /* collective */
   if (mon->csv) {
     PetscCall(PetscTime(&now));
-    const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, now - mon->wall0);
+    const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.9e,%.9e,%.9e,%" PetscInt_FMT ",%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, (double)fc[0], (double)fc[1], (double)fc[2], nc, now - mon->wall0);
     PetscCheck(wrote > 0 && fflush(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
   }
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -6,6 +6,7 @@
 #include <msim/system.h>
 #include <msim/kernels.hpp>
 #include <msim/spring_sweep.h>
+#include <msim/contact.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;
@@ -104,6 +105,7 @@ PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V,
   const PetscBool weight = (PetscBool)(sys->drag == 0);
   PetscCall(MSimSystemExternalForce(sys, V, F, weight ? 4 * sys->springs.slices.nslice : 0));
   PetscCall(SpringSweep(sys, t, X, sys->damping > 0 ? V : NULL, F, weight, -1.0, 1.0, NULL));
+  PetscCall(MSimContactAddPenaltyForce(sys, X, F)); /* obstacles' penalty (msim/contact.h), if any */
   PetscCall(PetscLogEventEnd(MSIM_Force, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -145,10 +147,14 @@ PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
   const MSimSprings &sp = sys->springs;
   const PetscScalar *m;
   PetscScalar       *f;
-  PetscReal          best = 0;
+  PetscReal          best = 0, kc = 0;
   Vec                ksum;
+  MSimContact        ct;
 
   PetscFunctionBeginUser;
+  /* an obstacle's penalty adds up to kc to a vertex's diagonal (msim/contact.h) */
+  PetscCall(MSimContactGet(sys, &ct));
+  if (ct) kc = ct->kc;
   /* row sums of |K| at rest: each spring contributes k to both ends' diagonal and off-diagonal */
   PetscCall(VecZeroEntries(sys->floc));
   PetscCall(VecGetArray(sys->floc, &f));
@@ -162,7 +168,7 @@ PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
   PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, ksum));
   PetscCall(VecGetArray(ksum, &f));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < sys->nown; i++) best = PetscMax(best, 2.0 * f[3 * i] / m[3 * i]);
+  for (PetscInt i = 0; i < sys->nown; i++) best = PetscMax(best, (2.0 * f[3 * i] + kc) / m[3 * i]);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArray(ksum, &f));
   PetscCall(VecDestroy(&ksum));

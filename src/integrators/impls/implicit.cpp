@@ -129,6 +129,20 @@ static PetscErrorCode LineSearchMaxStep(SNES snes, Vec X, Vec Y, PetscReal *lamb
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* PETSc's own line searches (L-BFGS's cp, a user's bt): the step X - Y shortened to the terms'
+   max_step, so that no trial point leaves the feasible set of a contact barrier. msim's energy
+   search (shell) never calls it: it asks max_step itself. */
+static PetscErrorCode LineSearchPreCheckMaxStep(SNESLineSearch ls, Vec X, Vec Y, PetscBool *changed, void *ctx)
+{
+  PetscReal alpha = 1;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitMaxStep((MSimImplicit)ctx, X, Y, &alpha));
+  *changed = (PetscBool)(alpha < 1);
+  if (*changed) PetscCall(VecScale(Y, alpha));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* Newton (newtonls) on the exact Hessian with MUMPS Cholesky, which is LDL^T with pivoting on an
    indefinite matrix: its inertia tells whether a converged step sits at a minimum of Phi or at a
    saddle (compressed springs: on the benchmark cloth from the third step on, with hundreds of
@@ -322,6 +336,19 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   }
   if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
   PetscCall(SNESSetFromOptions(ie->snes));
+  for (PetscInt k = 0; k < ie->imp->nterms; k++)
+    if (ie->imp->terms[k]->ops.max_step) {
+      SNESLineSearch ls;
+      PetscBool qn;
+      PetscCall(SNESGetLineSearch(ie->snes, &ls));
+      PetscCall(SNESLineSearchSetPreCheck(ls, LineSearchPreCheckMaxStep, ie->imp));
+      /* L-BFGS's default cp search extrapolates past the shortened step on gradients alone (it
+         left the feasible set and ended in DIVERGED_DTOL on a cloth dropped on a plane): with a
+         barrier, backtracking on Phi unless the user chose a search */
+      PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESQN, &qn));
+      if (qn && !set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+      break;
+    }
   if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ConvergenceEval, ie));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

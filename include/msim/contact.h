@@ -1,0 +1,53 @@
+/* Contact with static obstacles (planes, spheres, solid boxes), read from options once per system:
+   the geometry every integrator shares (signed distance, its gradient and Hessian, the largest
+   feasible step of a vertex along a ray), the barrier of the implicit term (src/implicit/terms/
+   obstacles.cpp) and the penalty of the explicit force. One contact object per system, made on
+   first use (MSimContactGet) and freed at PetscFinalize, so no header of the system or the
+   problem changes. Queries are per owned vertex: no communication but the reductions of a
+   maximum step and of the monitor's totals. */
+#pragma once
+#include <msim/system.h>
+#include <vector>
+
+typedef enum { MSIM_OBSTACLE_PLANE, MSIM_OBSTACLE_SPHERE, MSIM_OBSTACLE_BOX } MSimObstacleKind;
+
+typedef struct {
+  MSimObstacleKind kind;
+  PetscReal        p[6]; /* plane: unit n, d (n.x >= d); sphere: c, r; box: x0,x1,y0,y1,z0,z1 */
+} MSimObstacle;
+
+typedef struct _n_MSimContact *MSimContact;
+struct _n_MSimContact {
+  MSimSystem                sys;
+  std::vector<MSimObstacle> obs;
+  PetscReal                 dhat;  /* the barrier acts below this distance */
+  PetscReal                 mu;    /* Coulomb friction coefficient */
+  PetscReal                 kappa; /* barrier stiffness per unit mass (1/s^2); 0: chosen at the first step */
+  PetscReal                 kc;    /* explicit penalty stiffness, N/m per vertex */
+  PetscReal                 eps_v; /* friction's static velocity threshold (m/s) */
+  /* this rank's totals at the last force or gradient evaluation: the monitor's columns */
+  PetscReal                 force[3];
+  PetscInt                  ncontact;
+};
+
+/* The system's contact object (NULL when no obstacle option is given), made from the options on
+   the first call: reads -msim_contact_*, checks every start vertex outside every obstacle. */
+PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact);
+PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
+/* Signed distance of x to obstacle o (positive outside), its gradient n (unit) and, when H is
+   not NULL, its Hessian (3 x 3, row major; zero for planes and box faces). */
+PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+/* The first t > 0 at which x + t u reaches the obstacle's surface (PETSC_INFINITY: never), for x
+   outside it. */
+PetscReal MSimObstacleHitTime(const MSimObstacle *o, const PetscReal x[3], const PetscReal u[3]);
+/* The barrier b(d) = -(d - dhat)^2 log(d / dhat) on (0, dhat), 0 beyond (C2 at dhat), and its
+   first two derivatives. */
+void MSimBarrier(PetscReal d, PetscReal dhat, PetscReal *b, PetscReal *db, PetscReal *d2b);
+/* F += the explicit penalty force kc max(0, -d) n per free owned vertex and obstacle (nothing
+   without obstacles); records the totals for the monitor. */
+PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, Vec X, Vec F);
+/* The totals over ranks of the last system made with obstacles: contact force (3, N) and
+   vertices in contact (implicit: within dhat; explicit: inside) at the last force or gradient
+   evaluation, which the integrators make at the step's result; zeros without obstacles.
+   Collective. */
+PetscErrorCode MSimContactTotals(MPI_Comm comm, PetscReal force[3], PetscInt *ncontact);

@@ -1,0 +1,332 @@
+/* The contact object: obstacles from options (-msim_contact_plane / _sphere / _box, several per
+   option, 4 or 6 values each), the contact distance, friction and stiffnesses, and the checks of
+   the start state. Kept on the system's X0 (a PetscContainer composed there) so that it lives and
+   dies with the system and no header of the system changes. Defaults:
+   - dhat = 1e-2 of the scene's diameter (the barrier acts within 1% of the scene's size);
+   - kappa (implicit barrier, per unit mass) = 1 / (beta h^2 b''(dhat/2)): the barrier's stiffness
+     in Phi equals the mass's at half the contact distance, IPC's rule of balancing the barrier
+     against the mass/h^2 scale (Li et al. 2020, sec. 4.3), set at the first step;
+   - kc (explicit penalty, N/m) = the largest rest row sum of spring stiffnesses over free
+     vertices: a vertex in contact is at most half again as stiff as the stiffest vertex in the
+     Gershgorin bound, so the stability guard's limit drops by at most sqrt(3/2) (it counts kc). */
+#include <msim/contact.h>
+#include <msim/options.h>
+#include <msim/errors.h>
+#include <cmath>
+#include <string>
+
+/* the contact object with obstacles of the system made last: the monitor's columns read it (the
+   monitor knows no system) */
+static MSimContact active = NULL;
+
+static PetscErrorCode ContactDestroy(void *ctx)
+{
+  if (active == (MSimContact)ctx) active = NULL;
+  delete (MSimContact)ctx;
+  return PETSC_SUCCESS;
+}
+
+void MSimBarrier(PetscReal d, PetscReal dhat, PetscReal *b, PetscReal *db, PetscReal *d2b)
+{
+  if (d >= dhat) {
+    *b = *db = *d2b = 0;
+    return;
+  }
+  const PetscReal r = d - dhat, l = std::log(d / dhat);
+  *b   = -r * r * l;
+  *db  = -2 * r * l - r * r / d;
+  *d2b = -2 * l - 4 * r / d + r * r / (d * d);
+}
+
+PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+{
+  const PetscReal *p = o->p;
+  PetscReal        d = 0;
+
+  if (H)
+    for (int k = 0; k < 9; k++) H[k] = 0;
+  switch (o->kind) {
+  case MSIM_OBSTACLE_PLANE:
+    for (int c = 0; c < 3; c++) n[c] = p[c];
+    return p[0] * x[0] + p[1] * x[1] + p[2] * x[2] - p[3];
+  case MSIM_OBSTACLE_SPHERE: {
+    PetscReal q[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, r = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+    if (r == 0) { /* the centre: any direction */
+      n[0] = 0, n[1] = 0, n[2] = 1;
+      return -p[3];
+    }
+    for (int c = 0; c < 3; c++) n[c] = q[c] / r;
+    if (H) /* (I - n n^T) / r */
+      for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) H[3 * a + b] = ((a == b) - n[a] * n[b]) / r;
+    return r - p[3];
+  }
+  case MSIM_OBSTACLE_BOX: {
+    PetscReal q[3], s = 0;
+    for (int c = 0; c < 3; c++) {
+      const PetscReal lo = p[2 * c] - x[c], hi = x[c] - p[2 * c + 1];
+      q[c] = lo > 0 ? -lo : (hi > 0 ? hi : 0); /* signed excess over the slab */
+      s += q[c] * q[c];
+    }
+    if (s > 0) { /* outside: distance to the nearest point of the box, over the axes outside */
+      d = std::sqrt(s);
+      for (int c = 0; c < 3; c++) n[c] = q[c] / d;
+      if (H) /* (I_S - n n^T) / d on the axes S outside their slab: zero on a face's region */
+        for (int a = 0; a < 3; a++)
+          for (int b = 0; b < 3; b++)
+            if (q[a] != 0 && q[b] != 0) H[3 * a + b] = ((a == b) - n[a] * n[b]) / d;
+      return d;
+    }
+    /* inside: minus the distance to the nearest face */
+    d = PETSC_MAX_REAL;
+    for (int c = 0; c < 3; c++)
+      for (int side = 0; side < 2; side++) {
+        const PetscReal f = side ? p[2 * c + 1] - x[c] : x[c] - p[2 * c];
+        if (f < d) {
+          d    = f;
+          n[0] = n[1] = n[2] = 0;
+          n[c]               = side ? 1 : -1;
+        }
+      }
+    return -d;
+  }
+  }
+  return 0;
+}
+
+PetscReal MSimObstacleHitTime(const MSimObstacle *o, const PetscReal x[3], const PetscReal u[3])
+{
+  const PetscReal *p = o->p;
+
+  switch (o->kind) {
+  case MSIM_OBSTACLE_PLANE: {
+    const PetscReal d = p[0] * x[0] + p[1] * x[1] + p[2] * x[2] - p[3], vn = p[0] * u[0] + p[1] * u[1] + p[2] * u[2];
+    return vn < 0 ? d / -vn : PETSC_INFINITY;
+  }
+  case MSIM_OBSTACLE_SPHERE: { /* |q + t u| = r: a t^2 + 2 b t + c = 0, c > 0 outside */
+    const PetscReal q[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]};
+    const PetscReal a = u[0] * u[0] + u[1] * u[1] + u[2] * u[2], b = q[0] * u[0] + q[1] * u[1] + q[2] * u[2];
+    const PetscReal c = q[0] * q[0] + q[1] * q[1] + q[2] * q[2] - p[3] * p[3], disc = b * b - a * c;
+    if (a == 0 || b >= 0 || disc < 0) return PETSC_INFINITY;
+    return c / (-b + std::sqrt(disc)); /* the smaller root, in the form without cancellation */
+  }
+  case MSIM_OBSTACLE_BOX: { /* slabs: the ray is inside all three over [tin, tout] */
+    PetscReal tin = 0, tout = PETSC_INFINITY;
+    for (int c = 0; c < 3; c++) {
+      if (u[c] == 0) {
+        if (x[c] < p[2 * c] || x[c] > p[2 * c + 1]) return PETSC_INFINITY;
+        continue;
+      }
+      PetscReal t0 = (p[2 * c] - x[c]) / u[c], t1 = (p[2 * c + 1] - x[c]) / u[c];
+      if (t0 > t1) std::swap(t0, t1);
+      tin  = PetscMax(tin, t0);
+      tout = PetscMin(tout, t1);
+    }
+    return tin <= tout ? tin : PETSC_INFINITY;
+  }
+  }
+  return PETSC_INFINITY;
+}
+
+static const char *KindOption(MSimObstacleKind k)
+{
+  return k == MSIM_OBSTACLE_PLANE ? "-msim_contact_plane" : (k == MSIM_OBSTACLE_SPHERE ? "-msim_contact_sphere" : "-msim_contact_box");
+}
+
+PetscErrorCode MSimContactView(MSimContact ct, PetscViewer viewer)
+{
+  PetscFunctionBeginUser;
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscViewerASCIIPrintf(viewer, "contact: %d obstacle(s), distance dhat %g, friction mu %g, explicit penalty kc %g N/m\n", (int)ct->obs.size(), (double)ct->dhat, (double)ct->mu, (double)ct->kc));
+  for (size_t k = 0; k < ct->obs.size(); k++) {
+    const PetscReal *p = ct->obs[k].p;
+    switch (ct->obs[k].kind) {
+    case MSIM_OBSTACLE_PLANE: PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: plane n = (%g, %g, %g), n.x >= %g\n", (int)k, (double)p[0], (double)p[1], (double)p[2], (double)p[3])); break;
+    case MSIM_OBSTACLE_SPHERE: PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: sphere centre (%g, %g, %g), radius %g\n", (int)k, (double)p[0], (double)p[1], (double)p[2], (double)p[3])); break;
+    case MSIM_OBSTACLE_BOX: PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: box [%g, %g] x [%g, %g] x [%g, %g]\n", (int)k, (double)p[0], (double)p[1], (double)p[2], (double)p[3], (double)p[4], (double)p[5])); break;
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* one array option: every group of `per` values an obstacle, each checked */
+static PetscErrorCode ReadObstacles(PetscOptionItems *PetscOptionsObject, MSimSystem sys, MSimContact ct, MSimObstacleKind kind, const char help[])
+{
+  const int   per = kind == MSIM_OBSTACLE_BOX ? 6 : 4, nmax = 6 * 64;
+  PetscReal   v[6 * 64];
+  PetscInt    n = nmax;
+  PetscBool   set;
+  const char *name = KindOption(kind);
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimOptionsRealArray(name, help, NULL, v, &n, &set));
+  if (!set) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCheck(n < nmax, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: at most %d obstacles per option", name, nmax / per - 1);
+  PetscCheck(n > 0 && n % per == 0, sys->comm, PETSC_ERR_ARG_WRONG, "%s takes %d values per obstacle (%s); got %d", name, per, kind == MSIM_OBSTACLE_PLANE ? "nx,ny,nz,d" : (kind == MSIM_OBSTACLE_SPHERE ? "cx,cy,cz,r" : "x0,x1,y0,y1,z0,z1"), (int)n);
+  for (PetscInt k = 0; k < n / per; k++) {
+    MSimObstacle o;
+    o.kind = kind;
+    for (int c = 0; c < per; c++) o.p[c] = v[per * k + c];
+    if (kind == MSIM_OBSTACLE_PLANE) {
+      const PetscReal len = std::sqrt(o.p[0] * o.p[0] + o.p[1] * o.p[1] + o.p[2] * o.p[2]);
+      PetscCheck(len > 0, sys->comm, PETSC_ERR_ARG_WRONG, "%s: obstacle %d has a zero normal", name, (int)k);
+      for (int c = 0; c < 4; c++) o.p[c] /= len; /* n.x >= d keeps its meaning with n normalised */
+    } else if (kind == MSIM_OBSTACLE_SPHERE) {
+      PetscCheck(o.p[3] > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: obstacle %d has radius %g; it must be > 0", name, (int)k, (double)o.p[3]);
+    } else {
+      for (int c = 0; c < 3; c++) PetscCheck(o.p[2 * c] < o.p[2 * c + 1], sys->comm, PETSC_ERR_ARG_WRONG, "%s: obstacle %d is empty (%c0 = %g is not below %c1 = %g)", name, (int)k, "xyz"[c], (double)o.p[2 * c], "xyz"[c], (double)o.p[2 * c + 1]);
+    }
+    ct->obs.push_back(o);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* kc's default: the largest rest row sum of spring stiffnesses over free vertices */
+static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
+{
+  const PetscScalar *f;
+  PetscReal          best = 0;
+  Vec                ksum;
+  PetscScalar       *fl;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecZeroEntries(sys->floc));
+  PetscCall(VecGetArray(sys->floc, &fl));
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal) {
+    fl[3 * i] += k;
+    fl[3 * j] += k;
+  });
+  PetscCall(VecRestoreArray(sys->floc, &fl));
+  PetscCall(VecDuplicate(sys->mass, &ksum));
+  PetscCall(VecZeroEntries(ksum));
+  PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, ksum));
+  PetscCall(VecGetArrayRead(ksum, &f));
+  for (PetscInt v = 0; v < sys->nown; v++) best = PetscMax(best, PetscRealPart(f[3 * v]));
+  PetscCall(VecRestoreArrayRead(ksum, &f));
+  PetscCall(VecDestroy(&ksum));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &best, 1, MPIU_REAL, MPIU_MAX, sys->comm));
+  *kc = best > 0 ? best : 1.0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* every free vertex strictly outside every obstacle; the first offender (lowest rank) named */
+static PetscErrorCode CheckStart(MSimContact ct)
+{
+  MSimSystem         sys = ct->sys;
+  const PetscScalar *x;
+  std::string        bad;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetArrayRead(sys->X0, &x));
+  for (PetscInt v = 0; v < sys->nown && bad.empty(); v++)
+    for (size_t k = 0; k < ct->obs.size() && bad.empty(); k++) {
+      PetscReal n[3];
+      const PetscReal d = MSimObstacleDistance(&ct->obs[k], x + 3 * v, n, NULL);
+      if (d <= 0) {
+        char msg[512];
+        PetscCall(PetscSNPrintf(msg, sizeof(msg), "free vertex %d (of %d; at %g, %g, %g) starts inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(sys->rstart + v), (int)sys->nfree, (double)x[3 * v], (double)x[3 * v + 1], (double)x[3 * v + 2], (int)k, KindOption(ct->obs[k].kind), (double)d));
+        bad = msg;
+      }
+    }
+  PetscCall(VecRestoreArrayRead(sys->X0, &x));
+  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)bad.empty(), bad));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
+{
+  PetscContainer container;
+  MSimContact    ct;
+  PetscBool      view = PETSC_FALSE, set;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));
+  if (container) {
+    PetscCall(PetscContainerGetPointer(container, (void **)&ct));
+    *contact = ct->obs.empty() ? NULL : ct;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  ct        = new _n_MSimContact();
+  ct->sys   = sys;
+  ct->dhat  = 1e-2 * PetscMax(sys->diameter, PETSC_SMALL);
+  ct->mu    = 0;
+  ct->kappa = 0;
+  ct->kc    = 0;
+  ct->eps_v = 1e-3 * PetscMax(sys->diameter, PETSC_SMALL);
+  PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
+  PetscCall(PetscContainerSetPointer(container, ct));
+  PetscCall(PetscContainerSetUserDestroy(container, ContactDestroy));
+  PetscCall(PetscObjectCompose((PetscObject)sys->X0, "MSimContact", (PetscObject)container));
+  PetscCall(PetscContainerDestroy(&container));
+  PetscOptionsBegin(sys->comm, NULL, "msim contact with obstacles", NULL);
+  PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_PLANE, "Half-spaces n.x >= d the free vertices stay in, 4 values each: nx,ny,nz,d (n normalised here)"));
+  PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_SPHERE, "Solid spheres, 4 values each: cx,cy,cz,r"));
+  PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_BOX, "Solid axis-aligned boxes, 6 values each: x0,x1,y0,y1,z0,z1"));
+  PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
+  PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
+  PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles (implicit: IPC's lagged smoothed friction)", NULL, ct->mu, &ct->mu, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing: tangential speed (m/s) below which friction acts as static (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
+  PetscOptionsEnd();
+  PetscCheck(ct->dhat > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be > 0 (got %g)", (double)ct->dhat);
+  PetscCheck(ct->kappa >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_kappa must be >= 0 (got %g)", (double)ct->kappa);
+  PetscCheck(ct->kc >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_stiffness must be >= 0 (got %g)", (double)ct->kc);
+  PetscCheck(ct->mu >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction must be >= 0 (got %g)", (double)ct->mu);
+  PetscCheck(ct->eps_v > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be > 0 (got %g)", (double)ct->eps_v);
+  *contact = NULL;
+  if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
+  if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
+  PetscCall(CheckStart(ct));
+  PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_scene_view", &view, &set));
+  if (view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
+  *contact = ct;
+  active   = ct;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, Vec X, Vec F)
+{
+  MSimContact        ct;
+  const PetscScalar *x;
+  PetscScalar       *f;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  ct->force[0] = ct->force[1] = ct->force[2] = 0;
+  ct->ncontact                                = 0;
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArray(F, &f));
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    PetscBool touch = PETSC_FALSE;
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal       n[3];
+      const PetscReal d = MSimObstacleDistance(&o, x + 3 * v, n, NULL);
+      if (d >= 0) continue;
+      touch = PETSC_TRUE;
+      for (int c = 0; c < 3; c++) {
+        f[3 * v + c] += -ct->kc * d * n[c];
+        ct->force[c] += -ct->kc * d * n[c];
+      }
+    }
+    ct->ncontact += touch;
+  }
+  PetscCall(VecRestoreArray(F, &f));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactTotals(MPI_Comm comm, PetscReal force[3], PetscInt *ncontact)
+{
+  PetscReal buf[4] = {0, 0, 0, 0};
+
+  PetscFunctionBeginUser;
+  if (active) {
+    for (int c = 0; c < 3; c++) buf[c] = active->force[c];
+    buf[3] = (PetscReal)active->ncontact;
+  }
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, buf, 4, MPIU_REAL, MPIU_SUM, comm));
+  for (int c = 0; c < 3; c++) force[c] = buf[c];
+  *ncontact = (PetscInt)(buf[3] + 0.5);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,128 @@
+/* BDF2 in position form. With a = M^-1 f(x, v), f = f_s(x) - C v + f_e (springs, the damping and
+   drag matrix C, the constant gravity and wind), the scheme
+     x_{n+1} - 4/3 x_n + 1/3 x_{n-1} = 2/3 h v_{n+1},   v_{n+1} - 4/3 v_n + 1/3 v_{n-1} = 2/3 h a_{n+1}
+   gives, with xh = 4/3 x_n - 1/3 x_{n-1} and vh = 4/3 v_n - 1/3 v_{n-1},
+     v_{n+1} = 3 (x - xh) / (2 h),   x - xh = 2/3 h vh + 4/9 h^2 a(x, v_{n+1}),
+   i.e. M (x - y) = 4/9 h^2 (f_s(x) - C v_{n+1}) with y = xh + 2/3 h vh + 4/9 h^2 M^-1 f_e: the
+   minimization of Phi with beta = 4/9, and C v_{n+1} costs 4/9 h^2 C 3 (x - xh)/(2 h) = 2/3 h C (x - xh):
+   dissipation weight gamma = 2/3 from z = xh. The dissipation term measures from the predictor
+   p = x_n + h v_n instead (spring damping's axes O(h^2) from x_{n+1}'s; handles at b(t + h) like
+   x's), and y takes the rest, 4/9 h^2 M^-1 f_d(p, u) with u = 3 (p - xh)/(2 h) (dissipation.cpp).
+   First iterate p.
+   Start-up (the first step, or a restart without this scheme's history): the same BDF2 step from
+   a past state made by Taylor expansion, x_{-1} = x_0 - h v_0 + h^2/2 a_0, v_{-1} = v_0 - h a_0 with
+   a_0 = M^-1 f(x_0, v_0) (one force evaluation): errors O(h^3) and O(h^2), which the step passes on
+   as O(h^3) in x_1 and O(h^2) in v_1 once, so the scheme stays second order; and it keeps beta and
+   gamma, hence PD's factor, unchanged (an implicit Euler start-up would need another one).
+   History for an exact restart: x_{n-1}, v_{n-1}. */
+#include <msim/implicit.h>
+
+typedef struct {
+  Vec hist[2]; /* x_{n-1}, v_{n-1} (valid when scheme->history_valid) */
+  Vec Xh, Vn; /* xh and v_n, kept for the velocity update */
+  Vec P, U;   /* the predictor p = x_n + h v_n (the dissipation's reference) and u = 3 (p - xh)/(2 h) */
+  Vec F, W;
+} BDF2Data;
+
+static PetscErrorCode BeginStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
+{
+  BDF2Data *d = (BDF2Data *)scheme->data;
+
+  PetscFunctionBeginUser;
+  if (!scheme->history_valid) {
+    /* start-up: x_{-1}, v_{-1} by Taylor from (x_0, v_0) */
+    PetscCall(MSimSystemAcceleration(imp->sys, t, X, V, d->hist[1]));
+    PetscCall(VecWAXPY(d->hist[0], -h, V, X));
+    PetscCall(VecAXPY(d->hist[0], 0.5 * h * h, d->hist[1]));
+    PetscCall(VecAYPX(d->hist[1], -h, V));
+  }
+  PetscCall(VecCopy(X, imp->Xn));
+  PetscCall(VecCopy(V, d->Vn));
+  PetscCall(VecAXPBYPCZ(d->Xh, 4.0 / 3.0, -1.0 / 3.0, 0.0, X, d->hist[0]));
+  /* y = xh + 2/3 h (4/3 v_n - 1/3 v_{n-1}) + 4/9 h^2 M^-1 f_e */
+  PetscCall(VecCopy(d->Xh, imp->Y));
+  PetscCall(VecAXPBYPCZ(imp->Y, 8.0 / 9.0 * h, -2.0 / 9.0 * h, 1.0, V, d->hist[1]));
+  PetscCall(MSimImplicitAddExternalAcceleration(imp, 4.0 / 9.0 * h * h, imp->Y));
+  PetscCall(VecWAXPY(d->P, h, V, X));
+  if (imp->sys->damping > 0 || imp->sys->drag > 0) {
+    PetscCall(VecAXPBYPCZ(d->U, 1.5 / h, -1.5 / h, 0.0, d->P, d->Xh));
+    PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 4.0 / 9.0 * h * h, t + h, d->P, d->U, d->F, d->W, imp->Y));
+  }
+  imp->step.xref = d->P;
+  imp->step.tref = t + h;
+  imp->step.tx   = t + h;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Guess_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecAXPY(X, imp->h, V));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* v_{n+1} = 3 (x_{n+1} - xh) / (2 h); (x_n, v_n) become the history */
+static PetscErrorCode EndStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, Vec X, Vec V)
+{
+  BDF2Data *d = (BDF2Data *)scheme->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecAXPBYPCZ(V, 1.5 / imp->h, -1.5 / imp->h, 0.0, X, d->Xh));
+  PetscCall(VecCopy(imp->Xn, d->hist[0]));
+  PetscCall(VecCopy(d->Vn, d->hist[1]));
+  scheme->history_valid = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode GetHistory_BDF2(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
+{
+  BDF2Data *d = (BDF2Data *)scheme->data;
+
+  PetscFunctionBeginUser;
+  *n       = 2;
+  *history = d->hist;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_BDF2(MSimImplicitScheme scheme)
+{
+  BDF2Data *d = (BDF2Data *)scheme->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecDestroy(&d->hist[0]));
+  PetscCall(VecDestroy(&d->hist[1]));
+  PetscCall(VecDestroy(&d->Xh));
+  PetscCall(VecDestroy(&d->Vn));
+  PetscCall(VecDestroy(&d->P));
+  PetscCall(VecDestroy(&d->U));
+  PetscCall(VecDestroy(&d->F));
+  PetscCall(VecDestroy(&d->W));
+  PetscCall(PetscFree(scheme->data));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitSchemeCreate_BDF2(MSimImplicitScheme scheme)
+{
+  BDF2Data *d;
+  Vec       X0 = scheme->imp->sys->X0;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscNew(&d));
+  PetscCall(VecDuplicate(X0, &d->hist[0]));
+  PetscCall(VecDuplicate(X0, &d->hist[1]));
+  PetscCall(VecDuplicate(X0, &d->Xh));
+  PetscCall(VecDuplicate(X0, &d->Vn));
+  PetscCall(VecDuplicate(X0, &d->P));
+  PetscCall(VecDuplicate(X0, &d->U));
+  PetscCall(VecDuplicate(X0, &d->F));
+  PetscCall(VecDuplicate(X0, &d->W));
+  scheme->data            = d;
+  scheme->beta            = 4.0 / 9.0;
+  scheme->gamma           = 2.0 / 3.0;
+  scheme->ops.begin_step  = BeginStep_BDF2;
+  scheme->ops.guess       = Guess_BDF2;
+  scheme->ops.end_step    = EndStep_BDF2;
+  scheme->ops.get_history = GetHistory_BDF2;
+  scheme->ops.destroy     = Destroy_BDF2;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

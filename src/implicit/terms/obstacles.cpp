@@ -1,0 +1,210 @@
+/* Contact with static obstacles as a term of Phi: IPC's log barrier (Li et al. 2020) per free
+   vertex and obstacle on their signed distance d,
+     E = beta h^2 kappa sum_v m_v b(d_v),   b(d) = -(d - dhat)^2 log(d / dhat) on (0, dhat), 0 beyond,
+   C2 at dhat and infinite at d = 0, so every iterate a line search accepts is outside every
+   obstacle. Weighted by the vertex masses, so kappa is per unit mass (msim/contact.h's defaults).
+   Gradient beta h^2 kappa m b'(d) n; Hessian block beta h^2 kappa m (b'' n n^T + b' D^2 d), whose
+   PSD projection is b'' n n^T (b'' >= 0 on (0, dhat), b' <= 0 and D^2 d is PSD for convex
+   obstacles). max_step: the largest alpha for which no owned vertex meets an obstacle along
+   X - alpha Y (exact ray tests), times 0.8 (IPC's CCD filter), reduced over ranks; a feasible
+   start never gives 0. PD: the constant PD matrix is kept and the barrier's force at the current
+   iterate goes into the right-hand side (its gradient, lagged by one iteration); the PD global
+   step is then shortened by max_step where it would cross an obstacle (MSimImplicitPDSolve).
+   The contact force, -kappa m b'(d) n, is recorded at every gradient for -msim_monitor_csv. */
+#include <msim/implicit.h>
+#include <msim/contact.h>
+
+/* kappa's default at the first step: the barrier's stiffness at dhat/2 equals the mass's */
+static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(term->imp->sys, ct));
+  if (*ct && (*ct)->kappa == 0) {
+    PetscReal b, db, d2b;
+    MSimBarrier(0.5 * (*ct)->dhat, (*ct)->dhat, &b, &db, &d2b);
+    (*ct)->kappa = 1.0 / (term->imp->step.h2 * d2b);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* f(v, k, d, n, H, m) for every owned vertex v and obstacle k within dhat (d may be <= 0) */
+template <class F>
+static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, PetscBool hessian, F &&f)
+{
+  MSimSystem         sys = term->imp->sys;
+  const PetscScalar *x, *m;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArrayRead(sys->mass, &m));
+  for (PetscInt v = 0; v < sys->nown; v++)
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal       n[3], H[9];
+      const PetscReal d = MSimObstacleDistance(&o, x + 3 * v, n, hessian ? H : NULL);
+      if (d < ct->dhat) f(v, d, n, H, PetscRealPart(m[3 * v]));
+    }
+  PetscCall(VecRestoreArrayRead(sys->mass, &m));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode LocalEnergy(MSimImplicitTerm term, MSimContact ct, Vec X, PetscReal *e)
+{
+  const PetscReal w = term->imp->step.h2 * ct->kappa;
+
+  PetscFunctionBeginUser;
+  PetscCall(ForEachNear(term, ct, X, PETSC_FALSE, [&](PetscInt, PetscReal d, const PetscReal *, const PetscReal *, PetscReal m) {
+    PetscReal b, db, d2b;
+    if (d <= 0) {
+      *e = PETSC_INFINITY; /* outside the barrier's domain: no line search accepts it */
+      return;
+    }
+    MSimBarrier(d, ct->dhat, &b, &db, &d2b);
+    *e += w * m * b;
+  }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Energy_Obstacles(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  MSimContact ct;
+  PetscReal   local = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(LocalEnergy(term, ct, X, &local));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, term->imp->sys->comm));
+  *e += local;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* G (or a PD right-hand side, with sign -1) += sign h2 kappa m b'(d) n; records the contact force */
+static PetscErrorCode AddGradient(MSimImplicitTerm term, MSimContact ct, Vec X, Vec G, PetscReal sign)
+{
+  const PetscReal w = term->imp->step.h2 * ct->kappa;
+  PetscScalar    *g;
+  PetscInt        last = -1;
+
+  PetscFunctionBeginUser;
+  ct->force[0] = ct->force[1] = ct->force[2] = 0;
+  ct->ncontact                                = 0;
+  PetscCall(VecGetArray(G, &g));
+  PetscCall(ForEachNear(term, ct, X, PETSC_FALSE, [&](PetscInt v, PetscReal d, const PetscReal *n, const PetscReal *, PetscReal m) {
+    PetscReal b, db, d2b;
+    MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+    for (int c = 0; c < 3; c++) {
+      g[3 * v + c] += sign * w * m * db * n[c];
+      ct->force[c] -= ct->kappa * m * db * n[c];
+    }
+    if (v != last) ct->ncontact++;
+    last = v;
+  }));
+  PetscCall(VecRestoreArray(G, &g));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Gradient_Obstacles(MSimImplicitTerm term, Vec X, Vec G)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (ct) PetscCall(AddGradient(term, ct, X, G, 1.0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* one 3 x 3 block per owned vertex near an obstacle, added into the assembled J */
+static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool psd, Mat J)
+{
+  MSimSystem     sys = term->imp->sys;
+  MSimContact    ct;
+  PetscErrorCode ierr = PETSC_SUCCESS;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  const PetscReal w = term->imp->step.h2 * ct->kappa;
+  PetscCall(ForEachNear(term, ct, X, PETSC_TRUE, [&](PetscInt v, PetscReal d, const PetscReal *n, const PetscReal *H, PetscReal m) {
+    PetscReal   b, db, d2b;
+    PetscScalar blk[9];
+    PetscInt    idx[3];
+    MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+    for (int a = 0; a < 3; a++) {
+      idx[a] = 3 * (sys->rstart + v) + a;
+      for (int c = 0; c < 3; c++) blk[3 * a + c] = w * m * (d2b * n[a] * n[c] + (psd ? 0.0 : db * H[3 * a + c]));
+    }
+    if (!ierr) ierr = MatSetValues(J, 3, idx, 3, idx, blk, ADD_VALUES);
+  }));
+  PetscCall(ierr);
+  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* PD: the barrier's force at X in the right-hand side (A x = rhs, so rhs -= its gradient) */
+static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(AddGradient(term, ct, X, rhs, -1.0));
+  if (e) PetscCall(LocalEnergy(term, ct, X, e));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
+{
+  MSimSystem         sys = term->imp->sys;
+  MSimContact        ct;
+  const PetscScalar *x, *y;
+  PetscReal          a = *alpha;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArrayRead(Y, &y));
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
+    if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
+    for (const MSimObstacle &o : ct->obs) {
+      const PetscReal t = MSimObstacleHitTime(&o, x + 3 * v, u);
+      if (0.8 * t < a) a = 0.8 * t;
+    }
+  }
+  PetscCall(VecRestoreArrayRead(Y, &y));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &a, 1, MPIU_REAL, MPIU_MIN, sys->comm));
+  *alpha = a;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode View_Obstacles(MSimImplicitTerm term, PetscViewer viewer)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(term->imp->sys, &ct));
+  if (ct) PetscCall(PetscViewerASCIIPrintf(viewer, "obstacles: IPC barrier, dhat %g, kappa %g 1/s^2 (per unit mass)\n", (double)ct->dhat, (double)ct->kappa));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  /* the options are read and the start state checked now, before the first step */
+  PetscCall(MSimContactGet(term->imp->sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS); /* no obstacle: no op, nothing per iteration */
+  term->ops.energy   = Energy_Obstacles;
+  term->ops.gradient = Gradient_Obstacles;
+  term->ops.hessian  = Hessian_Obstacles;
+  term->ops.pd_rhs   = PDRHS_Obstacles;
+  term->ops.max_step = MaxStep_Obstacles;
+  term->ops.view     = View_Obstacles;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
