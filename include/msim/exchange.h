@@ -7,7 +7,7 @@
      arrives grouped by source rank in rank order, in the sender's order within a source. Memory
      and messages grow with the records a rank sends and receives, never with the whole scene. */
 #pragma once
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <algorithm>
 #include <initializer_list>
 #include <vector>

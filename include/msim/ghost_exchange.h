@@ -5,7 +5,7 @@
    Begin and End took 4.3-4.9 us of a 23-us force (cloth N = 64; the wait for the other rank
    included), these 2.2-2.7. */
 #pragma once
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <vector>
 
 typedef struct {

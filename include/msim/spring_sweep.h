@@ -6,7 +6,7 @@
    through the square root and the division together. */
 
 #pragma once
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <vector>
 
 /* f may be NULL (energy only); energy may be NULL (no energy). */
