@@ -3,6 +3,8 @@
    and the natural-order Vec that output goes through. */
 #include "system_distribute.h"
 #include <msim/partition.h>
+#include <msim/log.h>
+#include <msim/options.h>
 #include <algorithm>
 #include <memory>
 

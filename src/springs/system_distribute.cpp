@@ -4,6 +4,8 @@
    to the owner of its first free end, with a copy (a halo spring) to the owner of the other end
    where that differs. All exchanges are personalized all-to-alls of what each rank holds. */
 #include "system_distribute.h"
+#include <msim/errors.h>
+#include <msim/log.h>
 #include <algorithm>
 #include <cstdint>
 
