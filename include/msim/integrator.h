@@ -15,6 +15,10 @@ typedef struct {
   PetscErrorCode (*step)(MSimIntegrator, PetscReal t, Vec X, Vec V); /* advance (X, V) from t to t + dt */
   PetscErrorCode (*view)(MSimIntegrator, PetscViewer);
   PetscErrorCode (*openfiles)(MSimIntegrator); /* optional: its monitor files, opened before the run writes anything */
+  /* optional: the vectors besides x and v that the next step reads (BDF2's x_{n-1}, v_{n-1}), which
+     a checkpoint writes; history_loaded: a restart filled them, the next step uses them */
+  PetscErrorCode (*get_history)(MSimIntegrator, PetscInt *n, Vec **history);
+  PetscErrorCode (*history_loaded)(MSimIntegrator);
   PetscErrorCode (*destroy)(MSimIntegrator);
 } MSimIntegratorOps;
 

@@ -92,6 +92,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimIntegratorSetUp(integ));
   PetscCall(PetscLogStagePop());
   PetscCall(MSimGuard(sys, integ, X, info));
+  PetscCall(MSimCheckpointSetIntegrator(ck, integ));
   PetscCall(MSimCheckpointRestart(ck, integ->steps, X, V, &step0, &t_ck, &dt_ck, &E0_ck, &restarted));
   /* all input is valid from here on: create the output directory (a monitor file may live in
      it), then open the monitor files */

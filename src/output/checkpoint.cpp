@@ -4,10 +4,13 @@
    compares with) with a format version and what identifies the scene (its vertex and moving-spring
    counts and the options that define it, which the scene records where it reads them), through
    PETSc's binary viewer, collectively, to F.tmp renamed to F once closed: a killed run leaves its previous checkpoint whole. -msim_restart F
-   continues from one. The integrators carry nothing else from step to step (the accelerated
+   continues from one. An integrator with a history (BDF2's x_{n-1}, v_{n-1}, Newmark's a_n) has it
+   written too, under its type name, in the same order; a restart with the same integrator loads
+   it, another starts its scheme up afresh. Nothing else carries from step to step (the accelerated
    solvers' histories start afresh each step), so a restarted run repeats the uninterrupted one
    bit for bit at the same rank count. */
 #include <msim/output.h>
+#include <msim/integrator.h>
 #include <msim/options.h>
 #include <msim/log.h>
 #include <sstream>
@@ -15,8 +18,8 @@
 #include <sys/stat.h>
 
 static const PetscInt MSIM_CHECKPOINT_MAGIC   = 0x6d73696d; /* "msim" */
-static const PetscInt MSIM_CHECKPOINT_VERSION = 1;
-enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_COUNT };
+static const PetscInt MSIM_CHECKPOINT_VERSION = 2; /* 2: the integrator's history */
+enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_NHIST, H_INTEG, H_COUNT };
 
 struct _n_MSimCheckpoint {
   MSimSystem sys;
@@ -24,7 +27,29 @@ struct _n_MSimCheckpoint {
   char       restart[PETSC_MAX_PATH_LEN]; /* "" : a fresh run */
   PetscInt   every;
   std::string ident;
+  MSimIntegrator integ; /* whose history goes with x and v (NULL: none) */
 };
+
+PetscErrorCode MSimCheckpointSetIntegrator(MSimCheckpoint ck, MSimIntegrator integ)
+{
+  PetscFunctionBeginUser;
+  ck->integ = integ;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the integrator's history vectors (none without one or without the op) */
+static PetscErrorCode History(MSimCheckpoint ck, PetscInt *n, Vec **history, const char **name)
+{
+  PetscFunctionBeginUser;
+  *n       = 0;
+  *history = NULL;
+  *name    = "";
+  if (ck->integ && ck->integ->ops.get_history) {
+    PetscCall(ck->integ->ops.get_history(ck->integ, n, history));
+    *name = ck->integ->type;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
 {
@@ -61,6 +86,9 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscInt          header[H_COUNT];
   PetscReal         reals[3] = {t, dt, E0};
   int               ok       = 1;
+  PetscInt          nhist;
+  Vec              *hist;
+  const char       *integ;
 
   PetscFunctionBeginUser;
   if (!ck->path[0]) PetscFunctionReturn(PETSC_SUCCESS);
@@ -71,6 +99,9 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   header[H_NSPRING] = sys->nspring_global;
   header[H_STEP]    = step;
   header[H_IDENT]   = (PetscInt)ck->ident.size();
+  PetscCall(History(ck, &nhist, &hist, &integ));
+  header[H_NHIST]   = nhist;
+  header[H_INTEG]   = nhist ? (PetscInt)strlen(integ) : 0;
   PetscCall(PetscViewerCreate(sys->comm, &v));
   PetscCall(PetscViewerSetType(v, PETSCVIEWERBINARY));
   PetscCall(PetscViewerSetFromOptions(v)); /* -viewer_binary_mpiio */
@@ -80,10 +111,15 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscCall(PetscViewerBinaryWrite(v, header, H_COUNT, PETSC_INT));
   PetscCall(PetscViewerBinaryWrite(v, reals, 3, PETSC_REAL));
   if (header[H_IDENT]) PetscCall(PetscViewerBinaryWrite(v, ck->ident.data(), header[H_IDENT], PETSC_CHAR));
+  if (header[H_INTEG]) PetscCall(PetscViewerBinaryWrite(v, integ, header[H_INTEG], PETSC_CHAR));
   PetscCall(MSimSystemNaturalPositions(sys, t, X));
   PetscCall(VecView(sys->natural, v));
   PetscCall(MSimSystemNaturalVector(sys, V));
   PetscCall(VecView(sys->natural, v));
+  for (PetscInt k = 0; k < nhist; k++) {
+    PetscCall(MSimSystemNaturalVector(sys, hist[k]));
+    PetscCall(VecView(sys->natural, v));
+  }
   PetscCall(PetscViewerDestroy(&v)); /* collective: the file is complete here */
   if (sys->rank == 0) ok = rename(tmp.c_str(), ck->path) == 0;
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, sys->comm));
@@ -141,8 +177,10 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     PetscCall(PetscViewerDestroy(&v));
     SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: checkpoint format version %" PetscInt_FMT "; this msim reads version %" PetscInt_FMT, F, header[H_VERSION], MSIM_CHECKPOINT_VERSION);
   }
-  const long long expect = head + (long long)header[H_IDENT] + 2 * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar));
-  if (header[H_IDENT] < 0 || header[H_NV] < 0 || size != expect) {
+  /* counts no larger than the file keep the size below from overflowing */
+  const bool      sane   = header[H_IDENT] >= 0 && header[H_NV] >= 0 && header[H_NHIST] >= 0 && header[H_INTEG] >= 0 && header[H_IDENT] <= size && header[H_NV] <= size && header[H_NHIST] <= size && header[H_INTEG] <= size;
+  const long long expect = sane ? head + (long long)header[H_IDENT] + (long long)header[H_INTEG] + (2 + (long long)header[H_NHIST]) * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar)) : -1;
+  if (!sane || size != expect) {
     PetscCall(PetscViewerDestroy(&v));
     SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: damaged checkpoint (%lld bytes, its header says %lld)", F, size, expect);
   }
@@ -158,16 +196,27 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     PetscCall(PetscViewerDestroy(&v));
     SETERRQ(sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_restart %s: the checkpoint is at step %" PetscInt_FMT " and -msim_steps is %" PetscInt_FMT ": nothing left to run", F, header[H_STEP], steps);
   }
+  /* the integrator's history goes back only to the integrator that wrote it, whole */
+  PetscInt    nhist;
+  Vec        *hist;
+  const char *integ;
+  std::string integ_there((size_t)header[H_INTEG], '\0');
+  PetscCall(History(ck, &nhist, &hist, &integ));
+  if (header[H_INTEG]) PetscCall(PetscViewerBinaryRead(v, &integ_there[0], header[H_INTEG], NULL, PETSC_CHAR));
+  const PetscBool load_hist = (PetscBool)(nhist > 0 && header[H_NHIST] == nhist && integ_there == integ);
+  std::vector<Vec> targets = {X, V};
+  if (load_hist) targets.insert(targets.end(), hist, hist + nhist);
   /* a vector the file's size admits but VecLoad refuses still closes the file */
   PetscErrorCode load = PETSC_SUCCESS;
   PetscCall(MSimSystemNaturalSetUp(sys));
-  for (Vec target : {X, V}) {
+  for (Vec target : targets) {
     if ((load = VecLoad(sys->natural, v))) break;
     PetscCall(VecScatterBegin(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
     PetscCall(VecScatterEnd(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
   }
   PetscCall(PetscViewerDestroy(&v));
   PetscCall(load);
+  if (load_hist) PetscCall(ck->integ->ops.history_loaded(ck->integ));
   *step      = header[H_STEP];
   *t         = reals[0];
   *dt        = reals[1];

@@ -488,6 +488,25 @@ static PetscErrorCode OpenFiles_Implicit(MSimIntegrator integ)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* the scheme's history, for checkpoints */
+static PetscErrorCode GetHistory_Implicit(MSimIntegrator integ, PetscInt *n, Vec **history)
+{
+  ImplicitData *ie = (ImplicitData *)integ->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(ie->imp->scheme->ops.get_history(ie->imp->scheme, n, history));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode HistoryLoaded_Implicit(MSimIntegrator integ)
+{
+  ImplicitData *ie = (ImplicitData *)integ->data;
+
+  PetscFunctionBeginUser;
+  ie->imp->scheme->history_valid = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* Each registered scheme is an integrator of the same name (-msim_integrator lists them). */
 PetscErrorCode MSimIntegratorRegisterImplicit(void)
 {
@@ -514,6 +533,8 @@ PetscErrorCode MSimIntegratorCreate_Implicit(MSimIntegrator integ)
   integ->ops.step           = Step_Implicit;
   integ->ops.view           = View_Implicit;
   integ->ops.openfiles      = OpenFiles_Implicit;
+  integ->ops.get_history    = GetHistory_Implicit;
+  integ->ops.history_loaded = HistoryLoaded_Implicit;
   integ->ops.destroy        = Destroy_Implicit;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

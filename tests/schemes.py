@@ -1,0 +1,115 @@
+#!/usr/bin/env python3
+"""The second-order implicit schemes (bdf2, implicit_midpoint, newmark), at 1 and 2 ranks:
+- observed order 2 (within 0.15) against RK4 at h = 1e-5, Newton solved to roundoff (MUMPS), on the
+  chain of tests/order.py (8 vertices, corners fixed, gravity, T = 0.3 s, h = 2e-3, 1e-3, 5e-4) and
+  on a 6 x 6 cloth with spring damping, drag, wind and handles moving at (0.5, 0, 1) m/s, where
+  every term of the schemes' y and dissipation counts (same h: there the errors halve and quarter
+  as the asymptotic range has them, 1e-4 to 1e-5 m);
+- the same 20 steps of the damped cloth solved by Newton, by PD to convergence and by L-BFGS with the
+  PD factor end within 1e-7 m of each other (each solved to |g| < 1e-12 kg m, about |g| / m = 1e-10 m
+  per step for these 28 g vertices: the bound leaves a factor 50 for 20 steps' growth);
+- BDF2 and Newmark (and midpoint) restarted from a checkpoint at step 10 end bit for bit where 20
+  uninterrupted steps do, and the checkpoint carries the scheme's history (2 vectors for BDF2, 1 for
+  Newmark: its size grows by that many vectors of 3 n doubles over implicit Euler's);
+- implicit midpoint on the undamped chain keeps its energy over 2000 steps of 5 ms: |E - E0| below
+  0.5% of the largest kinetic energy, and no larger in the second half than 1.5 x the first half's,
+  where implicit Euler loses more than half of it."""
+import math
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+MSIM = mt.msim_path()
+CHAIN = ["-msim_scene", "chain", "-msim_chain_n", "8", "-msim_fix", "corners", "-msim_spectrum_check", "0"]
+CLOTH = ["-msim_cloth_n", "6", "-msim_damping", "2", "-msim_drag", "0.05", "-msim_wind", "1,0,0", "-msim_fix_velocity", "0.5,0,1", "-msim_spectrum_check", "0"]
+T = 0.3
+HS = (2e-3, 1e-3, 5e-4)
+EXACT = ["-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_rtol", "1e-14", "-snes_atol", "1e-15"]
+SCHEMES = ("bdf2", "implicit_midpoint", "newmark")
+TIGHT = ["-snes_rtol", "0", "-snes_atol", "1e-12", "-snes_stol", "0"]
+SOLVERS = {"newton": ["-snes_type", "newtonls"] + EXACT[:6] + TIGHT,
+           "pd": ["-snes_type", "pd", "-snes_max_it", "20000"] + TIGHT,
+           "lbfgs": ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-snes_max_it", "2000"] + TIGHT}
+check = mt.Checks()
+
+
+def msim(np_, args, cwd=None):
+    r = mt.run(MSIM, args, np_, cwd=cwd)
+    if r.returncode:
+        sys.exit(f"msim failed: {' '.join(args)}\n{r.stderr}")
+    return r
+
+
+def final(np_, scene, args, tmp, name):
+    out = os.path.join(tmp, name + ".txt")
+    msim(np_, scene + args + ["-msim_view_final", mt.view_ascii(out)])
+    return np.array(mt.read_view(out))
+
+
+def orders(np_, tmp):
+    for label, scene in (("chain", CHAIN), ("damped cloth with moving handles", CLOTH)):
+        ref = final(np_, scene, ["-msim_integrator", "rk4", "-msim_dt", "1e-5", "-msim_steps", str(round(T / 1e-5))], tmp, "ref")
+        for s in SCHEMES:
+            err = [float(np.abs(final(np_, scene, ["-msim_integrator", s, "-msim_dt", repr(h), "-msim_steps", str(round(T / h))] + EXACT, tmp, f"{s}_{h}") - ref).max()) for h in HS]
+            p = [math.log2(err[i] / err[i + 1]) for i in range(2)]
+            check(all(abs(q - 2) < 0.15 for q in p),
+                  f"np={np_}: {s} on the {label}: errors {', '.join(f'{e:.3e}' for e in err)} at h = {', '.join(f'{h:g}' for h in HS)}: observed order {p[0]:.3f}, {p[1]:.3f} (expected 2)")
+
+
+def solvers(np_, tmp):
+    base = CLOTH + ["-msim_dt", "0.01", "-msim_steps", "20"]
+    for s in SCHEMES:
+        x = {name: final(np_, base, ["-msim_integrator", s] + opts, tmp, f"{s}_{name}") for name, opts in SOLVERS.items()}
+        diff = max(float(np.abs(x[a] - x["newton"]).max()) for a in ("pd", "lbfgs"))
+        check(diff < 1e-7, f"np={np_}: {s}: Newton, PD and L-BFGS agree after 20 steps (largest difference {diff:.2e} m)")
+
+
+def restarts(np_, tmp):
+    base = CLOTH + ["-msim_dt", "0.01", "-snes_type", "pd", "-snes_max_it", "5", "-snes_pd_fixed"]
+    sizes = {}
+    for s in ("implicit_euler",) + SCHEMES:
+        args = base + ["-msim_integrator", s]
+        full, ck, part = (os.path.join(tmp, f"{s}_{k}") for k in ("full.bin", "ck", "part.bin"))
+        msim(np_, args + ["-msim_steps", "20", "-msim_view_final", f"binary:{full}"])
+        msim(np_, args + ["-msim_steps", "10", "-msim_checkpoint", ck])
+        sizes[s] = os.path.getsize(ck)
+        msim(np_, args + ["-msim_steps", "20", "-msim_restart", ck, "-msim_view_final", f"binary:{part}"])
+        if s != "implicit_euler":
+            check(open(full, "rb").read() == open(part, "rb").read(), f"np={np_}: {s}: restarted at step 10, step 20 is bit for bit the uninterrupted run's")
+    nv = 36
+    vec = 8 + 3 * nv * 8  # a PETSc binary Vec: class id, size, 3 nv doubles
+    for s, n in (("bdf2", 2), ("newmark", 1), ("implicit_midpoint", 0)):
+        grown = sizes[s] - sizes["implicit_euler"]
+        check(grown == (n * vec + len(s) if n else 0), f"np={np_}: {s}'s checkpoint carries {n} history vector(s): {grown} bytes more than implicit Euler's")
+
+
+def energy(np_, tmp):
+    def run(s):
+        mon = os.path.join(tmp, f"energy_{s}.csv")
+        msim(np_, CHAIN + EXACT + ["-msim_integrator", s, "-msim_dt", "5e-3", "-msim_steps", "2000", "-msim_monitor_csv", mon])
+        rows = mt.read_csv(mon)
+        return np.array([float(r["total"]) for r in rows]), np.array([float(r["kinetic"]) for r in rows])
+    e, k = run("implicit_midpoint")
+    dev, half = np.abs(e - e[0]), len(e) // 2
+    check(dev.max() < 5e-3 * k.max() and dev[half:].max() <= 1.5 * dev[:half].max(),
+          f"np={np_}: implicit midpoint keeps the undamped chain's energy over 2000 steps: max |E - E0| {dev[:half].max():.3e} J in the first half, {dev[half:].max():.3e} J in the second, largest kinetic energy {k.max():.3f} J")
+    e, k = run("implicit_euler")
+    check(e[0] - e[-1] > 0.5 * k.max(), f"np={np_}: implicit Euler loses energy on the same chain: E0 - E = {e[0] - e[-1]:.3f} J (largest kinetic energy {k.max():.3f} J)")
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        for np_ in mt.ranks():
+            orders(np_, tmp)
+            solvers(np_, tmp)
+            restarts(np_, tmp)
+            energy(np_, tmp)
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
