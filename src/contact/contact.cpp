@@ -224,7 +224,7 @@ static PetscErrorCode CheckStart(MSimContact ct)
       const PetscReal d = MSimObstacleDistance(&ct->obs[k], x + 3 * v, n, NULL);
       if (d <= 0) {
         char msg[512];
-        PetscCall(PetscSNPrintf(msg, sizeof(msg), "free vertex %d (of %d; at %g, %g, %g) starts inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(sys->rstart + v), (int)sys->nfree, (double)x[3 * v], (double)x[3 * v + 1], (double)x[3 * v + 2], (int)k, KindOption(ct->obs[k].kind), (double)d));
+        PetscCall(PetscSNPrintf(msg, sizeof(msg), "the free vertex at (%g, %g, %g) starts inside obstacle %d (%s, distance %g): move the scene or the obstacle", (double)x[3 * v], (double)x[3 * v + 1], (double)x[3 * v + 2], (int)k, KindOption(ct->obs[k].kind), (double)d));
         bad = msg;
       }
     }

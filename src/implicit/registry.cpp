@@ -35,6 +35,8 @@ PetscErrorCode MSimImplicitSchemeCreate_Midpoint(MSimImplicitScheme);
 PetscErrorCode MSimImplicitSchemeCreate_Newmark(MSimImplicitScheme);
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
+PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm);
+PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm);
 
 PetscErrorCode MSimImplicitRegisterAll(void)
 {
@@ -48,6 +50,8 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMENEWMARK, MSimImplicitSchemeCreate_Newmark));
   PetscCall(MSimImplicitTermRegister(MSIMTERMSPRINGS, MSimImplicitTermCreate_Springs));
   PetscCall(MSimImplicitTermRegister(MSIMTERMDRAG, MSimImplicitTermCreate_Drag));
+  PetscCall(MSimImplicitTermRegister("obstacles", MSimImplicitTermCreate_Obstacles));
+  PetscCall(MSimImplicitTermRegister("friction", MSimImplicitTermCreate_Friction));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,0 +1,148 @@
+#!/usr/bin/env python3
+"""Contact with obstacles (msim/contact.h), at each rank count, against physics derived here:
+- no penetration: a cloth dropped on a plane and on a sphere, with implicit Euler and Newton, PD
+  and L-BFGS, has every vertex outside the obstacle in every frame (its distance, computed here
+  from the frames, is > 0);
+- at rest on a plane (with drag), the total contact force (-msim_monitor_csv) is the weight m g
+  within 1e-3 and points along the plane's normal (also for a plane given with an unnormalised
+  normal, and one facing +x under gravity along -x);
+- friction on an incline (gravity tilted by theta, the plane z >= d): with mu > tan(theta) the
+  cloth stays (moves less than eps_v T: the smoothed friction's static regime is a speed below
+  eps_v), with mu < tan(theta) it slides with
+  a = g (sin theta - mu cos theta): implicit Euler under a constant force moves a T^2/2 (1 + 1/N)
+  in N steps, checked within 5%;
+- explicit symplectic Euler with the penalty kc: at rest each vertex of a flat cloth carries its own
+  weight, so it sinks m_v g / kc below the plane (within 1%);
+- bad input: a sphere given with 3 values, and a cloth starting inside a sphere, are one error line.
+Usage: contact.py path/to/msim [--np N]"""
+import math
+import os
+import sys
+import tempfile
+
+import msimtest as mt
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "runs", "tools"))
+import vtu  # noqa: E402
+
+G = 9.81
+
+
+def plane_distance(p, n, d):
+    s = math.sqrt(sum(c * c for c in n))
+    return (p[:, 0] * n[0] + p[:, 1] * n[1] + p[:, 2] * n[2]) / s - d / s
+
+
+def sphere_distance(p, c, r):
+    import numpy as np
+    return np.sqrt(((p - np.array(c)) ** 2).sum(axis=1)) - r
+
+
+def barrier_derivatives(d, dhat):
+    """b'(d), b''(d) of b(d) = -(d - dhat)^2 log(d / dhat)"""
+    r, l = d - dhat, math.log(d / dhat)
+    return -2 * r * l - r * r / d, -2 * l - 4 * r / d + r * r / (d * d)
+
+
+def equilibrium_distance(gn, h, dhat):
+    """d where kappa |b'(d)| = gn with msim's default kappa = 1 / (h^2 b''(dhat/2)), by bisection
+    (|b'| falls from infinity at 0 to 0 at dhat)"""
+    kappa = 1 / (h * h * barrier_derivatives(dhat / 2, dhat)[1])
+    lo, hi = 1e-12 * dhat, dhat
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if kappa * abs(barrier_derivatives(mid, dhat)[0]) > gn else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+def frames_min_distance(out, dist):
+    """the least obstacle distance over every vertex of every frame, and the number of frames"""
+    series = vtu.read_pvd(os.path.join(out, "series.pvd"))
+    least = float("inf")
+    for _, path in series:
+        least = min(least, float(dist(vtu.read_vtu(path)["points"]).min()))
+    return least, len(series)
+
+
+def main():
+    exe = mt.msim_path()
+    check = mt.Checks()
+    tmp = tempfile.mkdtemp(prefix="msim_contact_")
+    cloth = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "7", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "40"]
+    solvers = {"newton": [], "pd": ["-snes_type", "pd", "-snes_max_it", "200"], "lbfgs": ["-snes_type", "qn"]}
+    plane = ([0, 0, 1], -0.3)
+    sphere = ([0.5, 0.5, -0.6], 0.4)
+    for np_ in mt.ranks():
+        # (a) no vertex inside the obstacle in any frame
+        for oname, opt, dist in (("plane", "-msim_contact_plane", lambda p: plane_distance(p, *plane)),
+                                 ("sphere", "-msim_contact_sphere", lambda p: sphere_distance(p, *sphere))):
+            value = ",".join(str(v) for v in (plane[0] + [plane[1]] if oname == "plane" else sphere[0] + [sphere[1]]))
+            for sname, sargs in solvers.items():
+                out = os.path.join(tmp, f"{oname}_{sname}_{np_}")
+                r = mt.run(exe, cloth + sargs + [opt, value, "-msim_output", out, "-msim_output_every", "1"], np_)
+                if not check(r.returncode == 0, f"np {np_}: cloth dropped on a {oname}, {sname}: runs ({r.stderr.strip()[-300:]})"):
+                    continue
+                least, nframes = frames_min_distance(out, dist)
+                check(nframes == 41 and least > 0, f"np {np_}: {oname}, {sname}: every vertex outside in all {nframes} frames (least distance {least:.3g} > 0)")
+        # (b) at rest: the contact force is the weight, along the normal
+        rest = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_drag", "0.5", "-msim_mass", "2"]
+        # the cloth lies in the xy plane: flat on the first plane (25 vertices touch), on its edge
+        # x = 0 on the second (5)
+        for label, extra, normal, touching in (("z >= -0.05", ["-msim_contact_plane", "0,0,2,-0.1"], (0, 0, 1), 25),
+                                               ("x >= -0.05 under gravity -x", ["-msim_contact_plane", "1,0,0,-0.05", "-msim_gravity", f"{-G},0,0"], (1, 0, 0), 5)):
+            csv = os.path.join(tmp, f"rest_{np_}.csv")
+            r = mt.run(exe, rest + extra + ["-msim_monitor_csv", csv], np_)
+            if not check(r.returncode == 0, f"np {np_}: at rest on the plane {label}: runs ({r.stderr.strip()[-300:]})"):
+                continue
+            last = mt.read_csv(csv)[-1]
+            f = [float(last[k]) for k in ("contact_fx", "contact_fy", "contact_fz")]
+            mg = 2 * G
+            along = sum(a * b for a, b in zip(f, normal))
+            across = math.sqrt(max(sum(a * a for a in f) - along * along, 0))
+            check(abs(along - mg) <= 1e-3 * mg and across <= 1e-6 * mg and int(last["contact_n"]) == touching,
+                  f"np {np_}: at rest on the plane {label}: contact force {f} is m g = {mg} along {normal} (rel. error {abs(along - mg) / mg:.2g}, across {across:.2g}), {last['contact_n']} vertices in contact (want {touching})")
+        # (c) friction on an incline: gravity tilted by theta about y, the plane z >= -d0 with d0
+        # where the barrier's force holds the normal weight (the lagged normal force is right from
+        # the first step): kappa m |b'(d0)| = m g cos(theta), kappa = 1 / (h^2 b''(dhat/2))
+        theta, n, L, h, steps, dhat = 0.3, 5, 0.2, 0.01, 50, 0.002
+        grav = f"{G * math.sin(theta)},0,{-G * math.cos(theta)}"
+        d0 = equilibrium_distance(G * math.cos(theta), h, dhat)
+        incline = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", str(n), "-msim_cloth_size", str(L), "-msim_fix", "none", "-msim_gravity", grav,
+                   "-msim_contact_plane", f"0,0,1,{-d0}", "-msim_contact_distance", str(dhat), "-msim_dt", str(h), "-msim_steps", str(steps)]
+        x0 = L / 2  # the grid's mean x at the start
+        for mu in (0.5, 0.1):
+            p, r = mt.final_positions(exe, incline + ["-msim_friction", str(mu)], np_, tmp, name=f"incline_{mu}")
+            if not check(p is not None, f"np {np_}: incline, mu {mu}: runs"):
+                continue
+            moved = float(p[:, 0].mean()) - x0
+            if mu > math.tan(theta):
+                # the smoothed friction holds a vertex as static below the speed eps_v (default
+                # 1e-3 of the scene's diameter per second): it may creep, never faster
+                eps_v = 1e-3 * L * math.sqrt(2)
+                check(abs(moved) < eps_v * steps * h, f"np {np_}: mu {mu} > tan(theta) = {math.tan(theta):.3f}: the cloth stays (moved {moved:.3g} m < eps_v T = {eps_v * steps * h:.3g} m)")
+            else:
+                a = G * (math.sin(theta) - mu * math.cos(theta))
+                T = steps * h
+                want = 0.5 * a * T * T * (1 + 1 / steps)
+                check(abs(moved - want) <= 0.05 * want, f"np {np_}: mu {mu} < tan(theta): slides {moved:.4g} m, g (sin - mu cos) T^2/2 (1 + 1/N) = {want:.4g} m")
+        # (d) explicit symplectic Euler with the penalty: each vertex sinks m_v g / kc
+        kc, mass = 2000.0, 1.0
+        p, r = mt.final_positions(exe, ["-msim_integrator", "symplectic_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_mass", str(mass), "-msim_drag", "0.5",
+                                        "-msim_contact_plane", "0,0,1,-0.05", "-msim_contact_stiffness", str(kc), "-msim_dt", "0.0005", "-msim_steps", "6000"], np_, tmp, name="penalty")
+        if check(p is not None and "warning" not in r.stderr, f"np {np_}: symplectic Euler with the penalty: runs below the guard's limit ({r.stderr.strip()[-300:]})"):
+            sink = mass / 25 * G / kc
+            z = p[:, 2]
+            err = max(abs(z.max() - (-0.05 - sink)), abs(z.min() - (-0.05 - sink)))
+            check(err <= 0.01 * sink, f"np {np_}: penalty: rest height {z.min():.8f}..{z.max():.8f} is -0.05 - m_v g / kc = {-0.05 - sink:.8f} (within 1% of the sink {sink:.3g})")
+        # (e) bad input: one error line each
+        for label, args, words in (("a sphere of 3 values", ["-msim_contact_sphere", "0,0,0"], ["-msim_contact_sphere", "4 values"]),
+                                   ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["starts inside obstacle 0", "(0.5, 0.5, 0.)"])):
+            r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"] + args, np_)
+            err = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np_}: {label}: one error line naming it ({err})")
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
