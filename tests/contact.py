@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Contact with obstacles (msim/contact.h), at each rank count, against physics derived here:
-- no penetration: a cloth dropped on a plane and on a sphere, with implicit Euler and Newton, PD
+- no penetration: a cloth dropped on a plane, a sphere and a box, with implicit Euler and Newton, PD
   and L-BFGS, has every vertex outside the obstacle in every frame (its distance, computed here
   from the frames, is > 0);
 - at rest on a plane (with drag), the total contact force (-msim_monitor_csv) is the weight m g
@@ -13,7 +13,9 @@
   in N steps, checked within 5%;
 - explicit symplectic Euler with the penalty kc: at rest each vertex of a flat cloth carries its own
   weight, so it sinks m_v g / kc below the plane (within 1%);
-- bad input: a sphere given with 3 values, and a cloth starting inside a sphere, are one error line.
+- bad input: a sphere given with 3 values, a cloth starting inside a sphere, and implicit_midpoint
+  with an obstacle (refused: the barrier keeps its unknown, the midpoint, feasible, not x_{n+1})
+  are one error line.
 Usage: contact.py path/to/msim [--np N]"""
 import math
 import os
@@ -37,6 +39,16 @@ def plane_distance(p, n, d):
 def sphere_distance(p, c, r):
     import numpy as np
     return np.sqrt(((p - np.array(c)) ** 2).sum(axis=1)) - r
+
+
+def box_distance(p, b):
+    """signed distance to the solid box b = (x0, x1, y0, y1, z0, z1): outside, to its nearest
+    point; inside, minus the distance to its nearest face"""
+    import numpy as np
+    lo, hi = np.array(b[0::2]), np.array(b[1::2])
+    q = np.maximum(np.maximum(lo - p, p - hi), 0)
+    inside = np.all((p > lo) & (p < hi), axis=1)
+    return np.where(inside, -np.minimum(p - lo, hi - p).min(axis=1), np.sqrt((q * q).sum(axis=1)))
 
 
 def barrier_derivatives(d, dhat):
@@ -73,11 +85,13 @@ def main():
     solvers = {"newton": [], "pd": ["-snes_type", "pd", "-snes_max_it", "200"], "lbfgs": ["-snes_type", "qn"]}
     plane = ([0, 0, 1], -0.3)
     sphere = ([0.5, 0.5, -0.6], 0.4)
+    box = [0.2, 0.8, 0.2, 0.8, -1, -0.2]  # a table the cloth drapes over
     for np_ in mt.ranks():
         # (a) no vertex inside the obstacle in any frame
         for oname, opt, dist in (("plane", "-msim_contact_plane", lambda p: plane_distance(p, *plane)),
-                                 ("sphere", "-msim_contact_sphere", lambda p: sphere_distance(p, *sphere))):
-            value = ",".join(str(v) for v in (plane[0] + [plane[1]] if oname == "plane" else sphere[0] + [sphere[1]]))
+                                 ("sphere", "-msim_contact_sphere", lambda p: sphere_distance(p, *sphere)),
+                                 ("box", "-msim_contact_box", lambda p: box_distance(p, box))):
+            value = ",".join(str(v) for v in {"plane": plane[0] + [plane[1]], "sphere": sphere[0] + [sphere[1]], "box": box}[oname])
             for sname, sargs in solvers.items():
                 out = os.path.join(tmp, f"{oname}_{sname}_{np_}")
                 r = mt.run(exe, cloth + sargs + [opt, value, "-msim_output", out, "-msim_output_every", "1"], np_)
@@ -135,9 +149,20 @@ def main():
             z = p[:, 2]
             err = max(abs(z.max() - (-0.05 - sink)), abs(z.min() - (-0.05 - sink)))
             check(err <= 0.01 * sink, f"np {np_}: penalty: rest height {z.min():.8f}..{z.max():.8f} is -0.05 - m_v g / kc = {-0.05 - sink:.8f} (within 1% of the sink {sink:.3g})")
+        # the stability guard counts the penalty: Gershgorin omega_max^2 <= max_i (2 sum_j k_ij + kc) / m_i;
+        # an interior vertex of the 5 x 5 grid has 12 springs of 1000 N/m, m_i = 1/25 kg, and
+        # symplectic Euler's limit is 2 / omega_max
+        kc = 1e6
+        r = mt.run(exe, ["-msim_integrator", "symplectic_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_contact_plane", "0,0,1,-0.05",
+                         "-msim_contact_stiffness", str(kc), "-msim_dt", "0.001", "-msim_steps", "1"], np_)
+        hcrit = 2 / math.sqrt((2 * 12 * 1000 + kc) * 25)
+        said = [l for l in mt.lines(r.stderr) if "exceeds the stability limit" in l]
+        got = float(said[0].split("h <= ")[1].split()[0]) if said else float("nan")
+        check(abs(got - hcrit) <= 1e-4 * hcrit, f"np {np_}: the guard's limit with kc = {kc:g}: {got:.6g} s = 2 / sqrt((2 * 12000 + kc) / m_v) = {hcrit:.6g} s")
         # (e) bad input: one error line each
         for label, args, words in (("a sphere of 3 values", ["-msim_contact_sphere", "0,0,0"], ["-msim_contact_sphere", "4 values"]),
-                                   ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["starts inside obstacle 0", "(0.5, 0.5, 0.)"])):
+                                   ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["starts inside obstacle 0", "(0.5, 0.5, 0.)"]),
+                                   ("implicit_midpoint with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-msim_integrator", "implicit_midpoint"], ["implicit_midpoint", "not supported"])):
             r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"] + args, np_)
             err = mt.lines(r.stderr)
             check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np_}: {label}: one error line naming it ({err})")
