@@ -55,6 +55,18 @@ def distance(a, b):
     return max(sum((a[i + k] - b[i + k]) ** 2 for k in range(3)) ** 0.5 for i in range(0, len(a), 3))
 
 
+def record(rows, r, ref, **row):
+    """one CSV row for run r (None: it diverged), appended to rows and printed"""
+    if r is None:
+        row.update(error_m="diverged")
+    else:
+        row.update(error_m=f"{distance(r['x'], ref['x']):.3e}", steps=r["steps"], rejected=r["rejected"],
+                   residuals=r["residuals"], jacobians=r["jacobians"], wall_s=f"{r['wall_s']:.2f}")
+    rows.append(row)
+    print(row, flush=True)
+    return row
+
+
 def wanted(method):
     return ONLY is None or method.startswith(ONLY)
 
@@ -75,14 +87,7 @@ def main():
                 h = H0 / 2 ** k
                 r = run(["-msim_integrator", "ts", "-ts_type", ts_type, "-ts_adapt_type", "none", "-msim_dt", repr(h),
                          "-msim_steps", str(round(T / h))] + extra, f"{ts_type}_{k}", tmp)
-                row = dict(method=f"{ts_type} fixed", h=f"{h:.6g}", tol="")
-                if r is None:
-                    row.update(error_m="diverged")
-                else:
-                    row.update(error_m=f"{distance(r['x'], ref['x']):.3e}", steps=r["steps"], rejected=r["rejected"],
-                               residuals=r["residuals"], jacobians=r["jacobians"], wall_s=f"{r['wall_s']:.2f}")
-                rows.append(row)
-                print(row, flush=True)
+                row = record(rows, r, ref, method=f"{ts_type} fixed", h=f"{h:.6g}", tol="")
                 if r is not None and float(row["error_m"]) < TARGET:
                     break
         for ts_type, extra, adapt in (("bdf", ["-ts_bdf_order", "2"], "basic"), ("bdf", ["-ts_bdf_order", "2"], "dsp"), ("alpha2", [], "basic")):
@@ -92,14 +97,7 @@ def main():
                 r = run(["-msim_integrator", "ts", "-ts_type", ts_type, "-ts_adapt_type", adapt,
                          "-ts_atol", repr(tol), "-ts_rtol", repr(tol), "-msim_dt", repr(H0), "-msim_steps", str(round(T / H0))] + extra,
                         f"{ts_type}_{adapt}_{tol}", tmp)
-                row = dict(method=f"{ts_type} adaptive ({adapt})", h="", tol=f"{tol:g}")
-                if r is None:
-                    row.update(error_m="diverged")
-                else:
-                    row.update(error_m=f"{distance(r['x'], ref['x']):.3e}", steps=r["steps"], rejected=r["rejected"],
-                               residuals=r["residuals"], jacobians=r["jacobians"], wall_s=f"{r['wall_s']:.2f}")
-                rows.append(row)
-                print(row, flush=True)
+                row = record(rows, r, ref, method=f"{ts_type} adaptive ({adapt})", h="", tol=f"{tol:g}")
                 if r is not None and float(row["error_m"]) < TARGET / 10:
                     break
     fields = ["method", "h", "tol", "error_m", "steps", "rejected", "residuals", "jacobians", "wall_s"]
