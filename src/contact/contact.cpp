@@ -8,7 +8,14 @@
      against the mass/h^2 scale (Li et al. 2020, sec. 4.3), set at the first step;
    - kc (explicit penalty, N/m) = the largest rest row sum of spring stiffnesses over free
      vertices: a vertex in contact is at most half again as stiff as the stiffest vertex in the
-     Gershgorin bound, so the stability guard's limit drops by at most sqrt(3/2) (it counts kc). */
+     Gershgorin bound, so the stability guard's limit drops by at most sqrt(3/2) (it counts kc).
+   Explicit integrators get a penalty, kc max(0, -d) n per vertex and obstacle, rather than a
+   projection with a velocity response: it is one more force in MSimSystemComputeForce, so every
+   explicit method and PETSc's TS take it without a change to their updates, and its stiffness is
+   a diagonal term the Gershgorin guard bounds exactly (max_i (2 sum_j k_ij + kc) / m_i). The
+   penalty lets a vertex sink m g / kc at rest, and has no friction: -msim_friction acts in the
+   implicit integrators only. The SLEPc guard (-msim_spectrum_guard slepc) computes (K, M) without
+   kc. */
 #include <msim/contact.h>
 #include <msim/options.h>
 #include <msim/errors.h>
@@ -265,7 +272,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
-  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles (implicit: IPC's lagged smoothed friction)", NULL, ct->mu, &ct->mu, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
   PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing: tangential speed (m/s) below which friction acts as static (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
   PetscOptionsEnd();
   PetscCheck(ct->dhat > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be > 0 (got %g)", (double)ct->dhat);
