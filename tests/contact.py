@@ -13,9 +13,10 @@
   in N steps, checked within 5%;
 - explicit symplectic Euler with the penalty kc: at rest each vertex of a flat cloth carries its own
   weight, so it sinks m_v g / kc below the plane (within 1%);
-- bad input: a sphere given with 3 values, a cloth starting inside a sphere, and implicit_midpoint
+- bad input: a sphere given with 3 values, a cloth starting inside a sphere, implicit_midpoint
   with an obstacle (refused: the barrier keeps its unknown, the midpoint, feasible, not x_{n+1})
-  are one error line.
+  and ksponly with an obstacle (refused: one linear step, no feasible line search) are one error
+  line.
 Usage: contact.py path/to/msim [--np N]"""
 import math
 import os
@@ -162,7 +163,8 @@ def main():
         # (e) bad input: one error line each
         for label, args, words in (("a sphere of 3 values", ["-msim_contact_sphere", "0,0,0"], ["-msim_contact_sphere", "4 values"]),
                                    ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["starts inside obstacle 0", "(0.5, 0.5, 0.)"]),
-                                   ("implicit_midpoint with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-msim_integrator", "implicit_midpoint"], ["implicit_midpoint", "not supported"])):
+                                   ("implicit_midpoint with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-msim_integrator", "implicit_midpoint"], ["implicit_midpoint", "not supported"]),
+                                   ("Baraff-Witkin (ksponly) with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "ksponly"], ["-snes_type ksponly", "not supported"])):
             r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"] + args, np_)
             err = mt.lines(r.stderr)
             check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np_}: {label}: one error line naming it ({err})")
