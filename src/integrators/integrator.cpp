@@ -1,21 +1,18 @@
 /* Integrator object: registry, options, dispatch. */
 #include <msim/integrator.h>
+#include <msim/registry.h>
 
-static PetscFunctionList MSimIntegratorList = NULL;
-static PetscBool         MSimIntegratorRegisterAllCalled = PETSC_FALSE;
+static MSimRegistry<PetscErrorCode (*)(MSimIntegrator)> MSimIntegrators;
 
 PetscErrorCode MSimIntegratorRegister(const char name[], PetscErrorCode (*create)(MSimIntegrator))
 {
-  PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListAdd(&MSimIntegratorList, name, create));
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimIntegrators.Add(name, create);
 }
 
 PetscErrorCode MSimIntegratorRegisterAll(void)
 {
   PetscFunctionBeginUser;
-  if (MSimIntegratorRegisterAllCalled) PetscFunctionReturn(PETSC_SUCCESS);
-  MSimIntegratorRegisterAllCalled = PETSC_TRUE;
+  if (!MSimIntegrators.Fill()) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimIntegratorRegister(MSIMEXPLICITEULER, MSimIntegratorCreate_ExplicitEuler));
   PetscCall(MSimIntegratorRegister(MSIMSYMPLECTICEULER, MSimIntegratorCreate_SymplecticEuler));
   PetscCall(MSimIntegratorRegister(MSIMRK4, MSimIntegratorCreate_RK4));
@@ -26,10 +23,7 @@ PetscErrorCode MSimIntegratorRegisterAll(void)
 
 PetscErrorCode MSimIntegratorFinalizePackage(void)
 {
-  PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListDestroy(&MSimIntegratorList));
-  MSimIntegratorRegisterAllCalled = PETSC_FALSE;
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimIntegrators.Destroy();
 }
 
 PetscErrorCode MSimIntegratorCreate(MSimSystem sys, MSimIntegrator *integ)
@@ -54,8 +48,7 @@ PetscErrorCode MSimIntegratorSetType(MSimIntegrator integ, const char type[])
   PetscFunctionBeginUser;
   PetscCall(PetscStrcmp(integ->type, type, &same));
   if (same) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PetscFunctionListFind(MSimIntegratorList, type, &create));
-  PetscCheck(create, integ->comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_integrator %s is not known (see -help for the list)", type);
+  PetscCall(MSimIntegrators.Find(integ->comm, "-msim_integrator", type, &create));
   if (integ->ops.destroy) PetscCall((*integ->ops.destroy)(integ));
   integ->ops             = MSimIntegratorOps();
   integ->data            = NULL;
@@ -73,7 +66,7 @@ PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ)
   PetscFunctionBeginUser;
   if (integ->type[0]) PetscCall(PetscStrncpy(type, integ->type, sizeof(type)));
   PetscOptionsBegin(integ->comm, NULL, "msim time integration", NULL);
-  PetscCall(PetscOptionsFList("-msim_integrator", "Time integrator", NULL, MSimIntegratorList, type, type, sizeof(type), NULL));
+  PetscCall(PetscOptionsFList("-msim_integrator", "Time integrator", NULL, MSimIntegrators.list, type, type, sizeof(type), NULL));
   PetscCall(MSimOptionsReal("-msim_dt", "Time step h, s", NULL, integ->dt, &integ->dt, NULL));
   PetscCall(MSimOptionsInt("-msim_steps", "Number of time steps", NULL, integ->steps, &integ->steps, NULL));
   PetscOptionsEnd();
@@ -89,7 +82,7 @@ PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ)
     if (help && !integ->help_listing) {
       const char **names;
       int           n;
-      PetscCall(PetscFunctionListGet(MSimIntegratorList, &names, &n));
+      PetscCall(PetscFunctionListGet(MSimIntegrators.list, &names, &n));
       for (int k = 0; k < n && names[k]; k++) { /* the array ends with NULL, counted in n */
         MSimIntegrator other = NULL;
         if (!strcmp(names[k], type)) continue;

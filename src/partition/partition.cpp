@@ -2,22 +2,19 @@
    partition, and no rank may be left without a vertex. */
 #include "partitioner_impl.h"
 #include <msim/options.h>
+#include <msim/registry.h>
 
-static PetscFunctionList MSimPartitionerList              = NULL;
-static PetscBool         MSimPartitionerRegisterAllCalled = PETSC_FALSE;
+static MSimRegistry<PetscErrorCode (*)(MSimPartitioner)> MSimPartitioners;
 
 PetscErrorCode MSimPartitionerRegister(const char name[], PetscErrorCode (*create)(MSimPartitioner))
 {
-  PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListAdd(&MSimPartitionerList, name, create));
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimPartitioners.Add(name, create);
 }
 
 PetscErrorCode MSimPartitionerRegisterAll(void)
 {
   PetscFunctionBeginUser;
-  if (MSimPartitionerRegisterAllCalled) PetscFunctionReturn(PETSC_SUCCESS);
-  MSimPartitionerRegisterAllCalled = PETSC_TRUE;
+  if (!MSimPartitioners.Fill()) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimPartitionerRegister(MSIMPARTITIONMETIS, MSimPartitionerCreate_Metis));
   PetscCall(MSimPartitionerRegister(MSIMPARTITIONPTSCOTCH, MSimPartitionerCreate_PTScotch));
   PetscCall(MSimPartitionerRegister(MSIMPARTITIONNATURAL, MSimPartitionerCreate_Natural));
@@ -26,10 +23,7 @@ PetscErrorCode MSimPartitionerRegisterAll(void)
 
 PetscErrorCode MSimPartitionerFinalizePackage(void)
 {
-  PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListDestroy(&MSimPartitionerList));
-  MSimPartitionerRegisterAllCalled = PETSC_FALSE;
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimPartitioners.Destroy();
 }
 
 PetscErrorCode MSimPartitionerCreate(MPI_Comm comm, MSimPartitioner *p)
@@ -48,8 +42,7 @@ PetscErrorCode MSimPartitionerSetType(MSimPartitioner p, const char type[])
   PetscErrorCode (*create)(MSimPartitioner);
 
   PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListFind(MSimPartitionerList, type, &create));
-  PetscCheck(create, p->comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_partition %s is not known (use metis, ptscotch or natural)", type);
+  PetscCall(MSimPartitioners.Find(p->comm, "-msim_partition", type, &create));
   PetscCall(PetscStrncpy(p->type, type, sizeof(p->type)));
   p->uses_graph = PETSC_TRUE;
   p->partition  = NULL;
@@ -65,7 +58,7 @@ PetscErrorCode MSimPartitionerSetFromOptions(MSimPartitioner p)
   PetscFunctionBeginUser;
   PetscCall(PetscStrncpy(type, p->type, sizeof(type)));
   PetscOptionsBegin(p->comm, NULL, "msim partition", NULL);
-  PetscCall(PetscOptionsFList("-msim_partition", "Distribution of vertices across ranks: metis (on rank 0), ptscotch (parallel) or natural (blocks in input order); default metis on several ranks, natural on one", NULL, MSimPartitionerList, type, type, sizeof(type), &set));
+  PetscCall(PetscOptionsFList("-msim_partition", "Distribution of vertices across ranks: metis (on rank 0), ptscotch (parallel) or natural (blocks in input order); default metis on several ranks, natural on one", NULL, MSimPartitioners.list, type, type, sizeof(type), &set));
   PetscOptionsEnd();
   if (set) PetscCall(MSimPartitionerSetType(p, type));
   PetscFunctionReturn(PETSC_SUCCESS);

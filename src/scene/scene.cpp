@@ -2,26 +2,23 @@
    order of the distributed steps after a generator ran. */
 #include <msim/scene.h>
 #include <msim/log.h>
+#include <msim/registry.h>
 #include <memory>
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
 
-static PetscFunctionList MSimSceneList = NULL;
-static PetscBool         MSimSceneRegisterAllCalled = PETSC_FALSE;
+static MSimRegistry<MSimSceneGenerator> MSimScenes;
 
 PetscErrorCode MSimSceneRegister(const char name[], MSimSceneGenerator gen)
 {
-  PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListAdd(&MSimSceneList, name, gen));
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimScenes.Add(name, gen);
 }
 
 PetscErrorCode MSimSceneRegisterAll(void)
 {
   PetscFunctionBeginUser;
-  if (MSimSceneRegisterAllCalled) PetscFunctionReturn(PETSC_SUCCESS);
-  MSimSceneRegisterAllCalled = PETSC_TRUE;
+  if (!MSimScenes.Fill()) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimSceneRegister("cloth", MSimSceneGenerate_Cloth));
   PetscCall(MSimSceneRegister("chain", MSimSceneGenerate_Chain));
   PetscCall(MSimSceneRegister("tet", MSimSceneGenerate_Tet));
@@ -32,10 +29,7 @@ PetscErrorCode MSimSceneRegisterAll(void)
 
 PetscErrorCode MSimSceneFinalizePackage(void)
 {
-  PetscFunctionBeginUser;
-  PetscCall(PetscFunctionListDestroy(&MSimSceneList));
-  MSimSceneRegisterAllCalled = PETSC_FALSE;
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimScenes.Destroy();
 }
 
 PetscErrorCode MSimSceneOptionsFamilyStiffness_Private(PetscOptionItems *PetscOptionsObject, const MSimSceneData *s, const char family[], const char help[], PetscReal *k)
@@ -106,7 +100,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   /* from here to MSimOptionsWatchEnd every option the user set that is read defines the scene
      (S.identity): whoever reads it, the scene, its generator, fixed vertices or a mesh reader */
   PetscCall(MSimOptionsWatchBegin(&watch));
-  PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimSceneList, type, type, sizeof(type), NULL));
+  PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimScenes.list, type, type, sizeof(type), NULL));
   PetscCall(MSimOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, S.stiffness, &S.stiffness, NULL));
   PetscCall(MSimOptionsReal("-msim_mass", "Total mass, kg, lumped to the vertices: equally on grids and chains, by volume or area on meshes", NULL, mass, &mass, &mass_set));
   PetscCall(MSimOptionsReal("-msim_density", "Mass per volume (tets, kg/m^3) or per area (surfaces, kg/m^2), instead of -msim_mass", NULL, density, &density, &density_set));
@@ -123,8 +117,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCheck(sc->perturb >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_perturb must be >= 0 m (got %g)", (double)sc->perturb);
   PetscCheck(sc->prestretch > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_prestretch must be > 0 (got %g)", (double)sc->prestretch);
 
-  PetscCall(PetscFunctionListFind(MSimSceneList, type, &gen));
-  PetscCheck(gen, comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_scene %s is not a known scene", type);
+  PetscCall(MSimScenes.Find(comm, "-msim_scene", type, &gen));
   S.name         = type;
   S.cells_wanted = (PetscBool)(drawn || refine > 0 || keep_cells);
   /* the Read stage holds reading a file or generating the scene's blocks */
@@ -140,14 +133,14 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
     if (help) {
       const char **names;
       int           n;
-      PetscCall(PetscFunctionListGet(MSimSceneList, &names, &n));
+      PetscCall(PetscFunctionListGet(MSimScenes.list, &names, &n));
       for (int q = 0; q < n && names[q]; q++) { /* the array ends with NULL, counted in n */
         MSimSceneData      scratch;
         MSimSceneGenerator g;
         if (!strcmp(names[q], type)) continue;
         scratch.options_only = PETSC_TRUE;
         scratch.stiffness    = S.stiffness;
-        PetscCall(PetscFunctionListFind(MSimSceneList, names[q], &g));
+        PetscCall(PetscFunctionListFind(MSimScenes.list, names[q], &g));
         PetscCall((*g)(comm, &scratch));
       }
       PetscCall(PetscFree(names));

@@ -9,6 +9,7 @@
 #include <msim/solvers.h>
 #include "anderson.h"
 #include <msim/sys.h>
+#include <msim/registry.h>
 
 PETSC_EXTERN PetscErrorCode SNESCreate_Shell(SNES); /* exported by PETSc, declared in no public header */
 
@@ -126,13 +127,13 @@ static PetscErrorCode SNESCreate_PD(SNES snes)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscBool MSimSolversRegistered = PETSC_FALSE;
+/* PETSc's own lists hold these types: only the once-only flag of MSimRegistry is used */
+static MSimRegistry<PetscErrorCode (*)(SNES)> MSimSolvers;
 
 PetscErrorCode MSimSolversRegisterAll(void)
 {
   PetscFunctionBeginUser;
-  if (MSimSolversRegistered) PetscFunctionReturn(PETSC_SUCCESS);
-  MSimSolversRegistered = PETSC_TRUE;
+  if (!MSimSolvers.Fill()) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESRegister(SNESPD, SNESCreate_PD));
   PetscCall(SNESRegister(SNESNTR, SNESCreate_NTR));
   PetscCall(PCRegister(PCMSIMLLT, PCCreate_MSimLLT));
