@@ -47,6 +47,15 @@ struct Reader {
     PetscCheck(mesh.AddElement(t, v, tf.line), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": a pyramid (element type 7): msim splits hexahedra and prisms into tets, not pyramids", MSIM_AT(tf));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  /* the next line (where: what the file should hold there), of ntok tokens (what), a node tag first */
+  PetscErrorCode TagLine(const char where[], size_t ntok, const char what[], int64_t *tag)
+  {
+    PetscFunctionBeginUser;
+    PetscCall(Line(where));
+    PetscCall(tf.NeedTokens(ntok, ntok, what));
+    PetscCall(tf.Int(0, "node tag", tag));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscErrorCode Nodes(double version)
   {
     PetscInt blocks = 1, n;
@@ -59,9 +68,7 @@ struct Reader {
       mesh.ReserveNodes(tf.Reserve(n, 8));
       for (PetscInt v = 0; v < n; v++) {
         int64_t tag;
-        PetscCall(Line("$Nodes (fewer nodes than its count)"));
-        PetscCall(tf.NeedTokens(4, 4, "a node (tag, x, y, z)"));
-        PetscCall(tf.Int(0, "node tag", &tag));
+        PetscCall(TagLine("$Nodes (fewer nodes than its count)", 4, "a node (tag, x, y, z)", &tag));
         PetscCall(Node(tag, 1));
       }
     } else {
@@ -83,9 +90,7 @@ struct Reader {
         tags.reserve(tf.Reserve(n, 2));
         for (PetscInt v = 0; v < n; v++) {
           int64_t tag;
-          PetscCall(Line("a node block's tags"));
-          PetscCall(tf.NeedTokens(1, 1, "a node tag"));
-          PetscCall(tf.Int(0, "node tag", &tag));
+          PetscCall(TagLine("a node block's tags", 1, "a node tag", &tag));
           tags.push_back(tag);
         }
         const size_t ncoord = 3 + (param ? (size_t)dim : 0);

@@ -37,27 +37,18 @@ struct Tokens {
     PetscCheck(More(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": the file ends where %s should be (truncated, or a count is wrong)", MSIM_AT(tf), what);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  PetscErrorCode Int(const char what[], int64_t *v)
+  /* the next token, wherever it stands, read by one of MSimTextFile's Int, Real or Count */
+  template <class T>
+  PetscErrorCode Next(PetscErrorCode (MSimTextFile::*read)(size_t, const char[], T *) const, const char what[], T *v)
   {
     PetscFunctionBeginUser;
     PetscCall(Need(what));
-    PetscCall(tf.Int(k++, what, v));
+    PetscCall((tf.*read)(k++, what, v));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  PetscErrorCode Real(const char what[], PetscReal *v)
-  {
-    PetscFunctionBeginUser;
-    PetscCall(Need(what));
-    PetscCall(tf.Real(k++, what, v));
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  PetscErrorCode Count(const char what[], PetscInt *n)
-  {
-    PetscFunctionBeginUser;
-    PetscCall(Need(what));
-    PetscCall(tf.Count(k++, what, n));
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
+  PetscErrorCode Int(const char what[], int64_t *v) { return Next(&MSimTextFile::Int, what, v); }
+  PetscErrorCode Real(const char what[], PetscReal *v) { return Next(&MSimTextFile::Real, what, v); }
+  PetscErrorCode Count(const char what[], PetscInt *n) { return Next(&MSimTextFile::Count, what, n); }
 };
 
 /* sections read past: name, numbers per record (0: Dimension's count of coordinates) */

@@ -114,23 +114,28 @@ bool MSimTextFile::IsReal(size_t k) const
   return k < tok.size() && ParseToken(tok[k], &v) == 0;
 }
 
-PetscErrorCode MSimTextFile::Int(size_t k, const char what[], int64_t *v) const
+/* token k as a T, or an error naming what: missing, out of T's range (overflow says how), or
+   not a T at all (kind says what it should have been) */
+template <class T>
+static PetscErrorCode ParseAt(const MSimTextFile &tf, size_t k, const char what[], T *v, const char overflow[], const char kind[])
 {
   PetscFunctionBeginUser;
-  PetscCheck(k < tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(*this), what);
-  const int bad = ParseToken(tok[k], v);
-  PetscCheck(bad != 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is too large", MSIM_AT(*this), what, Show(k).c_str());
-  PetscCheck(!bad, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not an integer", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCheck(k < tf.tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(tf), what);
+  const int bad = ParseToken(tf.tok[k], v);
+  PetscCheck(bad != 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is %s", MSIM_AT(tf), what, tf.Show(k).c_str(), overflow);
+  PetscCheck(!bad, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not %s", MSIM_AT(tf), what, tf.Show(k).c_str(), kind);
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimTextFile::Int(size_t k, const char what[], int64_t *v) const
+{
+  return ParseAt(*this, k, what, v, "too large", "an integer");
 }
 
 PetscErrorCode MSimTextFile::Real(size_t k, const char what[], PetscReal *v) const
 {
   PetscFunctionBeginUser;
-  PetscCheck(k < tok.size(), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s is missing", MSIM_AT(*this), what);
-  const int bad = ParseToken(tok[k], v);
-  PetscCheck(bad != 2, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is out of the range of a double", MSIM_AT(*this), what, Show(k).c_str());
-  PetscCheck(!bad, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s '%s' is not a number", MSIM_AT(*this), what, Show(k).c_str());
+  PetscCall(ParseAt(*this, k, what, v, "out of the range of a double", "a number"));
   PetscCheck(std::isfinite(*v), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s line %" PetscInt_FMT ": %s %s is not finite", MSIM_AT(*this), what, Show(k).c_str());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
