@@ -41,8 +41,11 @@ static PetscErrorCode MSimMain(void)
     if (rerr) {
       /* the error line is out; closing the integrator keeps what its monitors wrote, such as the
          per-iteration history of the step that failed (-msim_monitor_convergence), under the
-         name the user gave */
+         name the user gave; the rest is destroyed too, so no object outlives the run */
+      PetscCall(VecDestroy(&X));
+      PetscCall(VecDestroy(&V));
       PetscCall(MSimIntegratorDestroy(&integ));
+      PetscCall(MSimSystemDestroy(&sys));
       return rerr;
     }
   }
