@@ -7,7 +7,6 @@ springs, on one rank), with the file size and msim's max RSS. Each row is the be
 The files are made once under /tmp/msim_readers (about 0.9 GB for the largest box).
 Usage: /usr/bin/python3 runs/bench/readers.py [sizes, default 22,47,101 cubes per side]
 Writes runs/bench/readers.csv."""
-import csv
 import os
 import re
 import subprocess
@@ -17,7 +16,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
-from msimrun import ENV, MSIM, ROOT, event  # noqa: E402
+from msimrun import ENV, MSIM, ROOT, event, write_csv  # noqa: E402
 
 TMP = "/tmp/msim_readers"
 PERM = [(0, 1, 2), (1, 2, 0), (2, 0, 1), (0, 2, 1), (2, 1, 0), (1, 0, 2)]
@@ -113,10 +112,7 @@ def main():
                              setup_s=m["setup"], wall_s=m["wall"], max_rss_mb=round(m["rss_mb"]), read_mtets_per_s=round(ntet / m["read"] / 1e6, 2)))
             print(f"{fmt:12s} {ntet:>10,} tets ({size / 2**20:7.1f} MB): read {m['read']:.3f} s ({ntet / m['read'] / 1e6:.2f} M tets/s), check {m['check']:.3f} s, "
                   f"edges {m['edges']:.3f} s, whole setup {m['setup']:.2f} s, wall {m['wall']:.1f} s, max RSS {m['rss_mb']:.0f} MB", flush=True)
-    with open(os.path.join(HERE, "readers.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(os.path.join(HERE, "readers.csv"), rows)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,6 @@ E = 1e6 Pa, rho = 1000 kg/m^3) of about 2 x 10^5 and 4 x 10^6 springs:
   BoomerAMG (only at the small size: tens of seconds per step beyond): time per step, Newton and
   CG iterations.
 Timings are the best of 2 runs (the machine is shared)."""
-import csv
 import os
 import re
 import subprocess
@@ -23,7 +22,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
-from msimrun import ENV, MSIM, ROOT, event  # noqa: E402
+from msimrun import ENV, MSIM, ROOT, event, write_csv  # noqa: E402
 
 PD = "-msim_integrator implicit_euler -msim_dt 0.01 -msim_steps 1 -snes_type pd -snes_max_it 10 -snes_pd_fixed"
 PD_SOLVERS = {
@@ -95,10 +94,7 @@ def main():
                                  bytes_per_spring=r["max_memory_b"] / max(r["springs"], 1)))
                 print(f"newton {name:12s} box {n}^3 ({r['springs']} springs) {np_} ranks: {r['step_s']:.2f} s per step ({r['nonlinear_its']} Newton, "
                       f"{r['linear_its']} CG iterations; PC setup {r['pcsetup_s']:.2f} s), {r['max_memory_b'] / 1e9:.2f} GB", flush=True)
-    with open(os.path.join(HERE, "solvers.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(os.path.join(HERE, "solvers.csv"), rows)
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """What the studies under runs/ share: where msim is, the environment its runs need (Open MPI as
 root and oversubscribed, single-threaded BLAS so rank counts mean cores), the benchmark cloth, and
-PETSc -log_view events. Import with sys.path pointing at runs/tools."""
+PETSc -log_view events, a table of rows as CSV. Import with sys.path pointing at runs/tools."""
+import csv
 import os
 import re
 
@@ -19,3 +20,11 @@ def event(log, name, stage=None):
         log = m.group(1) if m else ""
     hits = re.findall(rf"^{name}\s+(\d+)\s+\S+\s+(\S+)\s+\S+", log, re.M)
     return (sum(int(c) for c, _ in hits), sum(float(t) for _, t in hits))
+
+
+def write_csv(path, rows):
+    """rows (dicts with the same keys, in column order) as a CSV file with a header line"""
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w.writeheader()
+        w.writerows(rows)
