@@ -103,9 +103,10 @@ PetscErrorCode MSimSceneOptionsFamilyStiffness_Private(PetscOptionItems *PetscOp
 /* Fixed vertices from -msim_fix, -msim_fix_list, -msim_fix_plane, -msim_fix_box. */
 PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s);
 
-/* A mesh read on this rank becomes this rank's vertices and cells (input ids: the mesh's compact
-   indices; the file's ids, where they differ, in vfile and nv_file). */
-void MSimSceneTakeMesh(MSimMesh *mesh, MSimSceneData *s);
+/* A mesh read on this rank is checked (MSimMeshCheck), its notes printed, and it becomes this
+   rank's vertices and cells (input ids: the mesh's compact indices; the file's ids, where they
+   differ, in vfile and nv_file). */
+PetscErrorCode MSimSceneTakeMesh(MSimMesh *mesh, MSimSceneData *s);
 
 /* The distributed steps (distribute.cpp, refine.cpp). Collective. */
 PetscErrorCode MSimSceneToDirectory(MPI_Comm comm, MSimSceneData *s);   /* vertices to their directory rank */

@@ -12,9 +12,7 @@ static PetscErrorCode ReadSurface(const char file[], const char format[], PetscR
   PetscFunctionBeginUser;
   PetscCall(MSimMeshReadFileAs(file, format, 3, &m));
   MSimMeshScale(&m, scale);
-  PetscCall(MSimMeshCheck(&m));
-  PetscCall(MSimMeshPrintNotes(&m));
-  MSimSceneTakeMesh(&m, s);
+  PetscCall(MSimSceneTakeMesh(&m, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

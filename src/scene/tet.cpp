@@ -16,8 +16,12 @@ PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, ch
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-void MSimSceneTakeMesh(MSimMesh *m, MSimSceneData *s)
+PetscErrorCode MSimSceneTakeMesh(MSimMesh *m, MSimSceneData *s)
 {
+  PetscFunctionBeginUser;
+  /* the notes only once the mesh passed its checks, so a refused file prints its error alone */
+  PetscCall(MSimMeshCheck(m));
+  PetscCall(MSimMeshPrintNotes(m));
   s->nv = m->nv;
   s->vid.resize(m->nv);
   for (PetscInt v = 0; v < m->nv; v++) s->vid[v] = v;
@@ -29,6 +33,7 @@ void MSimSceneTakeMesh(MSimMesh *m, MSimSceneData *s)
   s->cells.swap(m->cell);
   s->source = m->file;
   *m        = MSimMesh();
+  PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* Rank 0's nv, nv_file and source, for every rank */
@@ -60,9 +65,7 @@ static PetscErrorCode ReadTets(const char file[], const char format[], const cha
     PetscCall(MSimMeshTetrahedralize(&m, switches, &tets));
     m = std::move(tets);
   }
-  PetscCall(MSimMeshCheck(&m));
-  PetscCall(MSimMeshPrintNotes(&m));
-  MSimSceneTakeMesh(&m, s);
+  PetscCall(MSimSceneTakeMesh(&m, s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
