@@ -19,6 +19,19 @@
 #include <cstdio>
 #include <vector>
 
+/* v uniform in [lo, hi], from a fresh generator at PETSc's default seed: the same draw every run */
+static PetscErrorCode SetRandom(Vec v, PetscReal lo, PetscReal hi)
+{
+  PetscRandom r;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscRandomCreate(PetscObjectComm((PetscObject)v), &r));
+  PetscCall(PetscRandomSetInterval(r, lo, hi));
+  PetscCall(VecSetRandom(v, r));
+  PetscCall(PetscRandomDestroy(&r));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* A moving state: 5 Newton steps from rest, then one step of the method under test. */
 static const char *kScene = "-msim_cloth_n 7 -msim_stiffness 1000 -msim_damping 0.5 -msim_drag 0.01 -msim_wind 1,0,0 -msim_dt 0.0333333333333 -msim_integrator implicit_euler";
 
@@ -181,13 +194,7 @@ static PetscErrorCode TestJacobianFD(void)
   PetscCall(VecDuplicate(s.X, &Gp));
   PetscCall(VecDuplicate(s.X, &Gm));
   PetscCall(VecDuplicate(s.X, &JdX));
-  {
-    PetscRandom r;
-    PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &r));
-    PetscCall(PetscRandomSetInterval(r, -1, 1));
-    PetscCall(VecSetRandom(dX, r));
-    PetscCall(PetscRandomDestroy(&r));
-  }
+  PetscCall(SetRandom(dX, -1, 1));
   PetscCall(VecWAXPY(Xp, eps, dX, s.X));
   PetscCall(VecWAXPY(Xm, -eps, dX, s.X));
   PetscCall(MSimImplicitResidual(imp, Xp, Gp));
@@ -459,13 +466,7 @@ static PetscErrorCode TestTermsSum(void)
   PetscCall(VecDuplicate(s.X, &Gs));
   PetscCall(VecDuplicate(s.X, &D));
   PetscCall(VecDuplicate(s.X, &Y));
-  {
-    PetscRandom r;
-    PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &r));
-    PetscCall(PetscRandomSetInterval(r, -0.01, 0.01));
-    PetscCall(VecSetRandom(D, r));
-    PetscCall(PetscRandomDestroy(&r));
-  }
+  PetscCall(SetRandom(D, -0.01, 0.01));
   PetscCall(VecWAXPY(X1, h, s.V, s.X));
   PetscCall(VecAXPY(X1, 1.0, D));
   /* the drag's part, from x_n = s.X: h c/2 |x1 - x_n|^2, h c (x1 - x_n), h c I */
