@@ -54,6 +54,9 @@ struct _n_MSimImplicitScheme {
   MSimImplicit          imp;   /* the problem it belongs to (set before its create function) */
   PetscReal             beta;  /* h2 = beta h^2 */
   PetscReal             gamma; /* hd = gamma h (Euler 1; BDF2 2/3; midpoint and Newmark 1/2) */
+  /* why a term that keeps the unknown feasible (a contact barrier) cannot guarantee x_{n+1}
+     with this scheme, or NULL where it can; such terms refuse the scheme with this reason */
+  const char           *no_barrier;
   MSimImplicitSchemeOps ops;
   void                 *data;
   /* get_history's vectors hold the previous step's history: set by end_step, and by a restart

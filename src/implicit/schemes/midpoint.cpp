@@ -82,6 +82,8 @@ PetscErrorCode MSimImplicitSchemeCreate_Midpoint(MSimImplicitScheme scheme)
   scheme->data            = d;
   scheme->beta            = 0.25;
   scheme->gamma           = 0.5;
+  /* x_{n+1} = 2 x_m - x_n went inside a box a cloth fell on */
+  scheme->no_barrier      = "a barrier keeps the midpoint feasible, not x_{n+1} = 2 x_m - x_n";
   scheme->ops.begin_step  = BeginStep_Midpoint;
   scheme->ops.guess       = Guess_Midpoint;
   scheme->ops.end_step    = EndStep_Midpoint;

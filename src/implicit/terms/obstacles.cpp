@@ -200,16 +200,8 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
   /* the options are read and the start state checked now, before the first step */
   PetscCall(MSimContactGet(term->imp->sys, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS); /* no obstacle: no op, nothing per iteration */
-  {
-    /* The barrier keeps the unknown feasible. implicit_midpoint's unknown is the midpoint, and
-       x_{n+1} = 2 x_m - x_n went inside a box a cloth fell on; newmark's is x_{n+1}, but its
-       trapezoidal velocity and acceleration recursions ring on the barrier's stiff response
-       and diverged on the same drop. Refused until the barrier acts on x_{n+1} with damping. */
-    PetscBool midpoint, newmark;
-    PetscCall(PetscStrcmp(term->imp->scheme->type, "implicit_midpoint", &midpoint));
-    PetscCall(PetscStrcmp(term->imp->scheme->type, "newmark", &newmark));
-    PetscCheck(!midpoint && !newmark, term->imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with obstacles (-msim_contact_*) is not supported: use implicit_euler or bdf2 (or an explicit integrator)", term->imp->scheme->type);
-  }
+  /* the scheme says where a barrier on its unknown cannot guarantee x_{n+1} (midpoint, Newmark) */
+  PetscCheck(!term->imp->scheme->no_barrier, term->imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with obstacles (-msim_contact_*) is not supported (%s): use implicit_euler or bdf2 (or an explicit integrator)", term->imp->scheme->type, term->imp->scheme->no_barrier);
   term->ops.energy   = Energy_Obstacles;
   term->ops.gradient = Gradient_Obstacles;
   term->ops.hessian  = Hessian_Obstacles;
