@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs the Debian 12 packages msim needs, only those missing. Needs root (or sudo).
 set -euo pipefail
-pkgs=(build-essential cmake pkg-config petsc-dev slepc-dev libeigen3-dev libmetis-dev libtet1.5-dev tetgen
+pkgs=(build-essential cmake pkg-config petsc-dev slepc-dev libeigen3-dev libcgal-dev libmetis-dev libtet1.5-dev tetgen
       openmpi-bin libopenmpi-dev libhdf5-openmpi-dev libopenblas0-pthread python3-matplotlib python3-numpy python3-h5py ffmpeg)
 missing=()
 for p in "${pkgs[@]}"; do

@@ -88,6 +88,10 @@ typedef struct {
   /* the largest alpha in (0, *alpha] for which X - alpha Y stays where the term is defined
      (contact barriers: the line search starts there); lowers *alpha where it must, else leaves it */
   PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha);
+  /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
+     vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
+     back towards A instead of x_n) */
+  PetscErrorCode (*feasible_start)(MSimImplicitTerm, Vec A);
   PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer);
   PetscErrorCode (*destroy)(MSimImplicitTerm);
 } MSimImplicitTermOps;

@@ -21,7 +21,8 @@ PetscErrorCode MSimOutputWanted(MSimOutput out, PetscInt step, PetscInt last, Pe
 /* A frame of the state (X, V) at time t. Besides positions it holds, in input vertex order, each
    vertex's `fixed` flag, `file_id` (its id in the input file; -1 for a vertex msim made, by TetGen
    or -msim_refine) and `velocity`, each spring's `strain` l/L - 1 and each tet's `volume_ratio`
-   V/V0 (signed volumes: negative where inverted). The springs are the cells where the scene has
+   V/V0 (signed volumes: negative where inverted), and with obstacles each vertex's `contact_force`
+   (N, msim/contact_force.h). The springs are the cells where the scene has
    no others (grids, chains); a mesh's springs are a second piece (.vtu: frame_NNNNNN_springs.vtu,
    part 1 of the .pvd's timestep; HDF5: the second grid of the frame's spatial collection). */
 PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X, Vec V);
@@ -89,8 +90,9 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume
    `last` (the tail cut off in place); *kept: whether it existed with a header */
 PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
-/* phi: the implicit step's incremental potential at its result (0 for explicit methods) */
-PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi);
+/* phi: the implicit step's incremental potential at its result (0 for explicit methods); contact
+   (or NULL: zeros): the obstacles' total force x, y, z and vertices in contact (msim/contact_force.h) */
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi, const PetscReal contact[4]);
 PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon);
 
 /* -msim_view_final VIEWER: positions of all vertices in msim's vertex order (that of the frames,

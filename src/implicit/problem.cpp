@@ -87,13 +87,18 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
      pulled back towards x_n, which is feasible, as far as the terms' max_step says */
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
-  if (!feasible) {
-    Vec       D;
+  if (!feasible) { /* towards x_n, or a feasible start a term makes from it (moving obstacles) */
+    Vec       D, A;
     PetscReal alpha;
     PetscCall(VecDuplicate(X, &D));
-    PetscCall(VecWAXPY(D, -1.0, X, imp->Xn)); /* X = x_n - D */
-    PetscCall(MSimImplicitMaxStep(imp, imp->Xn, D, &alpha));
-    if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, imp->Xn));
+    PetscCall(VecDuplicate(X, &A));
+    PetscCall(VecCopy(imp->Xn, A));
+    for (PetscInt k = 0; k < imp->nterms; k++)
+      if (imp->terms[k]->ops.feasible_start) PetscCall(imp->terms[k]->ops.feasible_start(imp->terms[k], A));
+    PetscCall(VecWAXPY(D, -1.0, X, A)); /* X = A - D */
+    PetscCall(MSimImplicitMaxStep(imp, A, D, &alpha));
+    if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, A));
+    PetscCall(VecDestroy(&A));
     PetscCall(VecDestroy(&D));
   }
   PetscFunctionReturn(PETSC_SUCCESS);

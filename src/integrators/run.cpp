@@ -2,6 +2,7 @@
 #include <csignal>
 #include <msim/run.h>
 #include <msim/spectrum.h>
+#include <msim/contact_force.h>
 #include <cmath>
 
 /* Largest stable h for an explicit method given omega_max. Without damping: limit / omega_max.
@@ -91,6 +92,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(PetscLogStagePush(MSIM_StageSetup));
   PetscCall(MSimIntegratorSetUp(integ));
   PetscCall(PetscLogStagePop());
+  PetscCall(MSimContactForceSetIntegrator(sys, integ->type)); /* the frames' and monitor's contact force */
   PetscCall(MSimGuard(sys, integ, X, info));
   PetscCall(MSimCheckpointSetIntegrator(ck, integ));
   PetscCall(MSimCheckpointRestart(ck, integ->steps, X, V, &step0, &t_ck, &dt_ck, &E0_ck, &restarted));
@@ -119,7 +121,11 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   gnorm = PetscSqrtReal(sys->gravity[0] * sys->gravity[0] + sys->gravity[1] * sys->gravity[1] + sys->gravity[2] * sys->gravity[2]);
   scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2] + sys->wind[0] * sys->wind[0] + sys->wind[1] * sys->wind[1] + sys->wind[2] * sys->wind[2]) + PETSC_SMALL;
   if (!restarted) { /* a restarted run has these from the first */
-    if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0));
+    if (want_mon) {
+      PetscReal contact[4];
+      PetscCall(MSimContactForce(sys, 0.0, X, NULL, contact));
+      PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0, contact));
+    }
     PetscCall(MSimOutputWanted(out, 0, integ->steps, &want_out));
     if (want_out) PetscCall(MSimOutputWriteFrame(out, 0, 0.0, X, V));
   }
@@ -175,7 +181,11 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(VecCopy(X, Xgood));
       PetscCall(VecCopy(V, Vgood));
     }
-    if (want_mon) PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi));
+    if (want_mon) {
+      PetscReal contact[4]; /* at the step's result, as the frame's contact_force */
+      PetscCall(MSimContactForce(sys, t, X, NULL, contact));
+      PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi, contact));
+    }
     PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
     if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X, V));
     PetscCall(MSimStopSignalPoll(&stop, &signal_seen));

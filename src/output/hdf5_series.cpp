@@ -3,7 +3,8 @@
    springs ("/springs", pairs of input ids), the fixed flags ("/fixed") and the file ids
    ("/file_id"), written once; each frame is DIR/frame_NNNNNN.h5 with "/positions" and
    "/velocity" (nv x 3, input order, from the natural Vec), "/strain" (one per spring, in the order
-   of the springs drawn) and for tets "/volume_ratio" (one per cell). DIR/series.xdmf lists them
+   of the springs drawn), for tets "/volume_ratio" (one per cell) and with obstacles
+   "/contact_force" (nv x 3, msim/contact_force.h). DIR/series.xdmf lists them
    for ParaView (XDMF 3, a temporal collection; a mesh's frame is a spatial collection of two
    grids, its cells and its springs, on the same points). Each rank computes the fields of its
    own cells and springs from the positions of the vertices they touch. Each file is written
@@ -11,6 +12,7 @@
    frame: a killed run leaves no truncated file and a collection of exactly the frames on disk. */
 #include "hdf5_series.h"
 #include "frame_fields.h"
+#include <msim/contact_force.h>
 #include <petscviewerhdf5.h>
 #include <algorithm>
 #include <cstdio>
@@ -68,6 +70,7 @@ PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char
   PetscFunctionBeginUser;
   h->sys = sys;
   h->dir = dir;
+  PetscCall(MSimContactHasObstacles(sys, &h->contact));
   PetscCall(MSimSystemBlockFileIds(sys, ids));
   PetscCall(OpenTemporary(sys->comm, h->dir + "/mesh.h5", &v));
   PetscCall(ViewInts(sys->comm, v, "cells", sys->out_cells, sys->out_cell_size));
@@ -149,6 +152,7 @@ static std::string UniformXML(const MSimHDF5Series *h, const char indent[], cons
   grid += AttributeXML(in.c_str(), "fixed", false, "Node", sys->nv, true, "mesh.h5:/fixed");
   grid += AttributeXML(in.c_str(), "file_id", false, "Node", sys->nv, true, "mesh.h5:/file_id");
   grid += AttributeXML(in.c_str(), "velocity", true, "Node", sys->nv, false, file + ":/velocity");
+  if (h->contact) grid += AttributeXML(in.c_str(), "contact_force", true, "Node", sys->nv, false, file + ":/contact_force");
   if (cellfield) grid += AttributeXML(in.c_str(), cellfield, false, "Cell", ncells, false, file + ":/" + cellfield);
   return grid + indent + "</Grid>\n";
 }
@@ -202,6 +206,15 @@ static PetscErrorCode WriteFields(MSimHDF5Series *h, const std::string &name, Pe
   PetscCall(MSimSystemNaturalVelocities(sys, V));
   PetscCall(PetscObjectSetName((PetscObject)sys->natural, "velocity"));
   PetscCall(VecView(sys->natural, v));
+  if (h->contact) { /* the obstacles' force on each vertex (zero at the fixed ones), likewise */
+    Vec F;
+    PetscCall(MSimSystemCreateVec(sys, &F));
+    PetscCall(MSimContactForce(sys, t, X, F, NULL));
+    PetscCall(MSimSystemNaturalVector(sys, F));
+    PetscCall(VecDestroy(&F));
+    PetscCall(PetscObjectSetName((PetscObject)sys->natural, "contact_force"));
+    PetscCall(VecView(sys->natural, v));
+  }
   PetscCall(PetscObjectSetName((PetscObject)sys->natural, "positions"));
   PetscCall(CloseAndRename(sys->comm, h->dir + "/" + name, &v));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -9,6 +9,7 @@ struct MSimHDF5Series {
   std::string grids;        /* the XDMF grids of the frames written so far */
   PetscInt    ncells = 0;   /* cells drawn, over all ranks */
   PetscInt    nsprings = 0; /* a mesh's springs (its second grid), over all ranks; 0 for grids and chains */
+  PetscBool   contact  = PETSC_FALSE; /* obstacles: each frame holds "/contact_force" (msim/contact_force.h) */
   /* the frame's per-cell fields: the positions of the vertices this rank's cells and springs
      touch (gathered from the natural Vec by `fetch`), their ends as indices into it, and the
      fields as Vecs laid out like the cells (each rank its own, in rank order) */

@@ -1,7 +1,6 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
    with wall time. Energies: kinetic, potential (springs + gravity), total. */
 #include <msim/output.h>
-#include <msim/contact.h>
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>
@@ -107,16 +106,16 @@ PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi)
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi, const PetscReal contact[4])
 {
   PetscLogDouble now;
 
   PetscFunctionBeginUser;
   if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e phi %.10e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi));
-  /* the obstacles' total contact force and vertices in contact (msim/contact.h; zeros without) */
-  PetscReal fc[3] = {0, 0, 0};
-  PetscInt  nc    = 0;
-  if (mon->csv_path[0]) PetscCall(MSimContactTotals(comm, fc, &nc)); /* collective */
+  /* the obstacles' total contact force and vertices in contact at the step's result
+     (msim/contact_force.h; zeros without obstacles) */
+  const PetscReal fc[3] = {contact ? contact[0] : 0, contact ? contact[1] : 0, contact ? contact[2] : 0};
+  const PetscInt  nc    = contact ? (PetscInt)(contact[3] + 0.5) : 0;
   if (mon->csv) {
     PetscCall(PetscTime(&now));
     const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.9e,%.9e,%.9e,%" PetscInt_FMT ",%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, (double)fc[0], (double)fc[1], (double)fc[2], nc, now - mon->wall0);

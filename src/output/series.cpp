@@ -6,6 +6,7 @@
    whole after each frame so that it always lists exactly the frames on disk. */
 #include "hdf5_series.h"
 #include "frame_fields.h"
+#include <msim/contact_force.h>
 #include <string>
 #include <vector>
 #include <cerrno>
@@ -173,8 +174,18 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], Pets
   char                   path[PETSC_MAX_PATH_LEN];
 
   PetscFunctionBeginUser;
+  std::vector<PetscReal> fc;
+  PetscBool              contact;
   PetscCall(MSimSystemGatherPositions(sys, t, X, x));
   PetscCall(MSimSystemGatherVelocities(sys, V, v));
+  PetscCall(MSimContactHasObstacles(sys, &contact));
+  if (contact) { /* the obstacles' force on each vertex (zero at the fixed ones) */
+    Vec F;
+    PetscCall(MSimSystemCreateVec(sys, &F));
+    PetscCall(MSimContactForce(sys, t, X, F, NULL));
+    PetscCall(MSimSystemGatherVector(sys, F, fc));
+    PetscCall(VecDestroy(&F));
+  }
   if (sys->rank == 0) {
     const int                  k = sys->out_cell_size;
     const size_t               ncell = out->cells.size() / k, nspring = out->spring_L.size();
@@ -182,17 +193,19 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], Pets
     std::vector<PetscReal>     strain(nspring), ratio(out->cell_V0.size());
     MSimFrameStrain(nspring, lines ? out->cells.data() : out->springs.data(), out->spring_L.data(), x.data(), strain.data());
     MSimFrameVolumeRatio(ratio.size(), out->cells.data(), out->cell_V0.data(), x.data(), ratio.data());
-    const MSimVTUArray point[3] = {
-      {"fixed",    "UInt8",   1, out->fixed.data()  },
-      {"file_id",  "Int64",   1, out->file_id.data()},
-      {"velocity", "Float64", 3, v.data()           }
+    const MSimVTUArray point[4] = {
+      {"fixed",         "UInt8",   1, out->fixed.data()  },
+      {"file_id",       "Int64",   1, out->file_id.data()},
+      {"velocity",      "Float64", 3, v.data()           },
+      {"contact_force", "Float64", 3, fc.data()          }
     };
+    const int npoint = contact ? 4 : 3;
     const MSimVTUArray cellstrain = {"strain", "Float64", 1, strain.data()}, cellratio = {"volume_ratio", "Float64", 1, ratio.data()};
     PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s.vtu", out->dir, base));
-    PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)ncell, k, out->cells.data(), 3, point, lines ? 1 : k == 4 ? 1 : 0, lines ? &cellstrain : &cellratio));
+    PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)ncell, k, out->cells.data(), npoint, point, lines ? 1 : k == 4 ? 1 : 0, lines ? &cellstrain : &cellratio));
     if (!lines) {
       PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s_springs.vtu", out->dir, base));
-      PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)nspring, 2, out->springs.data(), 3, point, 1, &cellstrain));
+      PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)nspring, 2, out->springs.data(), npoint, point, 1, &cellstrain));
     }
   }
   PetscFunctionReturn(PETSC_SUCCESS);

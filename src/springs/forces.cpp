@@ -105,7 +105,7 @@ PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V,
   const PetscBool weight = (PetscBool)(sys->drag == 0);
   PetscCall(MSimSystemExternalForce(sys, V, F, weight ? 4 * sys->springs.slices.nslice : 0));
   PetscCall(SpringSweep(sys, t, X, sys->damping > 0 ? V : NULL, F, weight, -1.0, 1.0, NULL));
-  PetscCall(MSimContactAddPenaltyForce(sys, X, F)); /* obstacles' penalty (msim/contact.h), if any */
+  PetscCall(MSimContactAddPenaltyForce(sys, t, X, F)); /* obstacles' penalty (msim/contact.h), if any */
   PetscCall(PetscLogEventEnd(MSIM_Force, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,0 +1,19 @@
+/* The obstacles' force on each vertex at a given state: one function that the frames (the point
+   array `contact_force`) and -msim_monitor_csv's totals (contact_fx, fy, fz, contact_n) both call
+   on the state they describe, the end of a step, so that the two agree (the solver's last
+   gradient evaluation is not necessarily at that state). msim/contact.h holds the obstacles. */
+#pragma once
+#include <msim/system.h>
+
+/* Which force the run's integrator applies: the implicit schemes' barrier (kappa m |b'(d)| n, minus
+   the barrier energy's gradient divided by the step's weight beta h^2: a force in N, zero beyond
+   dhat), or for every other integrator (explicit ones and PETSc's TS) the penalty kc max(0, -d) n.
+   Called once by the time loop with the integrator's type, before the first frame. */
+PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[]);
+/* F (a free-vertex Vec, or NULL) = the obstacles' force on each owned free vertex at X and time t
+   (summed over obstacles); totals (or NULL) = its sum over ranks (x, y, z) and the vertices in contact
+   (barrier: within dhat; penalty: inside). Zeros without obstacles, and for the barrier before its
+   kappa is chosen (at the first step). Collective. */
+PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal totals[4]);
+/* Whether the system has obstacles (collective on first use: reads the contact options). */
+PetscErrorCode MSimContactHasObstacles(MSimSystem sys, PetscBool *has);

@@ -1,0 +1,95 @@
+/* The obstacles' force per vertex at a state (msim/contact_force.h), for the frames and the
+   monitor. The barrier's force is what obstacles.cpp's gradient adds, divided by the step's weight
+   beta h^2: -kappa m b'(d) n (b' <= 0, so it pushes out along n); the penalty's is what
+   MSimContactAddPenaltyForce adds. Computed here from msim/contact.h's geometry rather than read
+   back from the solver, whose last evaluation is at its last iterate or line-search trial, not
+   the step's result. Which of the two applies is kept on the system's X0 (a composed container,
+   like the contact object itself) so that the output, which knows only the system, finds it. */
+#include <msim/contact_force.h>
+#include <msim/contact.h>
+#include <msim/implicit.h>
+#include <cstring>
+
+static const char barrier_key[] = "MSimContactForceBarrier";
+
+PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
+{
+  const char   **names;
+  PetscInt       n;
+  PetscBool      barrier = PETSC_FALSE;
+  PetscContainer mark;
+
+  PetscFunctionBeginUser;
+  /* the implicit integrators are the registered schemes, by name (src/integrators/impls/implicit.cpp) */
+  PetscCall(MSimImplicitSchemeGetNames(&names, &n));
+  for (PetscInt k = 0; k < n; k++)
+    if (!strcmp(names[k], type)) barrier = PETSC_TRUE;
+  PetscCall(PetscFree(names));
+  if (barrier) {
+    PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &mark));
+    PetscCall(PetscObjectCompose((PetscObject)sys->X0, barrier_key, (PetscObject)mark));
+    PetscCall(PetscContainerDestroy(&mark));
+  } else PetscCall(PetscObjectCompose((PetscObject)sys->X0, barrier_key, NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactHasObstacles(MSimSystem sys, PetscBool *has)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  *has = (PetscBool)(ct != NULL);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal totals[4])
+{
+  MSimContact        ct;
+  PetscObject        mark;
+  const PetscScalar *x, *m;
+  PetscScalar       *f = NULL;
+  PetscReal          sum[4] = {0, 0, 0, 0};
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  if (F) PetscCall(VecZeroEntries(F));
+  if (ct) {
+    PetscCall(PetscObjectQuery((PetscObject)sys->X0, barrier_key, &mark));
+    const PetscBool barrier = (PetscBool)(mark != NULL);
+    PetscCall(VecGetArrayRead(X, &x));
+    PetscCall(VecGetArrayRead(sys->mass, &m));
+    if (F) PetscCall(VecGetArray(F, &f));
+    for (PetscInt v = 0; v < sys->nown; v++) {
+      PetscBool touch = PETSC_FALSE;
+      for (const MSimObstacle &o : ct->obs) {
+        PetscReal       n[3], s = 0;
+        const PetscReal d = MSimObstacleDistance(&o, x + 3 * v, n, NULL);
+        if (barrier) {
+          PetscReal b, db, d2b;
+          if (d >= ct->dhat) continue;
+          touch = PETSC_TRUE;
+          /* the clamp obstacles.cpp's gradient uses (a feasible state never reaches it) */
+          MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+          s = -ct->kappa * PetscRealPart(m[3 * v]) * db;
+        } else {
+          if (d >= 0) continue;
+          touch = PETSC_TRUE;
+          s = -ct->kc * d;
+        }
+        for (int c = 0; c < 3; c++) {
+          if (f) f[3 * v + c] += s * n[c];
+          sum[c] += s * n[c];
+        }
+      }
+      sum[3] += touch;
+    }
+    if (F) PetscCall(VecRestoreArray(F, &f));
+    PetscCall(VecRestoreArrayRead(sys->mass, &m));
+    PetscCall(VecRestoreArrayRead(X, &x));
+  }
+  if (totals) {
+    PetscCall(MPIU_Allreduce(sum, totals, 4, MPIU_REAL, MPIU_SUM, sys->comm));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -1,0 +1,85 @@
+#!/usr/bin/env python3
+"""The obstacles' force in the frames (point array contact_force, .vtu and HDF5/XDMF series) and in
+-msim_monitor_csv (contact_fx, fy, fz, contact_n), both computed at the end-of-step state
+(msim/contact_force.h), checked against physics derived here at each rank count:
+- a flat cloth of mass m at rest on the plane z >= -0.05 (with drag, so it settles): in the last
+  frame every vertex's contact force is its own weight m_v g along +z (flat, its springs pull only
+  in the plane), so the frame's forces sum to m g (within 1e-3), for implicit Euler's barrier
+  (Newton and PD) in both series formats and for symplectic Euler's penalty;
+- in every frame written, the frame's forces sum to the monitor's columns of the same step (to
+  roundoff: the same function on the same state), and contact_n counts the vertices whose force
+  is non-zero;
+- frame 0 (the cloth above the plane, beyond the contact distance) holds zero forces;
+- without obstacles the frames have no contact_force array.
+Usage: contact_output.py path/to/msim [--np N]"""
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+sys.path.insert(0, os.path.join(mt.ROOT, "runs", "tools"))
+import vtu  # noqa: E402
+
+G, MASS, N = 9.81, 2.0, 5
+
+
+def read_frames(out, fmt):
+    """[(step, contact_force (nv, 3) or None)] of every frame of the series in out"""
+    frames = []
+    if fmt == "vtu":
+        for _, path in vtu.read_pvd(os.path.join(out, "series.pvd")):
+            step = int(os.path.basename(path)[6:12])
+            frames.append((step, vtu.read_vtu(path).get("contact_force")))
+    else:
+        import h5py
+        for name in sorted(f for f in os.listdir(out) if f.startswith("frame_") and f.endswith(".h5")):
+            with h5py.File(os.path.join(out, name), "r") as f:
+                frames.append((int(name[6:12]), f["contact_force"][:].reshape(-1, 3) if "contact_force" in f else None))
+    return frames
+
+
+def main():
+    exe, check = mt.msim_path(), mt.Checks()
+    tmp = tempfile.mkdtemp(prefix="msim_contact_output_")
+    rest = ["-msim_cloth_n", str(N), "-msim_fix", "none", "-msim_drag", "0.5", "-msim_mass", str(MASS),
+            "-msim_contact_plane", "0,0,1,-0.05", "-msim_output_every", "50"]
+    cases = (("implicit Euler, Newton, vtu", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150"], "vtu"),
+             ("implicit Euler, Newton, HDF5", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_output_format", "hdf5"], "hdf5"),
+             ("implicit Euler, PD, vtu", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-snes_type", "pd", "-snes_max_it", "500"], "vtu"),
+             ("symplectic Euler, penalty, HDF5", ["-msim_integrator", "symplectic_euler", "-msim_dt", "0.0005", "-msim_steps", "10000", "-msim_contact_stiffness", "2000",
+                                                  "-msim_output_every", "2500", "-msim_output_format", "hdf5"], "hdf5"))
+    for np_ in mt.ranks():
+        for label, args, fmt in cases:
+            out, csv = os.path.join(tmp, f"{len(os.listdir(tmp))}"), os.path.join(tmp, f"mon_{len(os.listdir(tmp))}.csv")
+            r = mt.run(exe, rest + args + ["-msim_output", out, "-msim_monitor_csv", csv], np_)
+            if not check(r.returncode == 0, f"np {np_}: {label}: runs ({r.stderr.strip()[-300:]})"):
+                continue
+            rows = {int(row["step"]): row for row in mt.read_csv(csv)}
+            frames = read_frames(out, fmt)
+            if not check(len(frames) >= 4 and all(f is not None for _, f in frames), f"np {np_}: {label}: {len(frames)} frames, each with contact_force"):
+                continue
+            worst, counts = 0.0, True
+            for step, f in frames:
+                row = rows[step]
+                mon = np.array([float(row[k]) for k in ("contact_fx", "contact_fy", "contact_fz")])
+                worst = max(worst, float(np.abs(f.sum(axis=0) - mon).max()))
+                counts &= int(row["contact_n"]) == int((np.abs(f).sum(axis=1) > 0).sum())
+            check(worst <= 1e-9 * MASS * G and counts, f"np {np_}: {label}: every frame's forces sum to the monitor's columns of its step (worst {worst:.2g} N) and contact_n counts the vertices pushed")
+            check(not frames[0][1].any(), f"np {np_}: {label}: frame 0 (above the plane) has no contact force")
+            f = frames[-1][1]
+            total, mv = f.sum(axis=0), MASS / (N * N) * G
+            check(abs(total[2] - MASS * G) <= 1e-3 * MASS * G and np.abs(total[:2]).max() <= 1e-6 * MASS * G,
+                  f"np {np_}: {label}: at rest the frame's forces sum to m g = {MASS * G:.4f} N along +z (got {total}, rel. error {abs(total[2] - MASS * G) / (MASS * G):.2g})")
+            check(np.abs(f[:, 2] - mv).max() <= 1e-3 * mv, f"np {np_}: {label}: each vertex carries its own weight m_v g = {mv:.5f} N (worst {np.abs(f[:, 2] - mv).max():.2g} N off)")
+        out = os.path.join(tmp, f"none_{np_}")
+        r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "2", "-msim_output", out], np_)
+        if check(r.returncode == 0, f"np {np_}: without obstacles: runs"):
+            check(all(f is None for _, f in read_frames(out, "vtu")), f"np {np_}: without obstacles the frames have no contact_force")
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
