@@ -1,4 +1,5 @@
-/* Contact with static obstacles (planes, spheres, solid boxes), read from options once per system:
+/* Contact with obstacles (planes, spheres, solid boxes, triangle meshes), each static or moving with
+   a constant velocity, read from options once per system:
    the geometry every integrator shares (signed distance, its gradient and Hessian, the largest
    feasible step of a vertex along a ray), the barrier of the implicit term (src/implicit/terms/
    obstacles.cpp) and the penalty of the explicit force. One contact object per system, made on
@@ -9,11 +10,31 @@
 #include <msim/system.h>
 #include <vector>
 
-typedef enum { MSIM_OBSTACLE_PLANE, MSIM_OBSTACLE_SPHERE, MSIM_OBSTACLE_BOX } MSimObstacleKind;
+typedef enum { MSIM_OBSTACLE_PLANE, MSIM_OBSTACLE_SPHERE, MSIM_OBSTACLE_BOX, MSIM_OBSTACLE_MESH } MSimObstacleKind;
+
+/* A static triangle surface (src/contact/mesh_obstacle.cpp: CGAL's AABB tree, kept in that one
+   file). Every rank holds the whole surface (read on rank 0 by msim's readers, broadcast once), so
+   queries about its own vertices need no communication. */
+typedef struct _n_MSimMeshObstacle *MSimMeshObstacle;
+/* Reads F (OBJ/OFF/STL... by extension, msim's readers and MSimMeshCheck: their one-line errors),
+   builds the tree. Collective. */
+PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscReal thickness, MSimMeshObstacle *mesh);
+void           MSimMeshObstacleDestroy(MSimMeshObstacle *mesh);
+/* file name, triangles, closed (every edge in two triangles: the cloth stays outside) */
+void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *ntri, PetscBool *closed);
+/* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,
+   Hessian of the distance (face region 0; edge (I - n n^T - e e^T)/r; vertex (I - n n^T)/r) */
+PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+/* a step t in [0, tmax] for which the segment x -> x + t u keeps off the thickness shell
+   (conservative advancement; PETSC_INFINITY where x + [0, tmax] u cannot reach it) */
+PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mesh, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
 
 typedef struct {
   MSimObstacleKind kind;
   PetscReal        p[6]; /* plane: unit n, d (n.x >= d); sphere: c, r; box: x0,x1,y0,y1,z0,z1 */
+  MSimMeshObstacle mesh; /* MSIM_OBSTACLE_MESH (owned by the contact object) */
+  PetscReal        v[3]; /* constant velocity (-msim_contact_velocity): at time t the obstacle is
+                            its given shape moved by v t */
 } MSimObstacle;
 
 typedef struct _n_MSimContact *MSimContact;
@@ -25,6 +46,8 @@ struct _n_MSimContact {
   PetscReal                 kappa; /* barrier stiffness per unit mass (1/s^2); 0: chosen at the first step */
   PetscReal                 kc;    /* explicit penalty stiffness, N/m per vertex */
   PetscReal                 eps_v; /* friction's static velocity threshold (m/s) */
+  PetscReal                 thickness; /* mesh obstacles: the shell the cloth keeps out of */
+  PetscBool                 moving;    /* some obstacle has a velocity */
   /* this rank's totals at the last force or gradient evaluation: the monitor's columns */
   PetscReal                 force[3];
   PetscInt                  ncontact;
@@ -37,15 +60,21 @@ PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
 /* Signed distance of x to obstacle o (positive outside), its gradient n (unit) and, when H is
    not NULL, its Hessian (3 x 3, row major; zero for planes and box faces). */
 PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+/* The same for the obstacle where it is at time t (its velocity times t away from its given place) */
+PetscReal MSimObstacleDistanceAt(const MSimObstacle *o, PetscReal t, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
 /* The first t > 0 at which x + t u reaches the obstacle's surface (PETSC_INFINITY: never), for x
-   outside it. */
+   outside it (planes, spheres, boxes). */
 PetscReal MSimObstacleHitTime(const MSimObstacle *o, const PetscReal x[3], const PetscReal u[3]);
+/* The largest step in (0, tmax] (or PETSC_INFINITY beyond) the line searches may take from x along
+   u against the obstacle at time t: 0.8 of the exact hit time (IPC's filter) for the analytic
+   shapes, conservative advancement for meshes. */
+PetscReal MSimObstacleSafeStep(const MSimObstacle *o, PetscReal t, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
 /* The barrier b(d) = -(d - dhat)^2 log(d / dhat) on (0, dhat), 0 beyond (C2 at dhat), and its
    first two derivatives. */
 void MSimBarrier(PetscReal d, PetscReal dhat, PetscReal *b, PetscReal *db, PetscReal *d2b);
-/* F += the explicit penalty force kc max(0, -d) n per free owned vertex and obstacle (nothing
-   without obstacles); records the totals for the monitor. */
-PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, Vec X, Vec F);
+/* F += the explicit penalty force kc max(0, -d) n per free owned vertex and obstacle at time t
+   (nothing without obstacles); records the totals for the monitor. */
+PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Vec F);
 /* The totals over ranks of the last system made with obstacles: contact force (3, N) and
    vertices in contact (implicit: within dhat; explicit: inside) at the last force or gradient
    evaluation, which the integrators make at the step's result; zeros without obstacles.

@@ -1,6 +1,8 @@
 /* The contact object: obstacles from options (-msim_contact_plane / _sphere / _box, several per
-   option, 4 or 6 values each), the contact distance, friction and stiffnesses, and the checks of
-   the start state. Kept on the system's X0 (a PetscContainer composed there) so that it lives and
+   option, 4 or 6 values each; -msim_contact_mesh, several files, src/contact/mesh_obstacle.cpp),
+   their velocities (-msim_contact_velocity, one triple per obstacle in the order -msim_scene_view
+   lists them: planes, spheres, boxes, meshes, each in the order given), the contact distance,
+   friction and stiffnesses, and the checks of the start state. Kept on the system's X0 (a PetscContainer composed there) so that it lives and
    dies with the system and no header of the system changes. Defaults:
    - dhat = 1e-2 of the scene's diameter (the barrier acts within 1% of the scene's size);
    - kappa (implicit barrier, per unit mass) = 1 / (beta h^2 b''(dhat/2)): the barrier's stiffness
@@ -21,6 +23,7 @@
 #include <msim/errors.h>
 #include <cmath>
 #include <string>
+#include <vector>
 
 /* the contact object with obstacles of the system made last: the monitor's columns read it (the
    monitor knows no system) */
@@ -28,8 +31,11 @@ static MSimContact active = NULL;
 
 static PetscErrorCode ContactDestroy(void *ctx)
 {
-  if (active == (MSimContact)ctx) active = NULL;
-  delete (MSimContact)ctx;
+  MSimContact ct = (MSimContact)ctx;
+  if (active == ct) active = NULL;
+  for (MSimObstacle &o : ct->obs)
+    if (o.mesh) MSimMeshObstacleDestroy(&o.mesh);
+  delete ct;
   return PETSC_SUCCESS;
 }
 
@@ -53,6 +59,7 @@ PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], Pets
   if (H)
     for (int k = 0; k < 9; k++) H[k] = 0;
   switch (o->kind) {
+  case MSIM_OBSTACLE_MESH: return MSimMeshObstacleDistance(o->mesh, x, n, H);
   case MSIM_OBSTACLE_PLANE:
     for (int c = 0; c < 3; c++) n[c] = p[c];
     return p[0] * x[0] + p[1] * x[1] + p[2] * x[2] - p[3];
@@ -101,11 +108,26 @@ PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], Pets
   return 0;
 }
 
+PetscReal MSimObstacleDistanceAt(const MSimObstacle *o, PetscReal t, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+{
+  const PetscReal y[3] = {x[0] - o->v[0] * t, x[1] - o->v[1] * t, x[2] - o->v[2] * t}; /* x relative to the moved obstacle */
+  return MSimObstacleDistance(o, y, n, H);
+}
+
+PetscReal MSimObstacleSafeStep(const MSimObstacle *o, PetscReal t, const PetscReal x[3], const PetscReal u[3], PetscReal tmax)
+{
+  const PetscReal y[3] = {x[0] - o->v[0] * t, x[1] - o->v[1] * t, x[2] - o->v[2] * t};
+  if (o->kind == MSIM_OBSTACLE_MESH) return MSimMeshObstacleSafeStep(o->mesh, y, u, tmax);
+  const PetscReal hit = MSimObstacleHitTime(o, y, u);
+  return 0.8 * hit < tmax ? 0.8 * hit : PETSC_INFINITY;
+}
+
 PetscReal MSimObstacleHitTime(const MSimObstacle *o, const PetscReal x[3], const PetscReal u[3])
 {
   const PetscReal *p = o->p;
 
   switch (o->kind) {
+  case MSIM_OBSTACLE_MESH: return MSimMeshObstacleSafeStep(o->mesh, x, u, PETSC_MAX_REAL);
   case MSIM_OBSTACLE_PLANE: {
     const PetscReal d = p[0] * x[0] + p[1] * x[1] + p[2] * x[2] - p[3], vn = p[0] * u[0] + p[1] * u[1] + p[2] * u[2];
     return vn < 0 ? d / -vn : PETSC_INFINITY;
@@ -137,7 +159,7 @@ PetscReal MSimObstacleHitTime(const MSimObstacle *o, const PetscReal x[3], const
 
 static const char *KindOption(MSimObstacleKind k)
 {
-  return k == MSIM_OBSTACLE_PLANE ? "-msim_contact_plane" : (k == MSIM_OBSTACLE_SPHERE ? "-msim_contact_sphere" : "-msim_contact_box");
+  return k == MSIM_OBSTACLE_PLANE ? "-msim_contact_plane" : (k == MSIM_OBSTACLE_SPHERE ? "-msim_contact_sphere" : (k == MSIM_OBSTACLE_BOX ? "-msim_contact_box" : "-msim_contact_mesh"));
 }
 
 PetscErrorCode MSimContactView(MSimContact ct, PetscViewer viewer)
@@ -148,10 +170,19 @@ PetscErrorCode MSimContactView(MSimContact ct, PetscViewer viewer)
   for (size_t k = 0; k < ct->obs.size(); k++) {
     const PetscReal *p = ct->obs[k].p;
     switch (ct->obs[k].kind) {
+    case MSIM_OBSTACLE_MESH: {
+      const char *file;
+      PetscInt    ntri;
+      PetscBool   closed;
+      MSimMeshObstacleInfo(ct->obs[k].mesh, &file, &ntri, &closed);
+      PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: mesh %s, %d triangles, %s, thickness %g\n", (int)k, file, (int)ntri, closed ? "closed (the cloth stays outside)" : "open (either side)", (double)ct->thickness));
+    } break;
     case MSIM_OBSTACLE_PLANE: PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: plane n = (%g, %g, %g), n.x >= %g\n", (int)k, (double)p[0], (double)p[1], (double)p[2], (double)p[3])); break;
     case MSIM_OBSTACLE_SPHERE: PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: sphere centre (%g, %g, %g), radius %g\n", (int)k, (double)p[0], (double)p[1], (double)p[2], (double)p[3])); break;
     case MSIM_OBSTACLE_BOX: PetscCall(PetscViewerASCIIPrintf(viewer, "  obstacle %d: box [%g, %g] x [%g, %g] x [%g, %g]\n", (int)k, (double)p[0], (double)p[1], (double)p[2], (double)p[3], (double)p[4], (double)p[5])); break;
     }
+    const PetscReal *v = ct->obs[k].v;
+    if (v[0] != 0 || v[1] != 0 || v[2] != 0) PetscCall(PetscViewerASCIIPrintf(viewer, "    moving with velocity (%g, %g, %g) m/s\n", (double)v[0], (double)v[1], (double)v[2]));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -171,8 +202,8 @@ static PetscErrorCode ReadObstacles(PetscOptionItems *PetscOptionsObject, MSimSy
   PetscCheck(n < nmax, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: at most %d obstacles per option", name, nmax / per - 1);
   PetscCheck(n > 0 && n % per == 0, sys->comm, PETSC_ERR_ARG_WRONG, "%s takes %d values per obstacle (%s); got %d", name, per, kind == MSIM_OBSTACLE_PLANE ? "nx,ny,nz,d" : (kind == MSIM_OBSTACLE_SPHERE ? "cx,cy,cz,r" : "x0,x1,y0,y1,z0,z1"), (int)n);
   for (PetscInt k = 0; k < n / per; k++) {
-    MSimObstacle o;
-    o.kind = kind;
+    MSimObstacle o = {};
+    o.kind         = kind;
     for (int c = 0; c < per; c++) o.p[c] = v[per * k + c];
     if (kind == MSIM_OBSTACLE_PLANE) {
       const PetscReal len = std::sqrt(o.p[0] * o.p[0] + o.p[1] * o.p[1] + o.p[2] * o.p[2]);
@@ -216,27 +247,54 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* every free vertex strictly outside every obstacle; the first offender (lowest rank) named */
+/* every free vertex strictly outside every obstacle (outside the shell of a mesh); the first
+   offender named by its input id (the id users type, whatever the rank count) and the obstacle */
 static PetscErrorCode CheckStart(MSimContact ct)
 {
   MSimSystem         sys = ct->sys;
-  const PetscScalar *x;
-  std::string        bad;
+  const PetscScalar *x, *nat;
+  PetscScalar       *f;
+  PetscInt           bad = 0, lo, hi, first = PETSC_MAX_INT;
+  Vec                flag;
+  std::string        msg;
 
   PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(sys->X0, &flag));
+  PetscCall(VecZeroEntries(flag));
   PetscCall(VecGetArrayRead(sys->X0, &x));
-  for (PetscInt v = 0; v < sys->nown && bad.empty(); v++)
-    for (size_t k = 0; k < ct->obs.size() && bad.empty(); k++) {
-      PetscReal n[3];
+  PetscCall(VecGetArray(flag, &f));
+  for (PetscInt v = 0; v < sys->nown; v++)
+    for (size_t k = 0; k < ct->obs.size(); k++) {
+      PetscReal       n[3];
       const PetscReal d = MSimObstacleDistance(&ct->obs[k], x + 3 * v, n, NULL);
-      if (d <= 0) {
-        char msg[512];
-        PetscCall(PetscSNPrintf(msg, sizeof(msg), "the free vertex at (%g, %g, %g) starts inside obstacle %d (%s, distance %g): move the scene or the obstacle", (double)x[3 * v], (double)x[3 * v + 1], (double)x[3 * v + 2], (int)k, KindOption(ct->obs[k].kind), (double)d));
-        bad = msg;
+      if (d <= 0 && f[3 * v] == 0) {
+        f[3 * v] = (PetscScalar)(k + 1), f[3 * v + 1] = d;
+        bad++;
       }
     }
+  PetscCall(VecRestoreArray(flag, &f));
   PetscCall(VecRestoreArrayRead(sys->X0, &x));
-  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)bad.empty(), bad));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &bad, 1, MPIU_INT, MPI_SUM, sys->comm));
+  if (bad) { /* name the vertex by its input id: through the natural (input-order) layout */
+    PetscCall(MSimSystemNaturalVector(sys, flag));
+    PetscCall(VecGetOwnershipRange(sys->natural, &lo, &hi));
+    PetscCall(VecGetArrayRead(sys->natural, &nat));
+    for (PetscInt i = 0; i < (hi - lo) / 3 && first == PETSC_MAX_INT; i++)
+      if (PetscRealPart(nat[3 * i]) != 0) {
+        const PetscInt  k  = (PetscInt)(PetscRealPart(nat[3 * i]) + 0.5) - 1, id = lo / 3 + i;
+        const PetscInt  fid = sys->nat_file_id.empty() ? id : sys->nat_file_id[i];
+        char            buf[512];
+        first = id;
+        PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d starts inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(fid >= 0 ? fid : id), (int)k, KindOption(ct->obs[k].kind), (double)PetscRealPart(nat[3 * i + 1])));
+        msg = buf;
+      }
+    PetscCall(VecRestoreArrayRead(sys->natural, &nat));
+    PetscInt gfirst = first;
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &gfirst, 1, MPIU_INT, MPI_MIN, sys->comm));
+    PetscCall(VecDestroy(&flag));
+    PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(first != gfirst), msg));
+  }
+  PetscCall(VecDestroy(&flag));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -260,6 +318,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->kappa = 0;
   ct->kc    = 0;
   ct->eps_v = 1e-3 * PetscMax(sys->diameter, PETSC_SMALL);
+  ct->thickness = 0;
+  ct->moving    = PETSC_FALSE;
   PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
   PetscCall(PetscContainerSetPointer(container, ct));
   PetscCall(PetscContainerSetUserDestroy(container, ContactDestroy));
@@ -269,6 +329,38 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_PLANE, "Half-spaces n.x >= d the free vertices stay in, 4 values each: nx,ny,nz,d (n normalised here)"));
   PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_SPHERE, "Solid spheres, 4 values each: cx,cy,cz,r"));
   PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_BOX, "Solid axis-aligned boxes, 6 values each: x0,x1,y0,y1,z0,z1"));
+  PetscCall(MSimOptionsReal("-msim_contact_thickness", "Mesh obstacles: the cloth keeps this far from the surface (outside a closed one, either side of an open one)", NULL, ct->thickness, &ct->thickness, NULL));
+  {
+    char     *files[64];
+    PetscInt  nfile = 64;
+    PetscBool set;
+    PetscCall(PetscOptionsStringArray("-msim_contact_mesh", "Static triangle surfaces (OBJ/OFF/STL, comma-separated files): closed ones keep the cloth outside, open ones on either side, at -msim_contact_thickness", NULL, files, &nfile, &set));
+    if (!set) nfile = 0;
+    PetscCheck(ct->thickness >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_thickness must be >= 0 (got %g)", (double)ct->thickness);
+    PetscErrorCode ierr = PETSC_SUCCESS;
+    for (PetscInt k = 0; k < nfile; k++) {
+      MSimObstacle o = {};
+      o.kind         = MSIM_OBSTACLE_MESH;
+      if (!ierr) ierr = MSimMeshObstacleCreate(sys->comm, files[k], ct->thickness, &o.mesh);
+      if (!ierr) ct->obs.push_back(o);
+      PetscCall(PetscFree(files[k]));
+    }
+    PetscCall(ierr);
+  }
+  {
+    PetscReal v[3 * 64];
+    PetscInt  nv = 3 * 64;
+    PetscBool set;
+    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static", NULL, v, &nv, &set));
+    if (set) {
+      PetscCheck(nv == 3 * (PetscInt)ct->obs.size(), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_velocity takes one vx,vy,vz per obstacle (%d obstacles: %d values); got %d values", (int)ct->obs.size(), 3 * (int)ct->obs.size(), (int)nv);
+      for (size_t k = 0; k < ct->obs.size(); k++)
+        for (int c = 0; c < 3; c++) {
+          ct->obs[k].v[c] = v[3 * k + c];
+          if (v[3 * k + c] != 0) ct->moving = PETSC_TRUE;
+        }
+    }
+  }
   PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
@@ -291,7 +383,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, Vec X, Vec F)
+PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Vec F)
 {
   MSimContact        ct;
   const PetscScalar *x;
@@ -308,7 +400,7 @@ PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, Vec X, Vec F)
     PetscBool touch = PETSC_FALSE;
     for (const MSimObstacle &o : ct->obs) {
       PetscReal       n[3];
-      const PetscReal d = MSimObstacleDistance(&o, x + 3 * v, n, NULL);
+      const PetscReal d = MSimObstacleDistanceAt(&o, t, x + 3 * v, n, NULL);
       if (d >= 0) continue;
       touch = PETSC_TRUE;
       for (int c = 0; c < 3; c++) {

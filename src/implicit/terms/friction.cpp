@@ -8,7 +8,9 @@
    the Hessian beta h^2 mu lambda [f1(y)/y P + (f1'(y) y - f1(y))/y^3 u u^T] is PSD as it is (in
    the tangent plane its eigenvalues are f1'(y) >= 0 along u and f1(y)/y across), so no
    projection. Everything lagged is recomputed from x_n per call: no state, no step hook. PD: its
-   gradient at the current iterate in the right-hand side, as the barrier's. */
+   gradient at the current iterate in the right-hand side, as the barrier's. A moving obstacle
+   (-msim_contact_velocity) drags: the slip u is the displacement relative to it, P (x - x_n -
+   v_o (tx - t)). */
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <cmath>
@@ -28,7 +30,8 @@ static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec 
   for (PetscInt v = 0; v < sys->nown; v++)
     for (const MSimObstacle &o : ct->obs) {
       PetscReal       n[3], P[9], u[3], b, db, d2b, y = 0;
-      const PetscReal d = MSimObstacleDistance(&o, xn + 3 * v, n, NULL);
+      const PetscReal d  = MSimObstacleDistanceAt(&o, imp->step.t, xn + 3 * v, n, NULL); /* x_n with the obstacle at t */
+      const PetscReal dt = imp->step.tx - imp->step.t;
       if (d >= ct->dhat || d <= 0) continue;
       MSimBarrier(d, ct->dhat, &b, &db, &d2b);
       const PetscReal lambda = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(db);
@@ -36,7 +39,7 @@ static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec 
         for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - n[a] * n[c];
       for (int a = 0; a < 3; a++) {
         u[a] = 0;
-        for (int c = 0; c < 3; c++) u[a] += P[3 * a + c] * (x[3 * v + c] - xn[3 * v + c]);
+        for (int c = 0; c < 3; c++) u[a] += P[3 * a + c] * (x[3 * v + c] - xn[3 * v + c] - o.v[c] * dt); /* slip relative to the obstacle */
         y += u[a] * u[a];
       }
       f(v, lambda, P, u, std::sqrt(y));

@@ -13,6 +13,8 @@
    The contact force, -kappa m b'(d) n, is recorded at every gradient for -msim_monitor_csv. */
 #include <msim/implicit.h>
 #include <msim/contact.h>
+#include <msim/errors.h>
+#include <string>
 
 /* kappa's default at the first step: the barrier's stiffness at dhat/2 equals the mass's */
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
@@ -27,7 +29,8 @@ static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* f(v, k, d, n, H, m) for every owned vertex v and obstacle k within dhat (d may be <= 0) */
+/* f(v, d, n, H, m) for every owned vertex v and obstacle within dhat (d may be <= 0), the
+   obstacles where they are when the scheme's unknown is (step.tx: moving obstacles) */
 template <class F>
 static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, PetscBool hessian, F &&f)
 {
@@ -40,7 +43,7 @@ static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, 
   for (PetscInt v = 0; v < sys->nown; v++)
     for (const MSimObstacle &o : ct->obs) {
       PetscReal       n[3], H[9];
-      const PetscReal d = MSimObstacleDistance(&o, x + 3 * v, n, hessian ? H : NULL);
+      const PetscReal d = MSimObstacleDistanceAt(&o, term->imp->step.tx, x + 3 * v, n, hessian ? H : NULL);
       if (d < ct->dhat) f(v, d, n, H, PetscRealPart(m[3 * v]));
     }
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
@@ -171,14 +174,50 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
     for (const MSimObstacle &o : ct->obs) {
-      const PetscReal t = MSimObstacleHitTime(&o, x + 3 * v, u);
-      if (0.8 * t < a) a = 0.8 * t;
+      const PetscReal t = MSimObstacleSafeStep(&o, term->imp->step.tx, x + 3 * v, u, a);
+      if (t < a) a = t;
     }
   }
   PetscCall(VecRestoreArrayRead(Y, &y));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &a, 1, MPIU_REAL, MPIU_MIN, sys->comm));
   *alpha = a;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Moving obstacles: x_n is outside them at t, but one may have moved onto it by tx. A vertex an
+   obstacle approached to within dhat is carried with it over [t, tx] (a rigid translation keeps
+   its distance d(x_n, t) > 0), so the first iterate can be pulled back towards a feasible point. A
+   vertex carried into another obstacle is squeezed between two: no feasible start exists. */
+static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
+{
+  MSimImplicit   imp = term->imp;
+  MSimSystem     sys = imp->sys;
+  MSimContact    ct;
+  PetscScalar   *a;
+  const PetscReal dt = imp->step.tx - imp->step.t;
+  PetscInt       bad = -1;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct || !ct->moving) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArray(A, &a));
+  for (PetscInt v = 0; v < sys->nown && bad < 0; v++) {
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal       n[3];
+      const PetscReal dnew = MSimObstacleDistanceAt(&o, imp->step.tx, a + 3 * v, n, NULL);
+      if (dnew >= ct->dhat || (o.v[0] == 0 && o.v[1] == 0 && o.v[2] == 0)) continue;
+      const PetscReal dold = MSimObstacleDistanceAt(&o, imp->step.t, a + 3 * v, n, NULL);
+      if (dnew < dold)
+        for (int c = 0; c < 3; c++) a[3 * v + c] += o.v[c] * dt;
+    }
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal n[3];
+      if (MSimObstacleDistanceAt(&o, imp->step.tx, a + 3 * v, n, NULL) <= 0) bad = v;
+    }
+  }
+  PetscCall(VecRestoreArray(A, &a));
+  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(bad < 0), "a vertex is squeezed between moving obstacles at t = " + std::to_string((double)imp->step.tx) + ": no position outside all of them (a smaller -msim_dt or obstacles farther apart)"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -207,6 +246,7 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
   term->ops.hessian  = Hessian_Obstacles;
   term->ops.pd_rhs   = PDRHS_Obstacles;
   term->ops.max_step = MaxStep_Obstacles;
+  if (ct->moving) term->ops.feasible_start = FeasibleStart_Obstacles;
   term->ops.view     = View_Obstacles;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,0 +1,215 @@
+#!/usr/bin/env python3
+"""Mesh obstacles (-msim_contact_mesh, -msim_contact_thickness) and moving obstacles
+(-msim_contact_velocity), at each rank count, against geometry and physics computed here:
+- a closed OBJ box (12 triangles, written here) as a table with thickness s: a cloth dropped on it
+  with Newton, PD and L-BFGS keeps every vertex at distance > s from the box in every frame (the
+  box's exact distance, computed here from the frames); the same run with the analytic
+  -msim_contact_box (its surface is the mesh's) at s = 0 ends at the same positions (the barrier
+  sees the same distance; 1e-7 m, the solvers' tolerance);
+- at rest on a closed OBJ table (with drag), the total contact force is m g along +z within 1e-3
+  and every vertex is above the thickness shell;
+- an open surface (one square, two triangles) under a cloth: the cloth rests on it at distance >
+  s, and -msim_scene_view calls it open;
+- a ball moving up with constant velocity into a cloth hanging from its corners: every vertex is
+  outside the ball where the ball is at that frame's time, in every frame (analytic sphere, Newton
+  and PD; a closed OBJ sphere, Newton, its exact point-triangle distance computed here), and the
+  ball pushes the cloth above the corners' plane (the cloth's top is within dhat of the ball's top
+  at the end, 0.18 m up; without the ball nothing rises above z = 0);
+- bad input, one error line each: a face naming a missing vertex (the reader's error), a triangle
+  of zero area (naming the file), a cloth vertex inside a closed mesh (naming the vertex and the
+  obstacle), a velocity list of the wrong length, a negative thickness.
+Usage: contact_mesh.py path/to/msim [--np N]"""
+import math
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "runs", "tools"))
+import vtu  # noqa: E402
+
+G = 9.81
+
+
+def write_box(path, b):
+    """closed box x0,x1,y0,y1,z0,z1 as 12 triangles"""
+    x0, x1, y0, y1, z0, z1 = b
+    V = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
+    Q = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    with open(path, "w") as f:
+        for v in V:
+            f.write("v %r %r %r\n" % v)
+        for q in Q:
+            f.write("f %d %d %d\nf %d %d %d\n" % (q[0] + 1, q[1] + 1, q[2] + 1, q[0] + 1, q[2] + 1, q[3] + 1))
+
+
+def sphere_mesh(c, r, nu=24, nv=12):
+    """a UV sphere: vertices (array) and triangles (0-based)"""
+    V = [(c[0], c[1], c[2] + r)]
+    for i in range(1, nv):
+        th = math.pi * i / nv
+        for j in range(nu):
+            ph = 2 * math.pi * j / nu
+            V.append((c[0] + r * math.sin(th) * math.cos(ph), c[1] + r * math.sin(th) * math.sin(ph), c[2] + r * math.cos(th)))
+    V.append((c[0], c[1], c[2] - r))
+    S, F = len(V) - 1, []
+    for j in range(nu):
+        F.append((0, 1 + j, 1 + (j + 1) % nu))
+    for i in range(nv - 2):
+        for j in range(nu):
+            a, b = 1 + i * nu + j, 1 + i * nu + (j + 1) % nu
+            F += [(a, a + nu, b + nu), (a, b + nu, b)]
+    base = 1 + (nv - 2) * nu
+    for j in range(nu):
+        F.append((base + j, S, base + (j + 1) % nu))
+    return np.array(V), np.array(F)
+
+
+def write_obj(path, V, F):
+    with open(path, "w") as f:
+        for v in V:
+            f.write("v %r %r %r\n" % tuple(v))
+        for t in F:
+            f.write("f %d %d %d\n" % tuple(int(i) + 1 for i in t))
+
+
+def box_distance(p, b):
+    lo, hi = np.array(b[0::2]), np.array(b[1::2])
+    q = np.maximum(np.maximum(lo - p, p - hi), 0)
+    inside = np.all((p > lo) & (p < hi), axis=1)
+    return np.where(inside, -np.minimum(p - lo, hi - p).min(axis=1), np.sqrt((q * q).sum(axis=1)))
+
+
+def segment_distance(p, a, b):
+    ab = b - a
+    t = np.clip(((p - a) * ab).sum(-1) / (ab * ab).sum(-1), 0, 1)
+    return np.linalg.norm(p - (a + t[..., None] * ab), axis=-1)
+
+
+def convex_mesh_distance(p, V, F):
+    """signed distance of points p to the closed convex triangle mesh (V, F): the least
+    point-triangle distance (inside the face: to its plane; else to its nearest edge), negative
+    where p is behind every face plane (planes oriented away from the centroid)"""
+    A, B, C = V[F[:, 0]][None], V[F[:, 1]][None], V[F[:, 2]][None]
+    P = p[:, None, :]
+    n = np.cross(B - A, C - A)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    n *= np.sign(((A - V.mean(axis=0)) * n).sum(-1, keepdims=True))  # outward
+    h = ((P - A) * n).sum(-1)
+    Q = P - h[..., None] * n  # projection on the plane
+
+    def side(u, v):
+        return (np.cross(v - u, Q - u) * n).sum(-1)
+    inface = (side(A, B) >= 0) & (side(B, C) >= 0) & (side(C, A) >= 0)
+    edge = np.minimum(np.minimum(segment_distance(P, A, B), segment_distance(P, B, C)), segment_distance(P, C, A))
+    d = np.where(inface, np.abs(h), edge).min(axis=1)
+    inside = np.all(h < 0, axis=1)
+    return np.where(inside, -d, d)
+
+
+def frames(out):
+    return [(t, vtu.read_vtu(path)["points"]) for t, path in vtu.read_pvd(os.path.join(out, "series.pvd"))]
+
+
+def main():
+    exe = mt.msim_path()
+    check = mt.Checks()
+    tmp = tempfile.mkdtemp(prefix="msim_contact_mesh_")
+    table = [0.2, 0.8, 0.2, 0.8, -1, -0.2]
+    table_obj = os.path.join(tmp, "table.obj")
+    write_box(table_obj, table)
+    big = [-0.5, 1.5, -0.5, 1.5, -1, -0.05]
+    big_obj = os.path.join(tmp, "big.obj")
+    write_box(big_obj, big)
+    ball_c, ball_r, ball_v = [0.5, 0.5, -0.5], 0.2, [0, 0, 0.6]
+    BV, BF = sphere_mesh(ball_c, ball_r)
+    ball_obj = os.path.join(tmp, "ball.obj")
+    write_obj(ball_obj, BV, BF)
+    sheet_obj = os.path.join(tmp, "sheet.obj")
+    with open(sheet_obj, "w") as f:
+        f.write("v -1 -1 -0.1\nv 2 -1 -0.1\nv 2 2 -0.1\nv -1 2 -0.1\nf 1 2 3\nf 1 3 4\n")
+    cloth = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "7", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "40"]
+    solvers = {"newton": [], "pd": ["-snes_type", "pd", "-snes_max_it", "200"], "lbfgs": ["-snes_type", "qn"]}
+    s = 0.01
+    for np_ in mt.ranks():
+        # (a) the closed box mesh with a thickness: no vertex within s in any frame
+        for sname, sargs in solvers.items():
+            out = os.path.join(tmp, f"table_{sname}_{np_}")
+            r = mt.run(exe, cloth + sargs + ["-msim_contact_mesh", table_obj, "-msim_contact_thickness", str(s), "-msim_output", out, "-msim_output_every", "1"], np_)
+            if not check(r.returncode == 0, f"np {np_}: cloth dropped on a closed OBJ box, {sname}: runs ({r.stderr.strip()[-300:]})"):
+                continue
+            fr = frames(out)
+            least = min(float(box_distance(p, table).min()) for _, p in fr)
+            check(len(fr) == 41 and least > s, f"np {np_}: OBJ box, {sname}: every vertex farther than the thickness {s} in all {len(fr)} frames (least distance {least:.4g})")
+        # the mesh and the analytic box are the same surface: the same run
+        pm, _ = mt.final_positions(exe, cloth + ["-msim_contact_mesh", table_obj], np_, tmp, name=f"mesh_{np_}")
+        pb, _ = mt.final_positions(exe, cloth + ["-msim_contact_box", ",".join(map(str, table))], np_, tmp, name=f"box_{np_}")
+        if check(pm is not None and pb is not None, f"np {np_}: OBJ box and -msim_contact_box: run"):
+            err = float(np.abs(pm - pb).max())
+            # each run converges to |g| <= 1e-8 |g0| along its own iterates (the mesh's max step is
+            # conservative advancement, the box's an exact ray test): equal within that tolerance
+            check(err <= 1e-7, f"np {np_}: OBJ box and -msim_contact_box end at the same positions (max difference {err:.2g} m)")
+        # (b) at rest on a closed OBJ table: the contact force is m g
+        rest = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_drag", "0.5", "-msim_mass", "2"]
+        csv = os.path.join(tmp, f"rest_{np_}.csv")
+        p, r = mt.final_positions(exe, rest + ["-msim_contact_mesh", big_obj, "-msim_contact_thickness", "0.02", "-msim_monitor_csv", csv], np_, tmp, name=f"rest_{np_}")
+        if check(p is not None, f"np {np_}: at rest on an OBJ table: runs"):
+            last = mt.read_csv(csv)[-1]
+            f = [float(last[k]) for k in ("contact_fx", "contact_fy", "contact_fz")]
+            mg = 2 * G
+            check(abs(f[2] - mg) <= 1e-3 * mg and math.hypot(f[0], f[1]) <= 1e-6 * mg, f"np {np_}: at rest on an OBJ table: contact force {f} is m g = {mg} along +z (rel. error {abs(f[2] - mg) / mg:.2g})")
+            check(float(p[:, 2].min()) > -0.05 + 0.02, f"np {np_}: at rest on an OBJ table: every vertex above the shell z = -0.03 (lowest {p[:, 2].min():.5f})")
+        # (c) an open surface: either side, at the thickness
+        out = os.path.join(tmp, f"sheet_{np_}")
+        r = mt.run(exe, cloth + ["-msim_contact_mesh", sheet_obj, "-msim_contact_thickness", str(s), "-msim_scene_view", "-msim_output", out, "-msim_output_every", "1"], np_)
+        if check(r.returncode == 0, f"np {np_}: cloth on an open sheet: runs ({r.stderr.strip()[-300:]})"):
+            least = min(float(p[:, 2].min()) for _, p in frames(out))
+            check(least > -0.1 + s and "open (either side)" in r.stdout, f"np {np_}: open sheet z = -0.1: every vertex above z = -0.1 + s in every frame (lowest {least:.5f}); viewed as open")
+        # (d) a ball moving up into a cloth hanging from its corners
+        hang = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "9", "-msim_fix", "corners", "-msim_dt", "0.02", "-msim_steps", "40"]
+        vel = ",".join(map(str, ball_v))
+        for label, args, dist in (("sphere, newton", ["-msim_contact_sphere", ",".join(map(str, ball_c + [ball_r]))], None),
+                                  ("sphere, pd", ["-msim_contact_sphere", ",".join(map(str, ball_c + [ball_r])), "-snes_type", "pd", "-snes_max_it", "100"], None),
+                                  ("OBJ sphere, newton", ["-msim_contact_mesh", ball_obj], "mesh")):
+            out = os.path.join(tmp, f"ball_{np_}")
+            r = mt.run(exe, hang + args + ["-msim_contact_velocity", vel, "-msim_output", out, "-msim_output_every", "1"], np_)
+            if not check(r.returncode == 0, f"np {np_}: a moving {label}: runs ({r.stderr.strip()[-300:]})"):
+                continue
+            fr = frames(out)
+            least = float("inf")
+            for t, p in fr:
+                shift = np.array(ball_v) * t
+                d = convex_mesh_distance(p - shift, BV, BF) if dist else np.linalg.norm(p - shift - np.array(ball_c), axis=1) - ball_r
+                least = min(least, float(d.min()))
+            top = ball_c[2] + ball_r + ball_v[2] * fr[-1][0]
+            zmax = float(fr[-1][1][:, 2].max())
+            check(len(fr) == 41 and least > 0, f"np {np_}: a moving {label}: every vertex outside the ball where it is, in all {len(fr)} frames (least distance {least:.3g})")
+            # the cloth slides a little off the very top (no friction): within dhat (1e-2 of the
+            # cloth's diagonal) of it
+            check(zmax >= top - 0.01 * math.sqrt(2) and top > 0.1, f"np {np_}: a moving {label}: pushes the cloth up to z = {zmax:.4f} (the ball's top {top:.4f}; the corners at 0)")
+        # (e) bad input: one line each
+        bad_face = os.path.join(tmp, "bad_face.obj")
+        with open(bad_face, "w") as f:
+            f.write("v 0 0 -1\nv 1 0 -1\nv 0 1 -1\nf 1 2 4\n")
+        flat = os.path.join(tmp, "flat.obj")
+        with open(flat, "w") as f:
+            f.write("v 0 0 -1\nv 1 0 -1\nv 2 0 -1\nv 0 1 -1\nf 1 2 4\nf 1 2 3\n")
+        inside = os.path.join(tmp, "inside.obj")
+        write_box(inside, [0.4, 0.6, 0.4, 0.6, -0.1, 0.1])
+        for label, args, words in (("a face naming a missing vertex", ["-msim_contact_mesh", bad_face], ["bad_face.obj", "line 4"]),
+                                   ("a zero-area triangle", ["-msim_contact_mesh", flat], ["flat.obj", "zero area"]),
+                                   ("a vertex inside a closed mesh", ["-msim_contact_mesh", inside], ["vertex 12 starts inside obstacle 0", "-msim_contact_mesh"]),
+                                   ("a velocity list of the wrong length", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_velocity", "0,0,1,0"], ["-msim_contact_velocity", "one vx,vy,vz per obstacle"]),
+                                   ("a negative thickness", ["-msim_contact_mesh", table_obj, "-msim_contact_thickness", "-1"], ["-msim_contact_thickness", ">= 0"])):
+            r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"] + args, np_)
+            err = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np_}: {label}: one error line naming it ({err})")
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
