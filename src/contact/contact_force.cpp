@@ -64,7 +64,7 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
       PetscBool touch = PETSC_FALSE;
       for (const MSimObstacle &o : ct->obs) {
         PetscReal       n[3], s = 0;
-        const PetscReal d = MSimObstacleDistance(&o, x + 3 * v, n, NULL);
+        const PetscReal d = MSimObstacleDistanceAt(&o, t, x + 3 * v, n, NULL); /* moving obstacles where they are at t */
         if (barrier) {
           PetscReal b, db, d2b;
           if (d >= ct->dhat) continue;
