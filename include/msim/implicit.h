@@ -57,6 +57,12 @@ struct _n_MSimImplicitScheme {
   /* why a term that keeps the unknown feasible (a contact barrier) cannot guarantee x_{n+1}
      with this scheme, or NULL where it can; such terms refuse the scheme with this reason */
   const char           *no_barrier;
+  /* why the step's residual is not the gradient of Phi, or NULL where it is (all but
+     discrete_gradient): the terms then give their discrete gradient between x_n and the unknown
+     (discrete_gradient, discrete_jacobian) where they otherwise give Phi's gradient and Hessian,
+     the problem has no objective, and what needs one (pd, qn, ntr, msim's energy line search) or
+     a term without a discrete gradient refuses the scheme with this reason */
+  const char           *no_objective;
   MSimImplicitSchemeOps ops;
   void                 *data;
   /* get_history's vectors hold the previous step's history: set by end_step, and by a restart
@@ -85,6 +91,10 @@ typedef struct {
   PetscErrorCode (*pd_matrix)(MSimImplicitTerm, Mat A);
   PetscErrorCode (*pd_begin)(MSimImplicitTerm, Vec X);
   PetscErrorCode (*pd_rhs)(MSimImplicitTerm, Vec X, Vec rhs, PetscReal *e);
+  /* optional, before each local step: a term whose PD weights depend on the state (contact:
+     the vertices near an obstacle) updates them at X and sets *changed when they changed; the
+     problem then reassembles A and refactors it (pd_matrix and pd_rhs use the new weights) */
+  PetscErrorCode (*pd_reweight)(MSimImplicitTerm, Vec X, PetscBool *changed);
   /* the largest alpha in (0, *alpha] for which X - alpha Y stays where the term is defined
      (contact barriers: the line search starts there); lowers *alpha where it must, else leaves it */
   PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha);
@@ -92,6 +102,12 @@ typedef struct {
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
      back towards A instead of x_n) */
   PetscErrorCode (*feasible_start)(MSimImplicitTerm, Vec A);
+  /* for a scheme whose residual is not Phi's gradient (scheme->no_objective): G += the term's
+     part of that residual at X, its discrete gradient between imp->Xn and X (times step.h2) with
+     its dissipation; and that part's exact Jacobian, blocks added into the assembled J
+     (ADD_VALUES, then assemble) */
+  PetscErrorCode (*discrete_gradient)(MSimImplicitTerm, Vec X, Vec G);
+  PetscErrorCode (*discrete_jacobian)(MSimImplicitTerm, Vec X, Mat J);
   PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer);
   PetscErrorCode (*destroy)(MSimImplicitTerm);
 } MSimImplicitTermOps;
@@ -135,6 +151,7 @@ struct _n_MSimImplicit {
 #define MSIMSCHEMEBDF2     "bdf2"
 #define MSIMSCHEMEMIDPOINT "implicit_midpoint"
 #define MSIMSCHEMENEWMARK  "newmark"
+#define MSIMSCHEMEDISCGRAD "discrete_gradient"
 #define MSIMTERMSPRINGS "springs"
 #define MSIMTERMDRAG    "drag"
 PetscErrorCode MSimImplicitSchemeRegister(const char name[], PetscErrorCode (*create)(MSimImplicitScheme));
@@ -164,6 +181,7 @@ PetscErrorCode MSimImplicitAddExternalAcceleration(MSimImplicit imp, PetscReal s
    src/implicit/schemes/dissipation.cpp says why) */
 PetscErrorCode MSimImplicitAddDissipativeAcceleration(MSimImplicit imp, PetscReal s, PetscReal t, Vec P, Vec U, Vec F, Vec W, Vec Y);
 PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G);
+/* Phi at X; an error for a scheme with no objective (scheme->no_objective) */
 PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi);
 PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
 /* the Jacobian plus delta M (inertia correction) */

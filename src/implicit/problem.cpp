@@ -193,8 +193,12 @@ PetscErrorCode MSimImplicitResidual(MSimImplicit imp, Vec X, Vec G)
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_Residual, X, G, 0, 0));
   PetscCall(InertiaResidual(imp, X, G));
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.gradient) PetscCall(imp->terms[k]->ops.gradient(imp->terms[k], X, G));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm term = imp->terms[k];
+    if (imp->scheme->no_objective) {
+      if (term->ops.discrete_gradient) PetscCall(term->ops.discrete_gradient(term, X, G));
+    } else if (term->ops.gradient) PetscCall(term->ops.gradient(term, X, G));
+  }
   PetscCall(PetscLogEventEnd(MSIM_Residual, X, G, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -229,6 +233,7 @@ PetscErrorCode MSimImplicitObjective(MSimImplicit imp, Vec X, PetscReal *phi)
   PetscReal local = 0;
 
   PetscFunctionBeginUser;
+  PetscCheck(!imp->scheme->no_objective, imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s has no objective to minimize: %s", imp->scheme->type, imp->scheme->no_objective);
   PetscCall(PetscLogEventBegin(MSIM_Energy, X, 0, 0, 0));
   PetscCall(InertiaEnergy(imp, X, &local));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, imp->sys->comm));
@@ -247,10 +252,12 @@ PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J)
 }
 
 /* (1 + delta) M + the diagonal terms' w I + the terms' blocks: one pass of the system's assembly
-   with every term's coefficients, then the terms with blocks of their own */
+   with every term's coefficients, then the terms with blocks of their own (a scheme with no
+   objective: M and the diagonal terms, then each term's discrete_jacobian) */
 PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal delta, Mat J)
 {
   MSimMatrixCoefficients c = {imp->step.tx, X, 1.0 + delta, 0.0, 0.0, imp->psd, imp->step.tref, NULL, 0.0};
+  const PetscBool        discrete = (PetscBool)(imp->scheme->no_objective != NULL);
 
   PetscFunctionBeginUser;
   for (PetscInt k = 0; k < imp->nterms; k++) {
@@ -260,11 +267,15 @@ PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal de
       Vec       C;
       PetscCall(term->ops.diagonal(term, &w, &C));
       c.diagonal += w;
-    } else if (term->ops.hessian_coefficients) PetscCall(term->ops.hessian_coefficients(term, X, imp->psd, &c));
+    } else if (term->ops.hessian_coefficients && !discrete) PetscCall(term->ops.hessian_coefficients(term, X, imp->psd, &c));
   }
   PetscCall(MSimSystemAssembleMatrix(imp->sys, &c, J));
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.hessian) PetscCall(imp->terms[k]->ops.hessian(imp->terms[k], X, imp->psd, J));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm term = imp->terms[k];
+    if (discrete) {
+      if (term->ops.discrete_jacobian) PetscCall(term->ops.discrete_jacobian(term, X, J));
+    } else if (term->ops.hessian) PetscCall(term->ops.hessian(term, X, imp->psd, J));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -33,6 +33,7 @@ PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme);
 PetscErrorCode MSimImplicitSchemeCreate_BDF2(MSimImplicitScheme);
 PetscErrorCode MSimImplicitSchemeCreate_Midpoint(MSimImplicitScheme);
 PetscErrorCode MSimImplicitSchemeCreate_Newmark(MSimImplicitScheme);
+PetscErrorCode MSimImplicitSchemeCreate_DiscreteGradient(MSimImplicitScheme);
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm);
@@ -48,6 +49,7 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEBDF2, MSimImplicitSchemeCreate_BDF2));
   PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEMIDPOINT, MSimImplicitSchemeCreate_Midpoint));
   PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMENEWMARK, MSimImplicitSchemeCreate_Newmark));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEDISCGRAD, MSimImplicitSchemeCreate_DiscreteGradient));
   PetscCall(MSimImplicitTermRegister(MSIMTERMSPRINGS, MSimImplicitTermCreate_Springs));
   PetscCall(MSimImplicitTermRegister(MSIMTERMDRAG, MSimImplicitTermCreate_Drag));
   PetscCall(MSimImplicitTermRegister("obstacles", MSimImplicitTermCreate_Obstacles));
@@ -135,5 +137,10 @@ PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[],
     PetscCall(ierr);
   }
   PetscCall(PetscFree(names));
+  /* a scheme whose residual is not Phi's gradient takes each active term's discrete gradient */
+  for (PetscInt k = 0; k < (*imp)->nterms && (*imp)->scheme->no_objective; k++) {
+    MSimImplicitTerm term = (*imp)->terms[k];
+    PetscCheck(!term->ops.gradient || term->ops.discrete_gradient, sys->comm, PETSC_ERR_SUP, "-msim_integrator %s: the energy term '%s' has no discrete gradient (%s)", scheme, term->type, (*imp)->scheme->no_objective);
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -213,6 +213,10 @@ static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, Petsc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* springs_discrete_gradient.cpp: the discrete_gradient scheme's residual and Jacobian */
+PetscErrorCode MSimImplicitSpringsDiscreteGradient(MSimImplicitTerm, Vec, Vec);
+PetscErrorCode MSimImplicitSpringsDiscreteJacobian(MSimImplicitTerm, Vec, Mat);
+
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm term)
 {
   PetscFunctionBeginUser;
@@ -222,5 +226,7 @@ PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm term)
   term->ops.pd_matrix            = PDMatrix_Springs;
   term->ops.pd_begin             = PDBegin_Springs;
   term->ops.pd_rhs               = PDRHS_Springs;
+  term->ops.discrete_gradient    = MSimImplicitSpringsDiscreteGradient;
+  term->ops.discrete_jacobian    = MSimImplicitSpringsDiscreteJacobian;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

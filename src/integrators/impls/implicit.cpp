@@ -115,7 +115,8 @@ static PetscErrorCode ConvergenceEval(void *ctx, Vec X, PetscReal *phi, PetscRea
   ImplicitData *ie = (ImplicitData *)ctx;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitObjective(ie->imp, X, phi));
+  if (ie->imp->scheme->no_objective) *phi = NAN; /* no Phi: the residual only */
+  else PetscCall(MSimImplicitObjective(ie->imp, X, phi));
   PetscCall(MSimImplicitResidual(ie->imp, X, ie->G));
   PetscCall(VecNorm(ie->G, NORM_2, gnorm));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -258,6 +259,11 @@ static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(MSimSystemCreateMatrix(sys, &ie->J));
+  if (ie->imp->scheme->no_objective) {
+    /* a discrete gradient's Jacobian is not symmetric */
+    PetscCall(MatSetOption(ie->J, MAT_SYMMETRY_ETERNAL, PETSC_FALSE));
+    PetscCall(MatSetOption(ie->J, MAT_SYMMETRIC, PETSC_FALSE));
+  }
   {
     /* rigid-body modes of the rest state: the near null space algebraic multigrid (GAMG, ML)
        needs for a vector problem; other solvers ignore it */
@@ -295,27 +301,57 @@ static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A scheme with no objective (discrete_gradient: its residual is no function's gradient): the
+   solvers that minimize Phi are refused in one line naming the option, the SNES's own type and a
+   nonlinear preconditioner's alike. */
+static PetscErrorCode RefuseMinimizers(MSimIntegrator integ, ImplicitData *ie)
+{
+  const char *reason = ie->imp->scheme->no_objective;
+  SNES        snes   = ie->snes;
+  PetscBool   has_npc;
+
+  PetscFunctionBeginUser;
+  PetscCheck(!ie->inertia_correction, integ->comm, PETSC_ERR_SUP, "-msim_inertia_correction with -msim_integrator %s is not supported: it steers Newton to minima of Phi, and %s", integ->type, reason);
+  PetscCall(SNESHasNPC(snes, &has_npc));
+  for (int level = 0; level < 2; level++) {
+    PetscBool   minimizer;
+    SNESType    type;
+    const char *prefix = level ? "npc_" : "";
+    if (level) {
+      if (!has_npc) break;
+      PetscCall(SNESGetNPC(ie->snes, &snes));
+    }
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)snes, &minimizer, SNESPD, SNESQN, SNESNTR, ""));
+    PetscCall(SNESGetType(snes, &type));
+    PetscCheck(!minimizer, integ->comm, PETSC_ERR_SUP, "-%ssnes_type %s with -msim_integrator %s is not supported: %s minimizes an energy, and the scheme has none (%s); use newtonls (GMRES by default, or -ksp_type preonly -pc_type lu)", prefix, type, integ->type, type, reason);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The SNES with msim's defaults, which a user overrides with the usual options: Newton, msim's
-   line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian. */
+   line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian;
+   for a scheme with no objective, no Phi: GMRES with ILU (block Jacobi-ILU in parallel) on its
+   nonsymmetric Jacobian and PETSc's backtracking on |r|^2 (bt). */
 static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ksp)
 {
-  MSimSystem sys = integ->sys;
-  PC         pc;
-  DM         dm;
-  PetscBool  set;
+  MSimSystem      sys = integ->sys;
+  PC              pc;
+  DM              dm;
+  PetscBool       set;
+  const PetscBool discrete = (PetscBool)(ie->imp->scheme->no_objective != NULL);
 
   PetscFunctionBeginUser;
   PetscCall(VecDuplicate(sys->X0, &ie->G));
   PetscCall(SNESCreate(integ->comm, &ie->snes));
   PetscCall(SNESSetFunction(ie->snes, ie->G, FormFunction, ie->imp));
-  PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
+  if (!discrete) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
   PetscCall(SNESGetDM(ie->snes, &dm));
   PetscCall(MSimImplicitPDCompose(ie->imp, dm));
   PetscCall(SNESSetType(ie->snes, SNESNEWTONLS));
   PetscCall(SNESGetKSP(ie->snes, ksp));
-  PetscCall(KSPSetType(*ksp, KSPCG));
+  PetscCall(KSPSetType(*ksp, discrete ? KSPGMRES : KSPCG));
   PetscCall(KSPGetPC(*ksp, &pc));
-  PetscCall(PCSetType(pc, sys->size > 1 ? PCBJACOBI : PCICC));
+  PetscCall(PCSetType(pc, sys->size > 1 ? PCBJACOBI : (discrete ? PCILU : PCICC)));
   /* |g| has units of mass x length: below 1e-10 of total mass x scene size the step is converged
      to roundoff, and line searches on Phi can only fail there. -snes_max_it is the one budget: no
      cap on function evaluations (PETSc's 10,000 stopped L-BFGS, two per iteration, at 5,000
@@ -324,7 +360,11 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence,
      unless the user chose one (-snes_linesearch_type) */
   PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
-  if (!set) {
+  if (discrete && !set) {
+    SNESLineSearch ls;
+    PetscCall(SNESGetLineSearch(ie->snes, &ls));
+    PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+  } else if (!set) {
     SNESLineSearch ls;
     PetscCall(SNESGetLineSearch(ie->snes, &ls));
     PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
@@ -336,6 +376,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   }
   if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
   PetscCall(SNESSetFromOptions(ie->snes));
+  if (discrete) PetscCall(RefuseMinimizers(integ, ie));
   for (PetscInt k = 0; k < ie->imp->nterms; k++)
     if (ie->imp->terms[k]->ops.max_step) {
       SNESLineSearch ls;
@@ -369,6 +410,7 @@ static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
   PetscCall(MSimImplicitCreateWithScheme(sys, integ->type, &ie->imp));
   ie->imp->h = integ->dt;
   PetscCall(ReadOptions(integ, ie));
+  if (ie->imp->scheme->no_objective) ie->check_saddle = PETSC_FALSE; /* saddles of a Phi it has not */
   PetscCall(CreateSNES(integ, ie, &ksp));
   PetscCall(SetUpGAMGSmoothers(ie, sys, ksp));
   PetscCall(SetUpJacobian(ie, sys, ksp));
@@ -429,7 +471,8 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
   if (reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
-  if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
+  if (integ->want_phi && ie->imp->scheme->no_objective) integ->phi = NAN; /* the monitor's phi: none */
+  else if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
   if (reason == SNES_DIVERGED_MAX_IT) {
     PetscReal atol, rtol, stol;
     PetscInt  maxit, maxf;

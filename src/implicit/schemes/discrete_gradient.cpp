@@ -1,0 +1,111 @@
+/* Energy-conserving discrete-gradient scheme (Gonzalez 1996, J. Nonlinear Sci. 6: time integration
+   and discrete Hamiltonian systems). With E the spring energy, gradbar E(x_n, x) a discrete gradient
+   (gradbar . (x - x_n) = E(x) - E(x_n) exactly, gradbar -> grad E(x_m) as x -> x_n; each term gives
+   its own, springs.cpp's discrete_gradient), f_e the constant external force (gravity, the wind's
+   c w) and C_p the damping and drag matrix with spring axes at a midpoint predictor,
+     x_{n+1} = x_n + h v_m,   M (v_{n+1} - v_n) = h (f_e - gradbar E(x_n, x_{n+1}) - C_p v_m),
+   v_m = (v_n + v_{n+1})/2 = (x_{n+1} - x_n)/h. Eliminating v_{n+1} = 2 (x - x_n)/h - v_n:
+     r(x) = M (x - y) + h^2/2 gradbar E(x_n, x) + h/2 C_p (x - x_n) = 0,
+     y = x_n + h v_n + h^2/2 M^-1 f_e:
+   beta = 1/2 for the potentials and gamma = 1/2 from z = x_n for the dissipation, unknown x_{n+1}.
+   Energy: dot the momentum equation with v_m; the kinetic energy changes by
+   h v_m . (f_e - gradbar - C_p v_m) = -(V_e(x) - V_e(x_n)) - (E(x) - E(x_n)) - h v_m^T C_p v_m for
+   the linear potential V_e = -f_e . x, so the total energy is conserved exactly without damping,
+   drag or moving handles, and otherwise falls by h v_m^T C_p v_m >= 0 (C_p is PSD): never rises.
+   What the solver leaves in r changes it by at most about |r| |v_m| / h per step. Second order:
+   the scheme is symmetric (swap n and n+1, h -> -h) and consistent.
+   r is not the gradient of any function (gradbar's Jacobian, d gradbar / dx, is not symmetric), so
+   the scheme sets no_objective: the problem asks the terms for their discrete gradients and exact
+   (nonsymmetric) Jacobians, and the step is Newton with GMRES or LU and a residual-norm line search.
+   The dissipation goes through the dissipation term with the predictor p = x_n + h/2 v_n (spring
+   damping's axes O(h^2) from the midpoint's, as second order needs) and y takes the rest, exactly
+   as the other second-order schemes do (dissipation.cpp): hd C_p (x - p) with hd = h/2, plus
+   h^2/2 C_p u with u = (p - x_n)/h = v_n/2, sums to h/2 C_p (x - x_n) = h^2/2 C_p v_m; one C_p in
+   both, so the damping stays exactly dissipative. Handles: the unknown is x_{n+1}, at b(t + h); the
+   dissipation term sees p with the handles at b(t + h) too (no handle displacement in it) and y takes
+   their velocity h b' = b(t + h) - b(t) (constant-velocity handles: exact). x_n is seen with b(t),
+   so a spring to a handle gets the discrete gradient between its two true states. First iterate
+   x_n + h v_n. No history beyond (x_n, v_n): a checkpoint holds all a restart needs. */
+#include <msim/implicit.h>
+
+typedef struct {
+  Vec P, U, F, W; /* the predictor p = x_n + h/2 v_n, u = v_n/2; work vectors */
+} DGData;
+
+static PetscErrorCode BeginStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
+{
+  DGData *d = (DGData *)scheme->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecCopy(X, imp->Xn));
+  PetscCall(VecWAXPY(d->P, 0.5 * h, V, X));
+  PetscCall(VecCopy(V, d->U));
+  PetscCall(VecScale(d->U, 0.5));
+  PetscCall(VecWAXPY(imp->Y, h, V, X));
+  PetscCall(MSimImplicitAddExternalAcceleration(imp, 0.5 * h * h, imp->Y));
+  PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 0.5 * h * h, t + h, d->P, d->U, d->F, d->W, imp->Y));
+  imp->step.xref = d->P;
+  imp->step.tref = t + h;
+  imp->step.tx   = t + h;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Guess_DG(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecAXPY(X, imp->h, V));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* X holds x_{n+1}, V still v_n: v_{n+1} = 2 (x_{n+1} - x_n)/h - v_n */
+static PetscErrorCode EndStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, Vec X, Vec V)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecAXPBYPCZ(V, 2.0 / imp->h, -2.0 / imp->h, -1.0, X, imp->Xn));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode GetHistory_DG(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
+{
+  PetscFunctionBeginUser;
+  *n       = 0;
+  *history = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_DG(MSimImplicitScheme scheme)
+{
+  DGData *d = (DGData *)scheme->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecDestroy(&d->P));
+  PetscCall(VecDestroy(&d->U));
+  PetscCall(VecDestroy(&d->F));
+  PetscCall(VecDestroy(&d->W));
+  PetscCall(PetscFree(scheme->data));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitSchemeCreate_DiscreteGradient(MSimImplicitScheme scheme)
+{
+  DGData *d;
+  Vec     X0 = scheme->imp->sys->X0;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscNew(&d));
+  PetscCall(VecDuplicate(X0, &d->P));
+  PetscCall(VecDuplicate(X0, &d->U));
+  PetscCall(VecDuplicate(X0, &d->F));
+  PetscCall(VecDuplicate(X0, &d->W));
+  scheme->data            = d;
+  scheme->beta            = 0.5;
+  scheme->gamma           = 0.5;
+  scheme->no_barrier      = "a barrier needs a minimization with a feasible line search, and this step is a residual";
+  scheme->no_objective    = "its step is a discrete-gradient residual, not the gradient of an energy";
+  scheme->ops.begin_step  = BeginStep_DG;
+  scheme->ops.guess       = Guess_DG;
+  scheme->ops.end_step    = EndStep_DG;
+  scheme->ops.get_history = GetHistory_DG;
+  scheme->ops.destroy     = Destroy_DG;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
