@@ -38,6 +38,8 @@ PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm);
+PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm);
+PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm);
 
 PetscErrorCode MSimImplicitRegisterAll(void)
 {
@@ -54,6 +56,8 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   PetscCall(MSimImplicitTermRegister(MSIMTERMDRAG, MSimImplicitTermCreate_Drag));
   PetscCall(MSimImplicitTermRegister("obstacles", MSimImplicitTermCreate_Obstacles));
   PetscCall(MSimImplicitTermRegister("friction", MSimImplicitTermCreate_Friction));
+  PetscCall(MSimImplicitTermRegister("self_contact", MSimImplicitTermCreate_SelfContact));
+  PetscCall(MSimImplicitTermRegister("volume", MSimImplicitTermCreate_Volume));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,6 +1,8 @@
 /* Integrator object: registry, options, dispatch. */
 #include <msim/integrator.h>
 #include <msim/registry.h>
+#include <msim/implicit.h>
+#include <msim/self_contact.h>
 
 static MSimRegistry<PetscErrorCode (*)(MSimIntegrator)> MSimIntegrators;
 
@@ -104,6 +106,15 @@ PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ)
   PetscFunctionBeginUser;
   if (integ->setupcalled) PetscFunctionReturn(PETSC_SUCCESS);
   if (!integ->type[0]) PetscCall(MSimIntegratorSetType(integ, MSIMSYMPLECTICEULER));
+  if (!integ->help_listing) { /* self-contact needs an implicit scheme's feasible line search */
+    const char **names;
+    PetscInt     n;
+    PetscBool    implicit = PETSC_FALSE;
+    PetscCall(MSimImplicitSchemeGetNames(&names, &n));
+    for (PetscInt k = 0; k < n; k++) implicit = (PetscBool)(implicit || !strcmp(names[k], integ->type));
+    PetscCall(PetscFree(names));
+    PetscCall(MSimSelfContactCheckIntegrator(integ->comm, integ->type, implicit));
+  }
   if (integ->ops.setup) PetscCall((*integ->ops.setup)(integ));
   integ->setupcalled = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);

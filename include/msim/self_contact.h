@@ -1,0 +1,113 @@
+/* Self-contact (-msim_self_contact): IPC's distance barriers between the surface elements of a
+   scene (point-triangle and edge-edge pairs that share no vertex), a conservative CCD (additive
+   CCD, Li et al. 2021) for the line search's largest feasible step, a uniform-grid broad phase, and
+   each rank's halo of surface elements from neighbouring ranks. The implicit term is
+   src/implicit/terms/self_contact.cpp; the geometry is src/contact/self_*.cpp. */
+#pragma once
+#include <msim/system.h>
+#include <vector>
+
+typedef struct {
+  PetscBool on;        /* -msim_self_contact */
+  PetscReal dhat;      /* -msim_self_contact_distance (0: a quarter of the shortest rest edge) */
+  PetscReal stiffness; /* -msim_self_contact_stiffness: multiplies the default barrier weight */
+  PetscReal ccd_s;     /* -msim_self_contact_ccd_fraction: ACCD keeps this fraction of the gap */
+  PetscBool halo;      /* -msim_self_contact_halo (testing: 0 leaves other ranks' elements out) */
+} MSimSelfContactOptions;
+
+/* Reads the options block "msim self-contact" (collective). */
+PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *o);
+/* Explicit integrators and PETSc's TS cannot keep a barrier's feasible set: with
+   -msim_self_contact they are refused in one line (called by MSimIntegratorSetUp). */
+PetscErrorCode MSimSelfContactCheckIntegrator(MPI_Comm comm, const char type[], PetscBool implicit);
+
+/* Closest points: squared distance d2 = |r|^2 with r = sum_k w[k] x_k over the pair's four
+   points (point-triangle: p, a, b, c; edge-edge: a0, a1, b0, b1). The weights are those of the
+   closest points (clamped to the elements), so by the envelope theorem grad d2 = 2 w_k r. */
+PetscReal MSimPointTriangleDistance2(const PetscReal *p, const PetscReal *a, const PetscReal *b, const PetscReal *c, PetscReal w[4]);
+PetscReal MSimEdgeEdgeDistance2(const PetscReal *a0, const PetscReal *a1, const PetscReal *b0, const PetscReal *b1, PetscReal w[4]);
+/* Additive CCD (Li, Kaufman, Jiang 2021, Alg. 1, thickness 0): x (12: the pair's four points) moving
+   by u (12) over t in [0, 1]; returns a t at which the pair is still at least s times its starting
+   distance apart and before which it never touches (1 when it does not come that close). */
+PetscReal MSimAdditiveCCD(const PetscReal x[12], const PetscReal u[12], PetscBool edge_edge, PetscReal s);
+
+/* A uniform grid over boxes (the broad phase): Build hashes boxes (6 each: lo, hi) into cells of
+   side `cell`; Query calls f(id) once for each box overlapping the query box. */
+struct MSimBoxGrid {
+  PetscReal                                     cell = 1;
+  std::vector<std::pair<unsigned long long, PetscInt>> entries; /* (cell key, box), sorted */
+  std::vector<PetscInt>                         stamp;          /* last query that saw each box */
+  PetscInt                                      query = 0;
+  void Build(const std::vector<PetscReal> &boxes, PetscReal cell_size);
+  template <class F>
+  void Query(const PetscReal *box, F &&f);
+  unsigned long long Key(long long i, long long j, long long k) const
+  {
+    return ((unsigned long long)(i & 0x1FFFFF) << 42) | ((unsigned long long)(j & 0x1FFFFF) << 21) | (unsigned long long)(k & 0x1FFFFF);
+  }
+};
+
+#include <algorithm>
+#include <cmath>
+template <class F>
+void MSimBoxGrid::Query(const PetscReal *box, F &&f)
+{
+  long long lo[3], hi[3];
+  query++;
+  for (int c = 0; c < 3; c++) {
+    lo[c] = (long long)std::floor(box[c] / cell);
+    hi[c] = (long long)std::floor(box[3 + c] / cell);
+  }
+  for (long long i = lo[0]; i <= hi[0]; i++)
+    for (long long j = lo[1]; j <= hi[1]; j++)
+      for (long long k = lo[2]; k <= hi[2]; k++) {
+        const unsigned long long key = Key(i, j, k);
+        auto it = std::lower_bound(entries.begin(), entries.end(), std::make_pair(key, (PetscInt)-1));
+        for (; it != entries.end() && it->first == key; ++it)
+          if (stamp[it->second] != query) {
+            stamp[it->second] = query;
+            f(it->second);
+          }
+      }
+}
+
+/* The surface a rank sees: its own elements (every triangle with a vertex in its block of input
+   ids) and the halo (other ranks' triangles within the contact distance plus a motion margin of
+   its own), with their vertices' positions gathered from the natural-order Vec by one scatter.
+   Built by MSimSelfSurfaceCreate; re-planned (collective) when a vertex has moved more than half
+   the margin since the last plan. */
+typedef struct _n_MSimSelfSurface *MSimSelfSurface;
+struct _n_MSimSelfSurface {
+  MSimSystem             sys;
+  PetscInt               N;            /* cloth grid side (the one surface wired today) */
+  PetscInt               dstart, dcount; /* this rank's block of input ids */
+  PetscBool              halo;
+  PetscReal              dhat, margin0, margin;
+  std::vector<PetscInt>  own_tris;     /* triangle ids of the rank's own elements */
+  /* the current plan */
+  std::vector<PetscInt>  vid;          /* local vertices: input ids (sorted) */
+  std::vector<PetscInt>  gnum;         /* their global free numbers (-1: fixed) */
+  std::vector<PetscInt>  tri;          /* local triangles: 3 local vertices each */
+  std::vector<PetscInt>  edge;         /* local edges: 2 local vertices each (unique) */
+  std::vector<PetscReal> xplan;        /* positions at the plan */
+  VecScatter             scatter;      /* natural -> local vertices */
+  Vec                    xl, gl;       /* local positions (3 each), local gradient */
+  Vec                    gnat;         /* natural-order gradient */
+  Vec                    gnumnat;      /* natural-order global free numbers (as reals) */
+  PetscInt               nplans;
+  PetscInt               nhalo;        /* triangles from other ranks in the plan */
+};
+
+PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOptions *o, MSimSelfSurface *s);
+PetscErrorCode MSimSelfSurfaceDestroy(MSimSelfSurface *s);
+/* The positions of the local vertices at X (time t: the handles' b(t)) into x (3 per local
+   vertex), and, when Y is not NULL, those of -Y into u (the line search's motion X - a Y is x + a
+   u); re-plans first when any vertex (also at x + a u) would be further than margin/2 from its
+   planned position. Collective. */
+PetscErrorCode MSimSelfSurfaceGather(MSimSelfSurface s, PetscReal t, Vec X, Vec Y, PetscReal a, std::vector<PetscReal> &x, std::vector<PetscReal> *u);
+/* G += the local gradient g (3 per local vertex), contributions to other ranks' vertices sent to
+   them (ADD_VALUES). Collective. */
+PetscErrorCode MSimSelfSurfaceAddGradient(MSimSelfSurface s, const std::vector<PetscReal> &g, Vec G);
+
+extern PetscLogEvent MSIM_SelfBroad, MSIM_SelfHalo, MSIM_SelfNarrow, MSIM_SelfCCD;
+PetscErrorCode MSimSelfContactLogRegister(void);

@@ -1,0 +1,36 @@
+/* Self-contact's options (one block, read by the implicit term and by the integrators' check) and
+   the refusal of the integrators that cannot keep its guarantee. */
+#include <msim/self_contact.h>
+#include <msim/options.h>
+
+PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *o)
+{
+  PetscFunctionBeginUser;
+  o->on        = PETSC_FALSE;
+  o->dhat      = 0;
+  o->stiffness = 1;
+  o->ccd_s     = 0.1;
+  o->halo      = PETSC_TRUE;
+  PetscOptionsBegin(comm, NULL, "msim self-contact", NULL);
+  PetscCall(PetscOptionsBool("-msim_self_contact", "Self-contact: IPC distance barriers between the surface's vertex-disjoint point-triangle and edge-edge pairs, with a CCD-filtered line search (implicit integrators)", NULL, o->on, &o->on, NULL));
+  PetscCall(MSimOptionsReal("-msim_self_contact_distance", "Self-contact: distance dhat below which the barrier acts, m (0: a quarter of the shortest rest edge)", NULL, o->dhat, &o->dhat, NULL));
+  PetscCall(MSimOptionsReal("-msim_self_contact_stiffness", "Self-contact: factor on the barrier's weight (1: a pair's stiffness at dhat/2 equals a mean vertex's mass term)", NULL, o->stiffness, &o->stiffness, NULL));
+  PetscCall(MSimOptionsReal("-msim_self_contact_ccd_fraction", "Self-contact: additive CCD stops a step where a pair's gap falls to this fraction of its start (0 < s < 1)", NULL, o->ccd_s, &o->ccd_s, NULL));
+  PetscCall(PetscOptionsBool("-msim_self_contact_halo", "Self-contact: include neighbouring ranks' elements (0 only to test that the halo matters)", NULL, o->halo, &o->halo, NULL));
+  PetscOptionsEnd();
+  PetscCheck(o->dhat >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_distance must be >= 0 m (got %g)", (double)o->dhat);
+  PetscCheck(o->stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_stiffness must be > 0 (got %g)", (double)o->stiffness);
+  PetscCheck(o->ccd_s > 0 && o->ccd_s < 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_ccd_fraction must be in (0, 1) (got %g)", (double)o->ccd_s);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSelfContactCheckIntegrator(MPI_Comm comm, const char type[], PetscBool implicit)
+{
+  MSimSelfContactOptions o;
+
+  PetscFunctionBeginUser;
+  if (implicit) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSelfContactGetOptions(comm, &o));
+  PetscCheck(!o.on, comm, PETSC_ERR_SUP, "-msim_self_contact with -msim_integrator %s is not supported: an explicit step has no line search to keep the surface from passing through itself; use an implicit integrator (implicit_euler or bdf2)", type);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

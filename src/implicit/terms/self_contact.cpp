@@ -1,0 +1,314 @@
+/* Self-contact as a term of Phi (-msim_self_contact; msim/self_contact.h): IPC's barrier (Li et al.
+   2020) on the squared distance s = d^2 of every point-triangle and edge-edge pair of surface
+   elements that share no vertex,
+     E = C sum_pairs b(s, dhat^2),   b(s) = -(s - dhat^2)^2 log(s / dhat^2) on (0, dhat^2),
+   infinite at contact, so every iterate a line search accepts keeps the surface apart. C gives a
+   pair at d = dhat/2 the stiffness (d^2/dd^2 of C b(d^2)) of a mean vertex's mass term, the rule
+   the obstacles' kappa follows, times -msim_self_contact_stiffness.
+   Gradient: with the closest points' weights w (r = sum w_k x_k, s = |r|^2), by the envelope
+   theorem ds/dx_k = 2 w_k r, so g_k = 2 C b'(s) w_k r, exact (also on the regions' borders).
+   Hessian: with the closest points held fixed it is C (w w^T) kron (4 b'' r r^T + 2 b' I), whose
+   PSD projection is exact in closed form, C max(0, 4 b'' s + 2 b') (w w^T) kron (r r^T / s): the
+   12 x 12 block's eigen-decomposition is that of a Kronecker product, so no Eigen solve is needed.
+   It omits the closest points' motion (a surface's curvature), the part IPC's projection keeps
+   only where it is positive anyway; Newton then converges linearly near tangential sliding, and
+   the line search keeps every iterate feasible whatever the Hessian. Given for -msim_psd 0 too.
+   Simplification: no mollifier for nearly parallel edge-edge pairs (IPC's e_k): the distance is
+   still exact there, only its Hessian jumps, which the line search tolerates.
+   max_step: additive CCD over the pairs whose boxes swept along the step overlap, reduced over
+   ranks, so no step (nor PD's global step, nor the first iterate: MSimImplicitGuess) can carry an
+   element through another. PD: the barrier's force in the right-hand side, as the obstacles'.
+   The Hessian's blocks join vertices the springs do not: they are added with new nonzeros
+   allowed, and the system's assembly map (fast path) is dropped when the pattern grows. */
+#include <msim/implicit.h>
+#include <msim/contact.h>
+#include <msim/self_contact.h>
+#include <cmath>
+
+typedef struct {
+  MSimSelfContactOptions opt;
+  MSimSelfSurface        surf;
+  PetscReal              C;             /* the barrier's weight */
+  MSimBoxGrid            tgrid, egrid;  /* broad phase over triangles and over edges */
+  std::vector<PetscReal> x, u, g, boxes;
+  PetscInt               npairs;        /* pairs within dhat at the last gradient (this rank) */
+  PetscReal              dmin;          /* the smallest distance among them */
+} SelfData;
+
+/* f(ee, v[4]) for each pair this rank computes whose boxes overlap: within dhat of each other at
+   x (u NULL), or whose boxes swept from x to x + a u overlap (CCD) */
+template <class F>
+static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a, F &&f)
+{
+  MSimSelfSurface s    = sd->surf;
+  const PetscReal grow = u ? 0.0 : sd->surf->dhat; /* a pair within dhat: the target box grown by dhat */
+  const PetscInt  nt = (PetscInt)s->tri.size() / 3, ne = (PetscInt)s->edge.size() / 2, nv = (PetscInt)s->vid.size();
+  PetscReal       extent = 0;
+  auto            vbox   = [&](PetscInt v, PetscReal *b) {
+    for (int c = 0; c < 3; c++) {
+      const PetscReal p = x[3 * v + c], q = u ? p + a * (*u)[3 * v + c] : p;
+      b[c]     = PetscMin(b[c], PetscMin(p, q));
+      b[3 + c] = PetscMax(b[3 + c], PetscMax(p, q));
+    }
+  };
+  auto build = [&](const std::vector<PetscInt> &el, int per, PetscInt n, MSimBoxGrid &grid) {
+    sd->boxes.assign(6 * n, 0);
+    extent = 0;
+    for (PetscInt k = 0; k < n; k++) {
+      PetscReal *b = &sd->boxes[6 * k];
+      for (int c = 0; c < 3; c++) b[c] = PETSC_MAX_REAL, b[3 + c] = -PETSC_MAX_REAL;
+      for (int q = 0; q < per; q++) vbox(el[per * k + q], b);
+      for (int c = 0; c < 3; c++) b[c] -= grow, b[3 + c] += grow;
+      extent += PetscMax(b[3] - b[0], PetscMax(b[4] - b[1], b[5] - b[2]));
+    }
+    grid.Build(sd->boxes, PetscMax(n ? extent / n : 1.0, PETSC_SMALL));
+  };
+  auto mine = [&](const PetscInt *v) {
+    PetscInt low = PETSC_MAX_INT;
+    bool     moving = false;
+    for (int k = 0; k < 4; k++) {
+      low    = PetscMin(low, s->vid[v[k]]);
+      moving = moving || s->gnum[v[k]] >= 0;
+    }
+    return moving && low >= s->dstart && low < s->dstart + s->dcount;
+  };
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_SelfBroad, 0, 0, 0, 0));
+  std::vector<PetscInt> pt, ee;
+  build(s->tri, 3, nt, sd->tgrid);
+  for (PetscInt v = 0; v < nv; v++) {
+    PetscReal b[6] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL};
+    vbox(v, b);
+    sd->tgrid.Query(b, [&](PetscInt t) {
+      const PetscInt *tv = &s->tri[3 * t];
+      if (tv[0] == v || tv[1] == v || tv[2] == v) return;
+      const PetscReal *tb = &sd->boxes[6 * t];
+      for (int c = 0; c < 3; c++)
+        if (b[c] > tb[3 + c] || b[3 + c] < tb[c]) return;
+      const PetscInt q[4] = {v, tv[0], tv[1], tv[2]};
+      if (mine(q)) pt.insert(pt.end(), q, q + 4);
+    });
+  }
+  build(s->edge, 2, ne, sd->egrid);
+  for (PetscInt e = 0; e < ne; e++) {
+    const PetscInt *ev = &s->edge[2 * e];
+    PetscReal       b[6];
+    for (int c = 0; c < 6; c++) b[c] = sd->boxes[6 * e + c];
+    sd->egrid.Query(b, [&](PetscInt o) {
+      if (o <= e) return;
+      const PetscInt *ov = &s->edge[2 * o];
+      if (ov[0] == ev[0] || ov[0] == ev[1] || ov[1] == ev[0] || ov[1] == ev[1]) return;
+      const PetscReal *ob = &sd->boxes[6 * o];
+      for (int c = 0; c < 3; c++) /* boxes both grown: within dhat when they overlap by dhat */
+        if (b[c] + grow > ob[3 + c] || b[3 + c] - grow < ob[c]) return;
+      const PetscInt q[4] = {ev[0], ev[1], ov[0], ov[1]};
+      if (mine(q)) ee.insert(ee.end(), q, q + 4);
+    });
+  }
+  PetscCall(PetscLogEventEnd(MSIM_SelfBroad, 0, 0, 0, 0));
+  for (size_t k = 0; k < pt.size(); k += 4) f(PETSC_FALSE, &pt[k]);
+  for (size_t k = 0; k < ee.size(); k += 4) f(PETSC_TRUE, &ee[k]);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscReal PairDistance2(const std::vector<PetscReal> &x, PetscBool ee, const PetscInt *v, PetscReal w[4])
+{
+  const PetscReal *p0 = &x[3 * v[0]], *p1 = &x[3 * v[1]], *p2 = &x[3 * v[2]], *p3 = &x[3 * v[3]];
+  return ee ? MSimEdgeEdgeDistance2(p0, p1, p2, p3, w) : MSimPointTriangleDistance2(p0, p1, p2, p3, w);
+}
+
+static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  SelfData       *sd   = (SelfData *)term->data;
+  const PetscReal dh2  = sd->surf->dhat * sd->surf->dhat;
+  PetscReal       local = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
+  PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
+  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
+    PetscReal w[4], b, db, d2b;
+    const PetscReal s = PairDistance2(sd->x, ee, v, w);
+    if (s >= dh2) return;
+    if (s <= 0) {
+      local = PETSC_INFINITY;
+      return;
+    }
+    MSimBarrier(s, dh2, &b, &db, &d2b);
+    local += sd->C * b;
+  }));
+  PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
+  *e += local;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Energy_Self(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  PetscReal local = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(LocalEnergy(term, X, &local));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, term->imp->sys->comm));
+  *e += local;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* G += sign times the gradient (sent to the vertices' owners) */
+static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal sign)
+{
+  SelfData       *sd  = (SelfData *)term->data;
+  const PetscReal dh2 = sd->surf->dhat * sd->surf->dhat;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
+  PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
+  sd->g.assign(sd->x.size(), 0);
+  sd->npairs = 0;
+  sd->dmin   = PETSC_INFINITY;
+  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
+    PetscReal w[4], b, db, d2b, r[3] = {0, 0, 0};
+    const PetscReal s = PairDistance2(sd->x, ee, v, w);
+    if (s >= dh2) return;
+    MSimBarrier(PetscMax(s, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
+    for (int k = 0; k < 4; k++)
+      for (int c = 0; c < 3; c++) r[c] += w[k] * sd->x[3 * v[k] + c];
+    for (int k = 0; k < 4; k++)
+      for (int c = 0; c < 3; c++) sd->g[3 * v[k] + c] += sign * 2 * sd->C * db * w[k] * r[c];
+    sd->npairs++;
+    sd->dmin = PetscMin(sd->dmin, std::sqrt(s));
+  }));
+  PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
+  PetscCall(MSimSelfSurfaceAddGradient(sd->surf, sd->g, G));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Gradient_Self(MSimImplicitTerm term, Vec X, Vec G)
+{
+  PetscFunctionBeginUser;
+  PetscCall(AddGradient(term, X, G, 1.0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool, Mat J)
+{
+  SelfData        *sd  = (SelfData *)term->data;
+  MSimSelfSurface  s   = sd->surf;
+  const PetscReal  dh2 = s->dhat * s->dhat;
+  PetscErrorCode   ierr = PETSC_SUCCESS;
+  PetscObjectState before, after;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceGather(s, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
+  PetscCall(MatGetNonzeroState(J, &before));
+  PetscCall(MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
+  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
+    PetscReal   w[4], b, db, d2b, r[3] = {0, 0, 0};
+    PetscInt    idx[12];
+    PetscScalar H[144];
+    const PetscReal s2 = PairDistance2(sd->x, ee, v, w);
+    if (s2 >= dh2 || ierr) return;
+    MSimBarrier(PetscMax(s2, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
+    const PetscReal lambda = sd->C * PetscMax(0.0, 4 * d2b * s2 + 2 * db) / PetscMax(s2, PETSC_SMALL * dh2);
+    if (lambda == 0) return;
+    for (int k = 0; k < 4; k++)
+      for (int c = 0; c < 3; c++) r[c] += w[k] * sd->x[3 * v[k] + c];
+    for (int k = 0; k < 4; k++)
+      for (int c = 0; c < 3; c++) idx[3 * k + c] = s->gnum[v[k]] >= 0 ? 3 * s->gnum[v[k]] + c : -1;
+    for (int i = 0; i < 12; i++)
+      for (int j = 0; j < 12; j++) H[12 * i + j] = lambda * w[i / 3] * w[j / 3] * r[i % 3] * r[j % 3];
+    ierr = MatSetValues(J, 12, idx, 12, idx, H, ADD_VALUES);
+  }));
+  PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
+  PetscCall(ierr);
+  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatGetNonzeroState(J, &after));
+  /* new entries moved the value arrays the system's fast assembly writes into: it re-maps them */
+  if (after != before) PetscCall(PetscObjectCompose((PetscObject)J, "MSimAssemblyMap", NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDRHS_Self(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
+{
+  PetscFunctionBeginUser;
+  PetscCall(AddGradient(term, X, rhs, -1.0));
+  if (e) PetscCall(LocalEnergy(term, X, e));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
+{
+  SelfData *sd = (SelfData *)term->data;
+  PetscReal a  = *alpha, t = 1;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, Y, a, sd->x, &sd->u));
+  PetscCall(PetscLogEventBegin(MSIM_SelfCCD, 0, 0, 0, 0));
+  PetscCall(ForEachPair(sd, sd->x, &sd->u, a, [&](PetscBool ee, const PetscInt *v) {
+    PetscReal xp[12], up[12];
+    for (int k = 0; k < 4; k++)
+      for (int c = 0; c < 3; c++) {
+        xp[3 * k + c] = sd->x[3 * v[k] + c];
+        up[3 * k + c] = a * sd->u[3 * v[k] + c];
+      }
+    t = PetscMin(t, MSimAdditiveCCD(xp, up, ee, sd->opt.ccd_s));
+  }));
+  PetscCall(PetscLogEventEnd(MSIM_SelfCCD, 0, 0, 0, 0));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &t, 1, MPIU_REAL, MPIU_MIN, term->imp->sys->comm));
+  *alpha = a * t;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode View_Self(MSimImplicitTerm term, PetscViewer viewer)
+{
+  SelfData *sd = (SelfData *)term->data;
+  PetscInt  tris = (PetscInt)sd->surf->own_tris.size(), halo = sd->surf->nhalo, plans = sd->surf->nplans;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &tris, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact: IPC barrier on point-triangle and edge-edge pairs, dhat %g m, weight C %g, additive CCD (gap fraction %g); own triangles %" PetscInt_FMT " (summed over ranks), halo triangles %" PetscInt_FMT ", plans on rank 0 %" PetscInt_FMT "\n", (double)sd->surf->dhat, (double)sd->C, (double)sd->opt.ccd_s, tris, halo, plans));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
+{
+  SelfData *sd = (SelfData *)term->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceDestroy(&sd->surf));
+  delete sd;
+  term->data = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
+{
+  MSimSystem             sys = term->imp->sys;
+  MSimSelfContactOptions o;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfContactGetOptions(sys->comm, &o));
+  if (!o.on) PetscFunctionReturn(PETSC_SUCCESS); /* off: no op, nothing per iteration */
+  PetscCheck(!term->imp->scheme->no_barrier, sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with -msim_self_contact is not supported (%s): use implicit_euler or bdf2", term->imp->scheme->type, term->imp->scheme->no_barrier);
+  SelfData *sd = new SelfData();
+  sd->opt      = o;
+  term->data   = sd;
+  term->ops.destroy = Destroy_Self;
+  PetscCall(MSimSelfSurfaceCreate(sys, &o, &sd->surf));
+  {
+    const PetscReal s0 = 0.25 * sd->surf->dhat * sd->surf->dhat, dh2 = sd->surf->dhat * sd->surf->dhat, mbar = sys->total_mass / sys->nv;
+    PetscReal       b, db, d2b;
+    MSimBarrier(s0, dh2, &b, &db, &d2b);
+    sd->C = o.stiffness * mbar / (4 * s0 * d2b + 2 * db);
+  }
+  term->ops.energy   = Energy_Self;
+  term->ops.gradient = Gradient_Self;
+  term->ops.hessian  = Hessian_Self;
+  term->ops.pd_rhs   = PDRHS_Self;
+  term->ops.max_step = MaxStep_Self;
+  term->ops.view     = View_Self;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
