@@ -39,7 +39,6 @@ PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm);
-PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm);
 
 PetscErrorCode MSimImplicitRegisterAll(void)
 {
@@ -57,7 +56,6 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   PetscCall(MSimImplicitTermRegister("obstacles", MSimImplicitTermCreate_Obstacles));
   PetscCall(MSimImplicitTermRegister("friction", MSimImplicitTermCreate_Friction));
   PetscCall(MSimImplicitTermRegister("self_contact", MSimImplicitTermCreate_SelfContact));
-  PetscCall(MSimImplicitTermRegister("volume", MSimImplicitTermCreate_Volume));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
