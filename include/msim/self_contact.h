@@ -37,10 +37,13 @@ struct MSimBoxGrid {
   PetscReal                                     cell = 1;
   std::vector<std::pair<unsigned long long, PetscInt>> entries; /* (cell key, box), sorted */
   std::vector<PetscInt>                         stamp;          /* last query that saw each box */
+  std::vector<PetscInt>                         large;          /* boxes over too many cells: every query tests them */
+  std::vector<PetscReal>                        all;            /* the boxes (a query over too many cells tests each) */
   PetscInt                                      query = 0;
   void Build(const std::vector<PetscReal> &boxes, PetscReal cell_size);
   template <class F>
   void Query(const PetscReal *box, F &&f);
+  static double MaxCells() { return 512; }
   unsigned long long Key(long long i, long long j, long long k) const
   {
     return ((unsigned long long)(i & 0x1FFFFF) << 42) | ((unsigned long long)(j & 0x1FFFFF) << 21) | (unsigned long long)(k & 0x1FFFFF);
@@ -53,11 +56,28 @@ template <class F>
 void MSimBoxGrid::Query(const PetscReal *box, F &&f)
 {
   long long lo[3], hi[3];
+  double    ncell = 1;
   query++;
   for (int c = 0; c < 3; c++) {
     lo[c] = (long long)std::floor(box[c] / cell);
     hi[c] = (long long)std::floor(box[3 + c] / cell);
+    ncell *= (double)(hi[c] - lo[c] + 1);
   }
+  auto overlaps = [&](PetscInt b) {
+    for (int c = 0; c < 3; c++)
+      if (box[c] > all[6 * b + 3 + c] || box[3 + c] < all[6 * b + c]) return false;
+    return true;
+  };
+  if (ncell > MaxCells()) { /* a box swept far: test every box (a few per line search at most) */
+    for (PetscInt b = 0; b < (PetscInt)stamp.size(); b++)
+      if (overlaps(b)) f(b);
+    return;
+  }
+  for (PetscInt b : large)
+    if (stamp[b] != query && overlaps(b)) {
+      stamp[b] = query;
+      f(b);
+    }
   for (long long i = lo[0]; i <= hi[0]; i++)
     for (long long j = lo[1]; j <= hi[1]; j++)
       for (long long k = lo[2]; k <= hi[2]; k++) {

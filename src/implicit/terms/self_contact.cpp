@@ -31,6 +31,13 @@ typedef struct {
   PetscReal              C;             /* the barrier's weight */
   MSimBoxGrid            tgrid, egrid;  /* broad phase over triangles and over edges */
   std::vector<PetscReal> x, u, g, boxes;
+  /* the candidate list (a Verlet list): the pairs within dhat + margin at xlist, valid for any x
+     (and any motion) that keeps every vertex within margin / 2 of xlist */
+  std::vector<PetscInt>  cand;         /* 5 per pair: ee flag, 4 local vertices */
+  std::vector<PetscReal> xlist;
+  PetscReal              margin;
+  PetscInt               nbuild, nreuse;
+  PetscInt               plan;         /* the halo plan the list's local numbers belong to */
   PetscInt               npairs;        /* pairs within dhat at the last gradient (this rank) */
   PetscReal              dmin;          /* the smallest distance among them */
 } SelfData;
@@ -38,10 +45,9 @@ typedef struct {
 /* f(ee, v[4]) for each pair this rank computes whose boxes overlap: within dhat of each other at
    x (u NULL), or whose boxes swept from x to x + a u overlap (CCD) */
 template <class F>
-static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a, F &&f)
+static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a, PetscReal grow, F &&f)
 {
   MSimSelfSurface s    = sd->surf;
-  const PetscReal grow = u ? 0.0 : sd->surf->dhat; /* a pair within dhat: the target box grown by dhat */
   const PetscInt  nt = (PetscInt)s->tri.size() / 3, ne = (PetscInt)s->edge.size() / 2, nv = (PetscInt)s->vid.size();
   PetscReal       extent = 0;
   auto            vbox   = [&](PetscInt v, PetscReal *b) {
@@ -109,6 +115,47 @@ static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x,
   PetscCall(PetscLogEventEnd(MSIM_SelfBroad, 0, 0, 0, 0));
   for (size_t k = 0; k < pt.size(); k += 4) f(PETSC_FALSE, &pt[k]);
   for (size_t k = 0; k < ee.size(); k += 4) f(PETSC_TRUE, &ee[k]);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* f(ee, v[4]) for each pair this rank computes that may be within dhat at x (u NULL) or meet
+   along x + t a u, t in [0, 1]: from the candidate list where every vertex stays within margin / 2
+   of where the list was made, else from a new list (static queries) or a swept broad phase (a
+   motion that leaves the list's reach) */
+template <class F>
+static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a, F &&f)
+{
+  PetscReal far = -1;
+
+  PetscFunctionBeginUser;
+  if (sd->plan == sd->surf->nplans && sd->xlist.size() == x.size()) {
+    far = 0;
+    for (size_t k = 0; k < x.size(); k += 3) {
+      PetscReal d0 = 0, d1 = 0;
+      for (int c = 0; c < 3; c++) {
+        const PetscReal e = x[k + c] - sd->xlist[k + c], m = u ? a * (*u)[k + c] : 0.0;
+        d0 += e * e;
+        d1 += (e + m) * (e + m);
+      }
+      far = PetscMax(far, PetscMax(d0, d1));
+    }
+    far = std::sqrt(far);
+  }
+  if (far < 0 || far > 0.5 * sd->margin) {
+    if (u) { /* a long motion: this query's swept boxes, not cached */
+      PetscCall(BroadPhase(sd, x, u, a, 0.0, f));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    sd->cand.clear();
+    PetscCall(BroadPhase(sd, x, NULL, 0, sd->surf->dhat + sd->margin, [&](PetscBool ee, const PetscInt *v) {
+      sd->cand.push_back(ee);
+      sd->cand.insert(sd->cand.end(), v, v + 4);
+    }));
+    sd->xlist = x;
+    sd->plan  = sd->surf->nplans;
+    sd->nbuild++;
+  } else sd->nreuse++;
+  for (size_t k = 0; k < sd->cand.size(); k += 5) f((PetscBool)sd->cand[k], &sd->cand[k + 1]);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -269,7 +316,7 @@ static PetscErrorCode View_Self(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &tris, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact: IPC barrier on point-triangle and edge-edge pairs, dhat %g m, weight C %g, additive CCD (gap fraction %g); own triangles %" PetscInt_FMT " (summed over ranks), halo triangles %" PetscInt_FMT ", plans on rank 0 %" PetscInt_FMT "\n", (double)sd->surf->dhat, (double)sd->C, (double)sd->opt.ccd_s, tris, halo, plans));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact: IPC barrier on point-triangle and edge-edge pairs, dhat %g m, weight C %g, additive CCD (gap fraction %g); own triangles %" PetscInt_FMT " (summed over ranks), halo triangles %" PetscInt_FMT ", plans on rank 0 %" PetscInt_FMT ", candidate lists built %" PetscInt_FMT " and reused %" PetscInt_FMT " times on rank 0\n", (double)sd->surf->dhat, (double)sd->C, (double)sd->opt.ccd_s, tris, halo, plans, sd->nbuild, sd->nreuse));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -304,6 +351,8 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
     MSimBarrier(s0, dh2, &b, &db, &d2b);
     sd->C = o.stiffness * mbar / (4 * s0 * d2b + 2 * db);
   }
+  /* the candidate list's margin: pairs within 2 dhat, reused while no vertex moved dhat / 2 */
+  sd->margin = sd->surf->dhat;
   term->ops.energy   = Energy_Self;
   term->ops.gradient = Gradient_Self;
   term->ops.hessian  = Hessian_Self;

@@ -1,0 +1,135 @@
+#!/usr/bin/env python3
+"""Self-contact evidence (runs/self_contact/README.md): a cloth standing on its edge on a plane
+(friction 0.5) falls under gravity -y and crumples onto itself.
+- frames.csv: intersecting triangle pairs per frame (runs/tools/intersections.py, independent of
+  msim) without and with -msim_self_contact, Newton (default PSD Hessian, CG/ICC), 21 x 21, 1 rank;
+- cost.csv: CPU time (user, all ranks; the machine is shared, so not wall time) per step without and
+  with self-contact, for Newton-CG and PD (50 iterations), N x N cloths, 1 and 2 ranks, with the
+  gradient evaluations (MSimResidual) and the self-contact events' share of -log_view's time;
+- self_contact.png: both.
+Usage: study.py path/to/msim [--sizes 21,31,41] [--ranks 1,2]"""
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "tools"))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "tests"))
+import intersections  # noqa: E402
+import msimtest as mt  # noqa: E402
+import vtu  # noqa: E402
+
+
+def fold(n, steps=35):
+    return ["-msim_cloth_n", str(n), "-msim_fix", "none", "-msim_gravity", "0,-9.81,0", "-msim_perturb", "0.01",
+            "-msim_integrator", "implicit_euler", "-msim_dt", "0.02", "-msim_steps", str(steps),
+            "-msim_contact_plane", "0,1,0,-0.01", "-msim_friction", "0.5"]
+
+
+SOLVERS = {"newton_cg": [], "pd": ["-snes_type", "pd", "-snes_max_it", "50"]}
+
+
+def run_cpu(exe, args, np_):
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    r = subprocess.run(mt.command(exe, args, np_), capture_output=True, text=True)
+    return r, resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - before
+
+
+def log_time(text, event):
+    m = re.search(rf"^{event}\s+\d+\s+\S+\s+(\S+)", text, re.M)
+    return float(m.group(1)) if m else 0.0
+
+
+def log_count(text, event):
+    m = re.search(rf"^{event}\s+(\d+)", text, re.M)
+    return int(m.group(1)) if m else 0
+
+
+def main():
+    exe = mt.msim_path()
+    sizes = [21, 31, 41]
+    ranks = [1, 2]
+    if "--sizes" in sys.argv:
+        sizes = [int(v) for v in sys.argv[sys.argv.index("--sizes") + 1].split(",")]
+    if "--ranks" in sys.argv:
+        ranks = [int(v) for v in sys.argv[sys.argv.index("--ranks") + 1].split(",")]
+    tmp = tempfile.mkdtemp(prefix="msim_self_contact_study_")
+    # 1. intersections per frame
+    counts = {}
+    for on in (0, 1):
+        out = os.path.join(tmp, f"frames_{on}")
+        r = subprocess.run(mt.command(exe, fold(21, 50) + ["-msim_self_contact", str(on), "-msim_output", out, "-msim_output_every", "2"]), capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr[-500:]
+        counts[on] = [(t, intersections.intersecting_pairs(vtu.read_vtu(p)["points"], intersections.cloth_triangles(441)))
+                      for t, p in vtu.read_pvd(os.path.join(out, "series.pvd"))]
+    with open(os.path.join(HERE, "frames.csv"), "w") as f:
+        f.write("t,pairs_without,pairs_with\n")
+        for (t, a), (_, b) in zip(counts[0], counts[1]):
+            f.write(f"{t:.4f},{a},{b}\n")
+    # 2. cost per step
+    rows = []
+    for n in sizes:
+        for np_ in ranks:
+            for sname, sargs in SOLVERS.items():
+                for on in (0, 1):
+                    steps = 35
+                    r, cpu = run_cpu(exe, fold(n, steps) + sargs + ["-msim_self_contact", str(on), "-log_view"], np_)
+                    ok = r.returncode == 0
+                    total = log_time(r.stdout, "SNESSolve")
+                    self_t = sum(log_time(r.stdout, e) for e in ("MSimSelfNarrow", "MSimSelfCCD", "MSimSelfHalo"))
+                    row = dict(n=n, vertices=n * n, triangles=2 * (n - 1) ** 2, ranks=np_, solver=sname, self_contact=on, ok=int(ok),
+                               cpu_per_step=cpu / steps, gradients=log_count(r.stdout, "MSimResidual"),
+                               self_share=self_t / total if total > 0 else 0.0)
+                    rows.append(row)
+                    print(row, flush=True)
+    keys = list(rows[0].keys())
+    with open(os.path.join(HERE, "cost.csv"), "w") as f:
+        f.write(",".join(keys) + "\n")
+        for row in rows:
+            f.write(",".join(f"{row[k]:.5g}" if isinstance(row[k], float) else str(row[k]) for k in keys) + "\n")
+    plot()
+
+
+def plot():
+    import csv
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fr = list(csv.DictReader(open(os.path.join(HERE, "frames.csv"))))
+    cost = list(csv.DictReader(open(os.path.join(HERE, "cost.csv"))))
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    t = [float(r["t"]) for r in fr]
+    ax[0].plot(t, [int(r["pairs_without"]) for r in fr], "o-", label="without")
+    ax[0].plot(t, [int(r["pairs_with"]) for r in fr], "s-", label="-msim_self_contact")
+    ax[0].set_xlabel("t (s)")
+    ax[0].set_ylabel("intersecting triangle pairs")
+    ax[0].set_title("21 x 21 cloth crumpling on a plane (Newton)")
+    ax[0].legend()
+    for solver in SOLVERS:
+        for np_ in sorted({int(r["ranks"]) for r in cost}):
+            pts = []
+            for r in cost:
+                if r["solver"] == solver and int(r["ranks"]) == np_ and r["self_contact"] == "1":
+                    off = [q for q in cost if q["solver"] == solver and q["ranks"] == r["ranks"] and q["n"] == r["n"] and q["self_contact"] == "0"]
+                    if off and float(off[0]["cpu_per_step"]) > 0:
+                        pts.append((int(r["triangles"]), float(r["cpu_per_step"]) / float(off[0]["cpu_per_step"])))
+            if pts:
+                ax[1].plot(*zip(*sorted(pts)), "o-", label=f"{solver}, {np_} rank(s)")
+    ax[1].axhline(3, color="gray", ls="--", label="target 3x")
+    ax[1].set_xscale("log")
+    ax[1].set_xlabel("surface triangles")
+    ax[1].set_ylabel("CPU per step, with / without")
+    ax[1].set_title("cost of self-contact")
+    ax[1].legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "self_contact.png"), dpi=90)
+
+
+if __name__ == "__main__":
+    if "--plot" in sys.argv:
+        plot()
+    else:
+        main()
