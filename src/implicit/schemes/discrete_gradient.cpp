@@ -17,19 +17,20 @@
    r is not the gradient of any function (gradbar's Jacobian, d gradbar / dx, is not symmetric), so
    the scheme sets no_objective: the problem asks the terms for their discrete gradients and exact
    (nonsymmetric) Jacobians, and the step is Newton with GMRES or LU and a residual-norm line search.
-   The dissipation goes through the dissipation term with the predictor p = x_n + h/2 v_n (spring
-   damping's axes O(h^2) from the midpoint's, as second order needs) and y takes the rest, exactly
-   as the other second-order schemes do (dissipation.cpp): hd C_p (x - p) with hd = h/2, plus
-   h^2/2 C_p u with u = (p - x_n)/h = v_n/2, sums to h/2 C_p (x - x_n) = h^2/2 C_p v_m; one C_p in
-   both, so the damping stays exactly dissipative. Handles: the unknown is x_{n+1}, at b(t + h); the
-   dissipation term sees p with the handles at b(t + h) too (no handle displacement in it) and y takes
-   their velocity h b' = b(t + h) - b(t) (constant-velocity handles: exact). x_n is seen with b(t),
-   so a spring to a handle gets the discrete gradient between its two true states. First iterate
+   The dissipation is taken at the midpoint velocity itself, v_m = (x - x_n)/h, handles included:
+   spring damping h/2 kd n n^T (A_s x - A_s x_n) with A_s x at b(t + h) and A_s x_n at b(t) (the
+   springs' discrete_gradient op), its axes n those of the midpoint predictor p = x_n + h/2 v_n
+   with the handles at b(t + h/2), O(h^2) from the midpoint's as second order needs (axes from x_n
+   or from p with the handles at b(t + h) made the damped cloth with moving handles first order);
+   drag through the drag term hd c/2 |x - p|^2 (hd = h/2) with y taking the rest, h/2 c (p - x_n)
+   = h^2/2 c v_n/2, so the two sum to h/2 c (x - x_n). One C_p for the whole step, so the damping
+   stays exactly dissipative. The unknown is x_{n+1}, at b(t + h); x_n is seen with b(t), so a
+   spring to a handle gets the discrete gradient between its two true states. First iterate
    x_n + h v_n. No history beyond (x_n, v_n): a checkpoint holds all a restart needs. */
 #include <msim/implicit.h>
 
 typedef struct {
-  Vec P, U, F, W; /* the predictor p = x_n + h/2 v_n, u = v_n/2; work vectors */
+  Vec P; /* the midpoint predictor p = x_n + h/2 v_n: the damping's axes, the drag's reference */
 } DGData;
 
 static PetscErrorCode BeginStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
@@ -39,13 +40,22 @@ static PetscErrorCode BeginStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, 
   PetscFunctionBeginUser;
   PetscCall(VecCopy(X, imp->Xn));
   PetscCall(VecWAXPY(d->P, 0.5 * h, V, X));
-  PetscCall(VecCopy(V, d->U));
-  PetscCall(VecScale(d->U, 0.5));
+  /* y = x_n + h v_n + h^2/2 M^-1 f_e - h^2/4 M^-1 c v_n */
   PetscCall(VecWAXPY(imp->Y, h, V, X));
   PetscCall(MSimImplicitAddExternalAcceleration(imp, 0.5 * h * h, imp->Y));
-  PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 0.5 * h * h, t + h, d->P, d->U, d->F, d->W, imp->Y));
+  if (imp->sys->drag > 0) {
+    PetscScalar       *y;
+    const PetscScalar *v, *m;
+    PetscCall(VecGetArray(imp->Y, &y));
+    PetscCall(VecGetArrayRead(V, &v));
+    PetscCall(VecGetArrayRead(imp->sys->mass, &m));
+    for (PetscInt i = 0; i < 3 * imp->sys->nown; i++) y[i] -= 0.25 * h * h * imp->sys->drag * v[i] / m[i];
+    PetscCall(VecRestoreArrayRead(imp->sys->mass, &m));
+    PetscCall(VecRestoreArrayRead(V, &v));
+    PetscCall(VecRestoreArray(imp->Y, &y));
+  }
   imp->step.xref = d->P;
-  imp->step.tref = t + h;
+  imp->step.tref = t + 0.5 * h;
   imp->step.tx   = t + h;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -79,9 +89,6 @@ static PetscErrorCode Destroy_DG(MSimImplicitScheme scheme)
 
   PetscFunctionBeginUser;
   PetscCall(VecDestroy(&d->P));
-  PetscCall(VecDestroy(&d->U));
-  PetscCall(VecDestroy(&d->F));
-  PetscCall(VecDestroy(&d->W));
   PetscCall(PetscFree(scheme->data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -94,9 +101,6 @@ PetscErrorCode MSimImplicitSchemeCreate_DiscreteGradient(MSimImplicitScheme sche
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&d));
   PetscCall(VecDuplicate(X0, &d->P));
-  PetscCall(VecDuplicate(X0, &d->U));
-  PetscCall(VecDuplicate(X0, &d->F));
-  PetscCall(VecDuplicate(X0, &d->W));
   scheme->data            = d;
   scheme->beta            = 0.5;
   scheme->gamma           = 0.5;

@@ -1,7 +1,9 @@
 /* The springs' discrete gradient (Gonzalez 1996), for schemes whose residual is not Phi's gradient
    (discrete_gradient): the term's part of the residual at x is
-     h2 gradbar E(x_n, x) + hd kd sum_s n_s n_s^T A_s (x - xref),   n_s the axis of A_s xref,
-   the second the spring damping exactly as springs.cpp has it. Per spring, with d0 = A_s x_n,
+     h2 gradbar E(x_n, x) + hd kd sum_s n_s n_s^T A_s (x - x_n),   n_s the axis of A_s xref,
+   the second the spring damping at the step's mean velocity A_s (x - x_n)/h, handles' motion
+   included, with the axes of the scheme's reference (discrete_gradient: the midpoint predictor
+   at t + h/2), exactly dissipative as its matrix is the same on both sides. Per spring, with d0 = A_s x_n,
    d1 = A_s x (x_n's handles at b(t), x's at b(t + h)), l0, l1 their lengths, lm = (l0 + l1)/2 and
    dm = (d0 + d1)/2, Gonzalez's discrete gradient of E = phi(l) in d is
      gbar = [(phi(l1) - phi(l0)) / (l1 - l0)] dm / lm,
@@ -93,8 +95,8 @@ PetscErrorCode MSimImplicitSpringsDiscreteGradient(MSimImplicitTerm term, Vec X,
     const Vec3 d0 = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), d1 = CMap3(x + 3 * i) - CMap3(x + 3 * j);
     Vec3       r  = h2 * SpringDiscreteGradient(d0, d1, k, L, NULL);
     if (xr) {
-      const Vec3 dr = CMap3(xr + 3 * i) - CMap3(xr + 3 * j), n = dr.normalized();
-      r += (hkd * n.dot(d1 - dr)) * n;
+      const Vec3 n = (CMap3(xr + 3 * i) - CMap3(xr + 3 * j)).normalized();
+      r += (hkd * n.dot(d1 - d0)) * n;
     }
     Map3(f + 3 * i) += r;
     Map3(f + 3 * j) -= r;

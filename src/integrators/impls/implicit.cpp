@@ -331,7 +331,9 @@ static PetscErrorCode RefuseMinimizers(MSimIntegrator integ, ImplicitData *ie)
 /* The SNES with msim's defaults, which a user overrides with the usual options: Newton, msim's
    line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian;
    for a scheme with no objective, no Phi: GMRES with ILU (block Jacobi-ILU in parallel) on its
-   nonsymmetric Jacobian and PETSc's backtracking on |r|^2 (bt). */
+   nonsymmetric Jacobian and PETSc's l2 line search, which minimizes |r|^2 along the Newton step
+   by secant steps (bt, backtracking on |r|^2, stalled at a local minimum of |r| where the
+   Jacobian is nearly singular, step 103 of an 11 x 11 cloth at h = 1/30 s; l2 ran through). */
 static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ksp)
 {
   MSimSystem      sys = integ->sys;
@@ -363,7 +365,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   if (discrete && !set) {
     SNESLineSearch ls;
     PetscCall(SNESGetLineSearch(ie->snes, &ls));
-    PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+    PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHL2));
   } else if (!set) {
     SNESLineSearch ls;
     PetscCall(SNESGetLineSearch(ie->snes, &ls));

@@ -1,0 +1,146 @@
+#!/usr/bin/env python3
+"""The energy-conserving discrete-gradient scheme (-msim_integrator discrete_gradient), at 1 and 2
+ranks:
+- observed order 2 (within 0.15) against RK4 at h = 1e-5 on the chain of tests/schemes.py (8
+  vertices, corners fixed, gravity, T = 0.3 s, h = 2e-3, 1e-3, 5e-4) and on its 6 x 6 cloth with
+  spring damping, drag, wind and handles moving at (0.5, 0, 1) m/s (the dissipation's predictor and
+  the handles' terms count there);
+- with no damping, drag or moving handles the total energy (kinetic + springs + gravity) is
+  conserved to the solver's tolerance: the scheme's energy balance is exact, so each step changes
+  E by (2/h) v_m . r, r the residual left (the scheme's top comment), and |E_n - E_0| must stay
+  below sum_k (2/h) |v_m,k| |r_k| (|v| <= sqrt(2 K / m) per step, |r| from the monitor) plus 1e-12 of
+  the largest kinetic energy for the rounding of E itself. On the undamped chain (k = 1000 N/m,
+  1 kg, 6 free masses of 0.125 kg) at 10 x its explicit limit 2/omega_max, omega_max =
+  2 sqrt(k/m) sin(6 pi/14) = 174.4 rad/s (the fixed-fixed chain's top mode; msim -msim_spectrum
+  reports the same), over 2000 steps; and on a 7 x 7 cloth at h = 1/30 s over 2000 steps, where
+  implicit midpoint (msim's Newton) gains energy until it diverges: its energy must move by more
+  than the discrete-gradient run's largest kinetic energy before it stops;
+- -snes_type pd with the scheme is refused with one line naming the option (printed once);
+- restarted from a checkpoint at step 10 of the damped cloth, step 20 is bit for bit the
+  uninterrupted run's, and the checkpoint is implicit Euler's size: no history beyond (x, v)."""
+import math
+import os
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+MSIM = mt.msim_path()
+DG = ["-msim_integrator", "discrete_gradient"]
+CHAIN = ["-msim_scene", "chain", "-msim_chain_n", "8", "-msim_fix", "corners", "-msim_spectrum_check", "0"]
+CLOTH = ["-msim_cloth_n", "6", "-msim_damping", "2", "-msim_drag", "0.05", "-msim_wind", "1,0,0", "-msim_fix_velocity", "0.5,0,1", "-msim_spectrum_check", "0"]
+T = 0.3
+HS = (2e-3, 1e-3, 5e-4)
+LU = ["-ksp_type", "preonly", "-pc_type", "lu", "-pc_factor_mat_solver_type", "mumps"]
+EXACT = LU + ["-snes_rtol", "1e-14", "-snes_atol", "1e-15"]
+TIGHT = LU + ["-snes_rtol", "0", "-snes_atol", "1e-13", "-snes_stol", "0", "-snes_max_it", "200"]
+K_CHAIN, M_CHAIN, N_CHAIN = 1000.0, 1.0, 8
+check = mt.Checks()
+
+
+def msim(np_, args):
+    r = mt.run(MSIM, args, np_)
+    if r.returncode:
+        sys.exit(f"msim failed: {' '.join(args)}\n{r.stderr}")
+    return r
+
+
+def final(np_, scene, args, tmp, name):
+    out = os.path.join(tmp, name + ".txt")
+    msim(np_, scene + args + ["-msim_view_final", mt.view_ascii(out)])
+    return np.array(mt.read_view(out))
+
+
+def orders(np_, tmp):
+    for label, scene in (("chain", CHAIN), ("damped cloth with moving handles", CLOTH)):
+        ref = final(np_, scene, ["-msim_integrator", "rk4", "-msim_dt", "1e-5", "-msim_steps", str(round(T / 1e-5))], tmp, "ref")
+        err = [float(np.abs(final(np_, scene, DG + ["-msim_dt", repr(h), "-msim_steps", str(round(T / h))] + EXACT, tmp, f"dg_{h}") - ref).max()) for h in HS]
+        p = [math.log2(err[i] / err[i + 1]) for i in range(2)]
+        check(all(abs(q - 2) < 0.15 for q in p),
+              f"np={np_}: discrete_gradient on the {label}: errors {', '.join(f'{e:.3e}' for e in err)} at h = {', '.join(f'{h:g}' for h in HS)}: observed order {p[0]:.3f}, {p[1]:.3f} (expected 2)")
+
+
+def monitored(np_, args, csv):
+    """run with a monitor CSV; returns (rows, returncode): a run that diverges keeps its rows"""
+    r = mt.run(MSIM, args + ["-msim_monitor_csv", csv], np_)
+    rows = mt.read_csv(csv) if os.path.exists(csv) else []
+    return rows, r
+
+
+def conserved(np_, label, rows, h, m_min, steps):
+    e = np.array([float(r["total"]) for r in rows])
+    k = np.array([float(r["kinetic"]) for r in rows])
+    res = np.array([float(r["residual"]) for r in rows])
+    v = np.sqrt(2 * k / m_min)                     # |v|_2 bound at each step
+    per_step = (2 / h) * 0.5 * (v[:-1] + v[1:]) * res[1:]
+    bound = np.concatenate(([0.0], np.cumsum(per_step))) + 1e-12 * k.max()
+    dev = np.abs(e - e[0])
+    worst = int(np.argmax(dev / bound))
+    check(len(rows) == steps + 1 and np.all(dev <= bound),
+          f"np={np_}: discrete_gradient keeps the energy of the {label} over {len(rows) - 1} steps: max |E - E0| {dev.max():.3e} J "
+          f"(relative to the largest kinetic energy {k.max():.3f} J: {dev.max() / k.max():.1e}); at step {worst} {dev[worst]:.3e} J "
+          f"against the solver-tolerance bound {bound[worst]:.3e} J")
+    return dev.max(), k.max()
+
+
+def energy(np_, tmp):
+    m = M_CHAIN / N_CHAIN
+    omega = 2 * math.sqrt(K_CHAIN / m) * math.sin((N_CHAIN - 2) * math.pi / (2 * (N_CHAIN - 1)))
+    h = 10 * 2 / omega
+    chain = CHAIN + ["-msim_stiffness", repr(K_CHAIN), "-msim_mass", repr(M_CHAIN), "-msim_dt", repr(h), "-msim_steps", "2000"]
+    rows, r = monitored(np_, chain + DG + TIGHT, os.path.join(tmp, "chain.csv"))
+    if r.returncode:
+        sys.exit(f"msim failed on the chain:\n{r.stderr}")
+    conserved(np_, f"undamped chain at h = {h:.4f} s (10 x 2/omega_max, omega_max = {omega:.2f} rad/s)", rows, h, m, 2000)
+    # 7 x 7 cloth of 1 kg (49 vertices of 1/49 kg), corners fixed, default springs, h = 1/30
+    h = 1 / 30
+    cloth = ["-msim_cloth_n", "7", "-msim_mass", "1", "-msim_spectrum_check", "0", "-msim_dt", repr(h), "-msim_steps", "2000"]
+    rows, r = monitored(np_, cloth + DG + TIGHT, os.path.join(tmp, "cloth.csv"))
+    if r.returncode:
+        sys.exit(f"msim failed on the cloth:\n{r.stderr}")
+    _, kmax = conserved(np_, "7 x 7 cloth at h = 1/30 s", rows, h, 1 / 49, 2000)
+    mid, r = monitored(np_, cloth + ["-msim_integrator", "implicit_midpoint"], os.path.join(tmp, "midpoint.csv"))
+    e = np.array([float(x["total"]) for x in mid])
+    drift = float(np.abs(e - e[0]).max()) if len(e) else float("nan")
+    check(drift > kmax,
+          f"np={np_}: implicit midpoint on the same cloth drifts: max |E - E0| {drift:.3e} J over {len(mid) - 1} steps"
+          f"{' (then diverged)' if r.returncode else ''}, against discrete_gradient's largest kinetic energy {kmax:.3f} J")
+
+
+def refusal(np_):
+    r = mt.run(MSIM, CHAIN + DG + ["-msim_dt", "0.01", "-msim_steps", "2", "-snes_type", "pd"], np_)
+    lines = [l for l in (r.stdout + r.stderr).splitlines() if "-snes_type pd" in l]
+    check(r.returncode != 0 and len(lines) == 1 and "-msim_integrator discrete_gradient is not supported" in lines[0],
+          f"np={np_}: -snes_type pd with discrete_gradient is refused in one line: {lines[0] if lines else (r.stdout + r.stderr)[-300:]!r}")
+
+
+def restarts(np_, tmp):
+    base = CLOTH + ["-msim_dt", "0.01"]
+    sizes = {}
+    for s in ("implicit_euler", "discrete_gradient"):
+        args = base + ["-msim_integrator", s]
+        full, ck, part = (os.path.join(tmp, f"{s}_{k}") for k in ("full.bin", "ck", "part.bin"))
+        msim(np_, args + ["-msim_steps", "20", "-msim_view_final", f"binary:{full}"])
+        msim(np_, args + ["-msim_steps", "10", "-msim_checkpoint", ck])
+        sizes[s] = os.path.getsize(ck)
+        msim(np_, args + ["-msim_steps", "20", "-msim_restart", ck, "-msim_view_final", f"binary:{part}"])
+        if s != "implicit_euler":
+            check(open(full, "rb").read() == open(part, "rb").read(), f"np={np_}: {s}: restarted at step 10, step 20 is bit for bit the uninterrupted run's")
+    check(sizes["discrete_gradient"] == sizes["implicit_euler"],
+          f"np={np_}: discrete_gradient's checkpoint carries no history: {sizes['discrete_gradient']} bytes, implicit Euler's {sizes['implicit_euler']}")
+
+
+def main():
+    with tempfile.TemporaryDirectory() as tmp:
+        for np_ in mt.ranks():
+            orders(np_, tmp)
+            energy(np_, tmp)
+            refusal(np_)
+            restarts(np_, tmp)
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
