@@ -12,7 +12,9 @@
   a = g (sin theta - mu cos theta): implicit Euler under a constant force moves a T^2/2 (1 + 1/N)
   in N steps, checked within 5%;
 - explicit symplectic Euler with the penalty kc: at rest each vertex of a flat cloth carries its own
-  weight, so it sinks m_v g / kc below the plane (within 1%);
+  weight, so it sinks m_v g / kc below the plane (within 1%); both stability guards count kc
+  (Gershgorin: 2 / sqrt((2 sum k + kc) / m); SLEPc: 2 / sqrt(kc / m) for a flat cloth, whose springs
+  are not stiff across its plane);
 - bad input: a sphere given with 3 values, a cloth starting inside a sphere, implicit_midpoint
   with an obstacle (refused: the barrier keeps its unknown, the midpoint, feasible, not x_{n+1})
   and ksponly with an obstacle (refused: one linear step, no feasible line search) are one error
@@ -160,6 +162,21 @@ def main():
         said = [l for l in mt.lines(r.stderr) if "exceeds the stability limit" in l]
         got = float(said[0].split("h <= ")[1].split()[0]) if said else float("nan")
         check(abs(got - hcrit) <= 1e-4 * hcrit, f"np {np_}: the guard's limit with kc = {kc:g}: {got:.6g} s = 2 / sqrt((2 * 12000 + kc) / m_v) = {hcrit:.6g} s")
+        # the SLEPc guard counts it too: (K + kc n n^T per vertex, M); the flat cloth's springs have
+        # no stiffness across the plane (at rest length), so over a plane (n = z everywhere)
+        # omega_max^2 = max(kc / m_v, the in-plane spring modes <= 24000 / m_v) = kc / m_v exactly;
+        # over a sphere the normals tilt into the plane, where the springs add to kc: the limit
+        # lies between Gershgorin's 2 / sqrt((24000 + kc) / m_v) and 2 / sqrt(kc / m_v)
+        for label, obstacle in (("plane", ["-msim_contact_plane", "0,0,1,-0.05"]), ("sphere", ["-msim_contact_sphere", "0.5,0.5,-1,0.9"])):
+            r = mt.run(exe, ["-msim_integrator", "symplectic_euler", "-msim_cloth_n", "5", "-msim_fix", "none"] + obstacle + ["-msim_spectrum_guard", "slepc",
+                             "-msim_contact_stiffness", str(kc), "-msim_dt", "0.001", "-msim_steps", "1"], np_)
+            hslepc = 2 / math.sqrt(kc * 25)
+            said = [l for l in mt.lines(r.stderr) if "exceeds the stability limit" in l and "SLEPc" in l]
+            got = float(said[0].split("h <= ")[1].split()[0]) if said else float("nan")
+            if label == "plane":
+                check(abs(got - hslepc) <= 1e-5 * hslepc, f"np {np_}: the SLEPc guard's limit with kc = {kc:g} over a plane: {got:.6g} s = 2 / sqrt(kc / m_v) = {hslepc:.6g} s")
+            else:
+                check(hcrit * (1 - 1e-6) <= got <= hslepc * (1 + 1e-6) and got < hslepc * (1 - 1e-6), f"np {np_}: the SLEPc guard's limit with kc = {kc:g} over a sphere: {got:.6g} s in [{hcrit:.6g}, {hslepc:.6g}) s")
         # (e) bad input: one error line each
         for label, args, words in (("a sphere of 3 values", ["-msim_contact_sphere", "0,0,0"], ["-msim_contact_sphere", "4 values"]),
                                    ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["vertex 12 starts inside obstacle 0", "-msim_contact_sphere"]),

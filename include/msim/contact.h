@@ -48,6 +48,8 @@ struct _n_MSimContact {
   PetscReal                 eps_v; /* friction's static velocity threshold (m/s) */
   PetscReal                 thickness; /* mesh obstacles: the shell the cloth keeps out of */
   PetscBool                 moving;    /* some obstacle has a velocity */
+  PetscBool                 pd_weight; /* PD: the barrier's stiffness in the matrix (else the rhs only) */
+  PetscBool                 psd_curvature; /* PSD Hessian: keep the barrier's curvature term, clamped */
   /* this rank's totals at the last force or gradient evaluation: the monitor's columns */
   PetscReal                 force[3];
   PetscInt                  ncontact;
@@ -75,6 +77,11 @@ void MSimBarrier(PetscReal d, PetscReal dhat, PetscReal *b, PetscReal *db, Petsc
 /* F += the explicit penalty force kc max(0, -d) n per free owned vertex and obstacle at time t
    (nothing without obstacles); records the totals for the monitor. */
 PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Vec F);
+/* K += kc n n^T on every free owned vertex for every obstacle (n its normal at X, at time t): the
+   penalty's stiffness as if each vertex were pressed into each obstacle, an upper bound of every
+   contact state's (Weyl: adding PSD blocks only raises eigenvalues), which the SLEPc stability guard
+   adds to (K, M), as the Gershgorin guard adds kc to every row. Nothing without obstacles. */
+PetscErrorCode MSimContactAddPenaltyStiffness(MSimSystem sys, PetscReal t, Vec X, Mat K);
 /* The totals over ranks of the last system made with obstacles: contact force (3, N) and
    vertices in contact (implicit: within dhat; explicit: inside) at the last force or gradient
    evaluation, which the integrators make at the step's result; zeros without obstacles.

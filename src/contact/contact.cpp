@@ -16,8 +16,9 @@
    explicit method and PETSc's TS take it without a change to their updates, and its stiffness is
    a diagonal term the Gershgorin guard bounds exactly (max_i (2 sum_j k_ij + kc) / m_i). The
    penalty lets a vertex sink m g / kc at rest, and has no friction: -msim_friction acts in the
-   implicit integrators only. The SLEPc guard (-msim_spectrum_guard slepc) computes (K, M) without
-   kc. */
+   implicit integrators only. The SLEPc guard (-msim_spectrum_guard slepc) takes the largest
+   eigenvalue of (K + kc sum_o n_o n_o^T per vertex, M) (MSimContactAddPenaltyStiffness): every
+   vertex as if pressed into every obstacle, exact for a cloth lying on a plane. */
 #include <msim/contact.h>
 #include <msim/options.h>
 #include <msim/errors.h>
@@ -320,6 +321,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->eps_v = 1e-3 * PetscMax(sys->diameter, PETSC_SMALL);
   ct->thickness = 0;
   ct->moving    = PETSC_FALSE;
+  ct->pd_weight = PETSC_TRUE;
+  ct->psd_curvature = PETSC_TRUE;
   PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
   PetscCall(PetscContainerSetPointer(container, ct));
   PetscCall(PetscContainerSetUserDestroy(container, ContactDestroy));
@@ -364,6 +367,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
+  PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal, set (and A refactored) when that set changes; 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
+  PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
   PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
   PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing: tangential speed (m/s) below which friction acts as static (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
   PetscOptionsEnd();
@@ -412,6 +417,33 @@ PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Ve
   }
   PetscCall(VecRestoreArray(F, &f));
   PetscCall(VecRestoreArrayRead(X, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactAddPenaltyStiffness(MSimSystem sys, PetscReal t, Vec X, Mat K)
+{
+  MSimContact        ct;
+  const PetscScalar *x;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(X, &x));
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    PetscScalar blk[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    PetscInt    idx[3];
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal n[3];
+      (void)MSimObstacleDistanceAt(&o, t, x + 3 * v, n, NULL);
+      for (int a = 0; a < 3; a++)
+        for (int b = 0; b < 3; b++) blk[3 * a + b] += ct->kc * n[a] * n[b];
+    }
+    for (int a = 0; a < 3; a++) idx[a] = 3 * (sys->rstart + v) + a;
+    PetscCall(MatSetValues(K, 3, idx, 3, idx, blk, ADD_VALUES));
+  }
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

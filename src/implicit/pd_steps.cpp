@@ -13,10 +13,13 @@ static PetscErrorCode PDAssemble(MSimImplicit imp)
   PetscReal          diag = 0; /* the diagonal terms' weights */
 
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
-  PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
-  PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
-  PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
+  if (imp->A) PetscCall(MatZeroEntries(imp->A)); /* new weights (pd_reweight), same pattern */
+  else {
+    PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
+    PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
+    PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
+    PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
+  }
   for (PetscInt k = 0; k < imp->nterms; k++) {
     MSimImplicitTerm term = imp->terms[k];
     if (term->ops.diagonal) {
@@ -124,6 +127,35 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Terms whose PD weights follow the state (contact) update them before a local step; where any
+   changed on any rank (one reduction of a flag), A is reassembled and refactored, so the factor
+   stays the same as long as the contact set does. */
+static PetscErrorCode PDReweight(MSimImplicit imp, Vec X)
+{
+  PetscBool any = PETSC_FALSE, changed = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.pd_reweight) {
+      any = PETSC_TRUE;
+      PetscCall(imp->terms[k]->ops.pd_reweight(imp->terms[k], X, &changed));
+    }
+  if (!any || !imp->A) PetscFunctionReturn(PETSC_SUCCESS); /* without A yet, SetUp assembles the weights */
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &changed, 1, MPIU_BOOL, MPI_LOR, imp->sys->comm));
+  if (!changed) PetscFunctionReturn(PETSC_SUCCESS);
+  {
+    PC       pc;
+    PetscInt before, after;
+    PetscCall(PDAssemble(imp));
+    PetscCall(KSPGetPC(imp->pdksp, &pc));
+    PetscCall(MSimFactorizationCount(&before));
+    PetscCall(PCSetUp(pc));
+    PetscCall(MSimFactorizationCount(&after));
+    imp->nfactor += after - before;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* rhs = M y + the diagonal terms' w c + the other terms' local steps at X; with phi, also Phi(X)
    (the projections are optimal, so the PD energy equals Phi). The terms start what they need
    (the ghost exchange) before the inertia pass, so it travels meanwhile. */
@@ -136,6 +168,7 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
   Vec                C = imp->Y;
 
   PetscFunctionBeginUser;
+  PetscCall(PDReweight(imp, X));
   PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, rhs, 0, 0));
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.pd_begin) PetscCall(imp->terms[k]->ops.pd_begin(imp->terms[k], X));

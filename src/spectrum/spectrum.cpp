@@ -3,6 +3,7 @@
    spring spectrum is clustered: ncv defaults to max(2 nev, 64) (FACTS: 34 restarts instead of 831). */
 #include <msim/spectrum.h>
 #include <msim/output.h>
+#include <msim/contact.h>
 #include <slepceps.h>
 
 static PetscInt MSimSpectrumLastIterations = 0; /* restarts of the last solve, for the report */
@@ -23,6 +24,7 @@ static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, Pet
   {
     const MSimMatrixCoefficients c = {0.0, X, 0.0, 0.0, 1.0, PETSC_FALSE, 0.0, NULL, 0.0}; /* K(X) alone */
     PetscCall(MSimSystemAssembleMatrix(sys, &c, K));
+    if (largest) PetscCall(MSimContactAddPenaltyStiffness(sys, 0.0, X, K)); /* the explicit penalty's kc, every vertex as if in contact (msim/contact.h) */
   }
   PetscCall(MSimSystemCreateMassMatrix(sys, &M));
   PetscCall(EPSCreate(sys->comm, &eps));

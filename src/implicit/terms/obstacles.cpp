@@ -3,18 +3,23 @@
      E = beta h^2 kappa sum_v m_v b(d_v),   b(d) = -(d - dhat)^2 log(d / dhat) on (0, dhat), 0 beyond,
    C2 at dhat and infinite at d = 0, so every iterate a line search accepts is outside every
    obstacle. Weighted by the vertex masses, so kappa is per unit mass (msim/contact.h's defaults).
-   Gradient beta h^2 kappa m b'(d) n; Hessian block beta h^2 kappa m (b'' n n^T + b' D^2 d), whose
-   PSD projection is b'' n n^T (b'' >= 0 on (0, dhat), b' <= 0 and D^2 d is PSD for convex
-   obstacles). max_step: the largest alpha for which no owned vertex meets an obstacle along
-   X - alpha Y (exact ray tests), times 0.8 (IPC's CCD filter), reduced over ranks; a feasible
-   start never gives 0. PD: the constant PD matrix is kept and the barrier's force at the current
-   iterate goes into the right-hand side (its gradient, lagged by one iteration); the PD global
-   step is then shortened by max_step where it would cross an obstacle (MSimImplicitPDSolve).
+   Gradient beta h^2 kappa m b'(d) n; Hessian block beta h^2 kappa m (b'' n n^T + b' D^2 d). b''
+   >= 0 on (0, dhat); the curvature term b' D^2 d is negative semidefinite (b' <= 0, and the
+   distance to a point, an edge or a convex surface has a PSD Hessian), so the PSD form keeps it
+   only as far as the vertex's inertia m I covers it (Hessian_Obstacles; -msim_contact_psd_curvature).
+   max_step: the largest alpha for which no owned vertex meets an obstacle (where it is at step.tx)
+   along X - alpha Y (exact ray tests times 0.8, IPC's CCD filter; conservative advancement for
+   meshes), reduced over ranks; a feasible start never gives 0. PD (-msim_contact_pd_weight): each
+   vertex within dhat gets w_v = beta h^2 kappa m b''(d) on the PD matrix's diagonal, set when the
+   set of such vertices changes (A is then refactored, and only then), and the right-hand side
+   w_v x_v minus the barrier's gradient, so each global step is X - A^-1 g(X); the step is then
+   shortened by max_step where it would cross an obstacle (pd_steps.cpp).
    The contact force, -kappa m b'(d) n, is recorded at every gradient for -msim_monitor_csv. */
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <msim/errors.h>
 #include <string>
+#include <vector>
 
 /* kappa's default at the first step: the barrier's stiffness at dhat/2 equals the mass's */
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
@@ -133,9 +138,21 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
     PetscScalar blk[9];
     PetscInt    idx[3];
     MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+    /* the curvature term w m b' D^2 d is negative semidefinite (b' <= 0, D^2 d PSD: the distance
+       to a point, an edge or a convex surface curves away); with the inertia m I that every
+       vertex's row of Phi's Hessian holds, m I + w m b' D^2 d stays PD while w |b'| lambda_max(D^2 d)
+       < 1. The PSD form keeps it scaled so that this sum stays >= m/2 I (lambda_max bounded by the
+       trace), the vertex's block then PD with the springs' PSD blocks added: the tangential
+       softening that the exact Hessian has, where a projection of the barrier's block alone
+       drops it. */
+    PetscReal curv = db;
+    if (psd) {
+      const PetscReal tr = H[0] + H[4] + H[8];
+      curv               = ct->psd_curvature && tr > 0 ? -PetscMin(-db, 0.5 / (w * tr)) : 0.0;
+    }
     for (int a = 0; a < 3; a++) {
       idx[a] = 3 * (sys->rstart + v) + a;
-      for (int c = 0; c < 3; c++) blk[3 * a + c] = w * m * (d2b * n[a] * n[c] + (psd ? 0.0 : db * H[3 * a + c]));
+      for (int c = 0; c < 3; c++) blk[3 * a + c] = w * m * (d2b * n[a] * n[c] + curv * H[3 * a + c]);
     }
     if (!ierr) ierr = MatSetValues(J, 3, idx, 3, idx, blk, ADD_VALUES);
   }));
@@ -145,16 +162,80 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* PD: the barrier's force at X in the right-hand side (A x = rhs, so rhs -= its gradient) */
+/* PD's weights: w_v = beta h^2 kappa m_v sum_o b''(d_vo) on the diagonal of A for each vertex
+   within dhat of an obstacle, taken when the set of such vertices changes (and only then, so the
+   factor is kept while the contact set is); zero elsewhere. */
+typedef struct {
+  std::vector<PetscReal> w; /* per owned vertex */
+} PDWeights;
+
+static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBool *changed)
+{
+  PDWeights  *pw = (PDWeights *)term->data;
+  MSimSystem  sys = term->imp->sys;
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct || !ct->pd_weight) PetscFunctionReturn(PETSC_SUCCESS);
+  std::vector<PetscReal> w(sys->nown, 0.0);
+  const PetscReal        h2k = term->imp->step.h2 * ct->kappa;
+  PetscCall(ForEachNear(term, ct, X, PETSC_FALSE, [&](PetscInt v, PetscReal d, const PetscReal *, const PetscReal *, PetscReal m) {
+    PetscReal b, db, d2b;
+    MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+    w[v] += h2k * m * d2b;
+  }));
+  PetscBool same = (PetscBool)(pw->w.size() == w.size());
+  for (size_t v = 0; same && v < w.size(); v++) same = (PetscBool)((w[v] > 0) == (pw->w[v] > 0));
+  if (!same) {
+    pw->w    = w;
+    *changed = PETSC_TRUE;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDMatrix_Obstacles(MSimImplicitTerm term, Mat A)
+{
+  PDWeights *pw  = (PDWeights *)term->data;
+  MSimSystem sys = term->imp->sys;
+
+  PetscFunctionBeginUser;
+  for (size_t v = 0; v < pw->w.size(); v++)
+    if (pw->w[v] > 0) PetscCall(MatSetValue(A, sys->rstart + (PetscInt)v, sys->rstart + (PetscInt)v, pw->w[v], ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* PD: A x = rhs with A holding w_v: rhs += w_v x_v - the barrier's gradient at X, so that A X -
+   rhs is Phi's gradient at X and the global step is X - A^-1 g(X) (with w = 0: the force alone,
+   lagged) */
 static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
 {
+  PDWeights  *pw = (PDWeights *)term->data;
   MSimContact ct;
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(AddGradient(term, ct, X, rhs, -1.0));
+  if (!pw->w.empty()) {
+    const PetscScalar *x;
+    PetscScalar       *r;
+    PetscCall(VecGetArrayRead(X, &x));
+    PetscCall(VecGetArray(rhs, &r));
+    for (size_t v = 0; v < pw->w.size(); v++)
+      for (int c = 0; c < 3; c++) r[3 * v + c] += pw->w[v] * x[3 * v + c];
+    PetscCall(VecRestoreArray(rhs, &r));
+    PetscCall(VecRestoreArrayRead(X, &x));
+  }
   if (e) PetscCall(LocalEnergy(term, ct, X, e));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_Obstacles(MSimImplicitTerm term)
+{
+  PetscFunctionBeginUser;
+  delete (PDWeights *)term->data;
+  term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -245,6 +326,12 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
   term->ops.gradient = Gradient_Obstacles;
   term->ops.hessian  = Hessian_Obstacles;
   term->ops.pd_rhs   = PDRHS_Obstacles;
+  term->data         = new PDWeights();
+  term->ops.destroy  = Destroy_Obstacles;
+  if (ct->pd_weight) {
+    term->ops.pd_reweight = PDReweight_Obstacles;
+    term->ops.pd_matrix   = PDMatrix_Obstacles;
+  }
   term->ops.max_step = MaxStep_Obstacles;
   if (ct->moving) term->ops.feasible_start = FeasibleStart_Obstacles;
   term->ops.view     = View_Obstacles;
