@@ -110,9 +110,11 @@ struct _n_MSimSelfSurface {
   std::vector<PetscInt>  tri;          /* local triangles: 3 local vertices each */
   std::vector<PetscInt>  edge;         /* local edges: 2 local vertices each (unique) */
   std::vector<PetscReal> xplan;        /* positions at the plan */
-  VecScatter             scatter;      /* natural -> local vertices */
+  VecScatter             scatter;      /* natural -> local vertices (plans) */
+  VecScatter             xscatter;     /* state Vec -> the local free vertices (every query) */
+  std::vector<PetscInt>  fixed;        /* local vertices that are fixed ... */
+  std::vector<PetscReal> fixed_b0;     /* ... and their positions at t = 0 (b(t) = b0 + t v) */
   Vec                    xl, gl;       /* local positions (3 each), local gradient */
-  Vec                    gnat;         /* natural-order gradient */
   Vec                    gnumnat;      /* natural-order global free numbers (as reals) */
   PetscInt               nplans;
   PetscInt               nhalo;        /* triangles from other ranks in the plan */

@@ -1,7 +1,8 @@
 /* The surface a rank sees for self-contact (msim/self_contact.h): its own triangles (every one
    with a vertex in its block of input ids: all the elements around its vertices) and a halo of
-   other ranks' triangles near them, with one scatter from the natural-order Vec for their
-   vertices' positions and its reverse (ADD_VALUES) for the gradient. No rank ever holds the
+   other ranks' triangles near them, with one scatter from the state Vec for their free
+   vertices' positions (the fixed ones follow b(t)) and its reverse (ADD_VALUES) for the gradient;
+   a plan reads positions from the natural-order Vec, where every vertex is. No rank ever holds the
    surface whole: a plan allgathers 6 numbers per rank (each rank's box around its own triangles,
    grown by the contact distance and a motion margin), and each rank sends (MSimExchange) only its
    own triangles that fall in a neighbour's box. A pair is computed by the rank whose block holds
@@ -41,7 +42,7 @@ static void TriVerts(PetscInt N, PetscInt t, PetscInt v[3])
 }
 
 /* A plan from the given triangle ids: local vertices, triangles, edges, the scatter, positions */
-static PetscErrorCode BuildLocal(MSimSelfSurface s, std::vector<PetscInt> &tris)
+static PetscErrorCode BuildLocal(MSimSelfSurface s, PetscReal t, std::vector<PetscInt> &tris)
 {
   MSimSystem            sys = s->sys;
   IS                    is;
@@ -77,6 +78,7 @@ static PetscErrorCode BuildLocal(MSimSelfSurface s, std::vector<PetscInt> &tris)
     s->edge[2 * k + 1] = (PetscInt)(e[k] % (long long)s->vid.size());
   }
   PetscCall(VecScatterDestroy(&s->scatter));
+  PetscCall(VecScatterDestroy(&s->xscatter));
   PetscCall(VecDestroy(&s->xl));
   PetscCall(VecDestroy(&s->gl));
   const PetscInt n = (PetscInt)s->vid.size();
@@ -94,7 +96,23 @@ static PetscErrorCode BuildLocal(MSimSelfSurface s, std::vector<PetscInt> &tris)
     for (PetscInt k = 0; k < n; k++) s->gnum[k] = (PetscInt)std::lround(PetscRealPart(g[3 * k]));
     PetscCall(VecRestoreArrayRead(s->xl, &g));
   }
-  /* positions: sys->natural holds them (the caller's MSimSystemNaturalPositions) */
+  /* queries scatter straight from the state Vec into the free vertices' slots; the fixed ones
+     follow b(t), from b0 */
+  {
+    std::vector<PetscInt> from, to;
+    IS                    isf, ist;
+    for (PetscInt k = 0; k < n; k++)
+      if (s->gnum[k] >= 0) {
+        from.push_back(s->gnum[k]);
+        to.push_back(k);
+      }
+    PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &isf));
+    PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, (PetscInt)to.size(), to.data(), PETSC_COPY_VALUES, &ist));
+    PetscCall(VecScatterCreate(sys->X0, isf, s->xl, ist, &s->xscatter));
+    PetscCall(ISDestroy(&isf));
+    PetscCall(ISDestroy(&ist));
+  }
+  /* positions: sys->natural holds them (the caller's MSimSystemNaturalPositions at time t) */
   {
     const PetscScalar *x;
     PetscCall(VecScatterBegin(s->scatter, sys->natural, s->xl, INSERT_VALUES, SCATTER_FORWARD));
@@ -103,12 +121,19 @@ static PetscErrorCode BuildLocal(MSimSelfSurface s, std::vector<PetscInt> &tris)
     s->xplan.assign(x, x + 3 * n);
     PetscCall(VecRestoreArrayRead(s->xl, &x));
   }
+  s->fixed.clear();
+  s->fixed_b0.clear();
+  for (PetscInt k = 0; k < n; k++)
+    if (s->gnum[k] < 0) {
+      s->fixed.push_back(k);
+      for (int c = 0; c < 3; c++) s->fixed_b0.push_back(s->xplan[3 * k + c] - t * sys->fix_velocity[c]);
+    }
   s->nplans++;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* Re-plan from the positions in sys->natural (the current plan holds the own triangles) */
-static PetscErrorCode Replan(MSimSelfSurface s)
+static PetscErrorCode Replan(MSimSelfSurface s, PetscReal t)
 {
   MSimSystem               sys = s->sys;
   std::vector<PetscReal>   boxes(6 * sys->size), x;
@@ -160,7 +185,7 @@ static PetscErrorCode Replan(MSimSelfSurface s)
   for (PetscInt t : recv)
     if (!std::binary_search(s->own_tris.begin(), s->own_tris.end(), t)) s->nhalo++;
   tris.insert(tris.end(), recv.begin(), recv.end());
-  PetscCall(BuildLocal(s, tris));
+  PetscCall(BuildLocal(s, t, tris));
   PetscCall(PetscLogEventEnd(MSIM_SelfHalo, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -197,7 +222,6 @@ PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOption
   /* global free numbers in natural order (-1: fixed), for the Hessian's rows */
   PetscCall(MSimSystemNaturalSetUp(sys));
   PetscCall(VecDuplicate(sys->natural, &s->gnumnat));
-  PetscCall(VecDuplicate(sys->natural, &s->gnat));
   PetscCall(VecSet(s->gnumnat, -1.0));
   PetscCall(MSimSystemCreateVec(sys, &G));
   PetscCall(VecGetArray(G, &g));
@@ -210,7 +234,7 @@ PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOption
   PetscCall(MSimSystemNaturalPositions(sys, 0, sys->X0));
   {
     std::vector<PetscInt> tris = s->own_tris;
-    PetscCall(BuildLocal(s, tris));
+    PetscCall(BuildLocal(s, 0, tris));
   }
   s->dhat = o->dhat;
   if (s->dhat <= 0) {
@@ -226,7 +250,7 @@ PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOption
   }
   /* the halo's margin: a re-plan every 2 dhat of motion, a halo 4 dhat thick */
   s->margin0 = s->margin = 4 * s->dhat;
-  if (sys->size > 1) PetscCall(Replan(s));
+  if (sys->size > 1) PetscCall(Replan(s, 0));
   *out = s;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -236,26 +260,29 @@ PetscErrorCode MSimSelfSurfaceDestroy(MSimSelfSurface *s)
   PetscFunctionBeginUser;
   if (!*s) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(VecScatterDestroy(&(*s)->scatter));
+  PetscCall(VecScatterDestroy(&(*s)->xscatter));
   PetscCall(VecDestroy(&(*s)->xl));
   PetscCall(VecDestroy(&(*s)->gl));
-  PetscCall(VecDestroy(&(*s)->gnat));
   PetscCall(VecDestroy(&(*s)->gnumnat));
   delete *s;
   *s = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode ScatterLocal(MSimSelfSurface s, std::vector<PetscReal> &x, PetscReal sign)
+/* X's local vertices times sign into x; the fixed ones at b(t) (position) or 0 (a direction) */
+static PetscErrorCode ScatterLocal(MSimSelfSurface s, Vec X, PetscBool position, PetscReal t, std::vector<PetscReal> &x, PetscReal sign)
 {
   const PetscScalar *xa;
 
   PetscFunctionBeginUser;
-  PetscCall(VecScatterBegin(s->scatter, s->sys->natural, s->xl, INSERT_VALUES, SCATTER_FORWARD));
-  PetscCall(VecScatterEnd(s->scatter, s->sys->natural, s->xl, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterBegin(s->xscatter, X, s->xl, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(s->xscatter, X, s->xl, INSERT_VALUES, SCATTER_FORWARD));
   PetscCall(VecGetArrayRead(s->xl, &xa));
   x.resize(3 * s->vid.size());
   for (size_t k = 0; k < x.size(); k++) x[k] = sign * PetscRealPart(xa[k]);
   PetscCall(VecRestoreArrayRead(s->xl, &xa));
+  for (size_t f = 0; f < s->fixed.size(); f++)
+    for (int c = 0; c < 3; c++) x[3 * s->fixed[f] + c] = position ? s->fixed_b0[3 * f + c] + t * s->sys->fix_velocity[c] : 0.0;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -265,12 +292,8 @@ PetscErrorCode MSimSelfSurfaceGather(MSimSelfSurface s, PetscReal t, Vec X, Vec 
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_SelfHalo, 0, 0, 0, 0));
-  PetscCall(MSimSystemNaturalPositions(sys, t, X));
-  PetscCall(ScatterLocal(s, x, 1.0));
-  if (Y) {
-    PetscCall(MSimSystemNaturalVector(sys, Y));
-    PetscCall(ScatterLocal(s, *u, -1.0));
-  }
+  PetscCall(ScatterLocal(s, X, PETSC_TRUE, t, x, 1.0));
+  if (Y) PetscCall(ScatterLocal(s, Y, PETSC_FALSE, t, *u, -1.0));
   PetscCall(PetscLogEventEnd(MSIM_SelfHalo, 0, 0, 0, 0));
   if (sys->size == 1) PetscFunctionReturn(PETSC_SUCCESS);
   /* the furthest any vertex is (or goes, along the motion) from its planned position */
@@ -291,13 +314,10 @@ PetscErrorCode MSimSelfSurfaceGather(MSimSelfSurface s, PetscReal t, Vec X, Vec 
   /* re-plan at X with a margin that covers the motion too */
   s->margin = PetscMax(s->margin0, 2.2 * far[1]);
   PetscCall(MSimSystemNaturalPositions(sys, t, X));
-  PetscCall(Replan(s));
+  PetscCall(Replan(s, t));
   PetscCall(PetscLogEventBegin(MSIM_SelfHalo, 0, 0, 0, 0));
-  PetscCall(ScatterLocal(s, x, 1.0));
-  if (Y) {
-    PetscCall(MSimSystemNaturalVector(sys, Y));
-    PetscCall(ScatterLocal(s, *u, -1.0));
-  }
+  PetscCall(ScatterLocal(s, X, PETSC_TRUE, t, x, 1.0));
+  if (Y) PetscCall(ScatterLocal(s, Y, PETSC_FALSE, t, *u, -1.0));
   PetscCall(PetscLogEventEnd(MSIM_SelfHalo, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -311,11 +331,8 @@ PetscErrorCode MSimSelfSurfaceAddGradient(MSimSelfSurface s, const std::vector<P
   PetscCall(VecGetArray(s->gl, &ga));
   for (size_t k = 0; k < g.size(); k++) ga[k] = g[k];
   PetscCall(VecRestoreArray(s->gl, &ga));
-  PetscCall(VecZeroEntries(s->gnat));
-  PetscCall(VecScatterBegin(s->scatter, s->gl, s->gnat, ADD_VALUES, SCATTER_REVERSE));
-  PetscCall(VecScatterEnd(s->scatter, s->gl, s->gnat, ADD_VALUES, SCATTER_REVERSE));
-  PetscCall(VecScatterBegin(s->sys->to_natural, s->gnat, G, ADD_VALUES, SCATTER_REVERSE));
-  PetscCall(VecScatterEnd(s->sys->to_natural, s->gnat, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterBegin(s->xscatter, s->gl, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(s->xscatter, s->gl, G, ADD_VALUES, SCATTER_REVERSE));
   PetscCall(PetscLogEventEnd(MSIM_SelfHalo, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
