@@ -20,6 +20,8 @@ typedef struct _n_MSimMeshObstacle *MSimMeshObstacle;
    builds the tree. Collective. */
 PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscReal thickness, MSimMeshObstacle *mesh);
 void           MSimMeshObstacleDestroy(MSimMeshObstacle *mesh);
+/* points farther than band from the surface are taken as outside without the inside test */
+void MSimMeshObstacleSetBand(MSimMeshObstacle mesh, PetscReal band);
 /* file name, triangles, closed (every edge in two triangles: the cloth stays outside) */
 void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *ntri, PetscBool *closed);
 /* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,

@@ -380,7 +380,9 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
-  PetscCall(CheckStart(ct));
+  PetscCall(CheckStart(ct)); /* the meshes' inside test everywhere, then only where the barrier reaches */
+  for (MSimObstacle &o : ct->obs)
+    if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
   PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_scene_view", &view, &set));
   if (view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;

@@ -9,7 +9,10 @@
      face, on an edge or at a vertex: the Hessian of the distance r = |x - p| is 0, (I - n n^T -
      e e^T)/r or (I - n n^T)/r there. The obstacle's distance is r - thickness.
    - Side: a closed surface (every edge in exactly two triangles) keeps the cloth outside. Inside
-     is decided by the parity of a ray's crossings, for points in the surface's bounding box only;
+     is decided by the parity of a ray's crossings, for points in the surface's bounding box and
+     within a band of it (thickness + dhat once the contact options are read: the barrier's reach;
+     the line searches never let a vertex cross the surface, so none is deeper; the start check
+     tests every vertex);
      a ray that passes within roundoff of an edge or vertex is thrown away and another direction
      tried (the degenerate cases that break parity). An open surface has no inside: either side,
      at distance >= thickness.
@@ -45,6 +48,7 @@ struct _n_MSimMeshObstacle {
   Tree                  tree;
   PetscBool             closed = PETSC_FALSE;
   PetscReal             lo[3], hi[3], diam = 0;
+  PetscReal             band = PETSC_MAX_REAL; /* the inside test only within this distance */
 };
 
 /* closest point p on triangle (a, b, c) to x; region 0 face, 1 edge (e its unit direction), 2 vertex */
@@ -193,6 +197,11 @@ void MSimMeshObstacleDestroy(MSimMeshObstacle *mesh)
   *mesh = NULL;
 }
 
+void MSimMeshObstacleSetBand(MSimMeshObstacle mo, PetscReal band)
+{
+  mo->band = band;
+}
+
 void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri, PetscBool *closed)
 {
   if (file) *file = mo->file.c_str();
@@ -209,7 +218,7 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], Pe
   ClosestOnTriangle(x, *hit.second, p, &region, e);
   for (int c = 0; c < 3; c++) q[c] = x[c] - p[c], r += q[c] * q[c];
   r = std::sqrt(r);
-  const PetscReal sign = mo->closed && Inside(mo, x) ? -1.0 : 1.0;
+  const PetscReal sign = mo->closed && r <= mo->band && Inside(mo, x) ? -1.0 : 1.0;
   if (r > 0)
     for (int c = 0; c < 3; c++) n[c] = sign * q[c] / r;
   else { /* on the surface: the triangle's normal */
