@@ -12,8 +12,10 @@
    h v_m . (f_e - gradbar - C_p v_m) = -(V_e(x) - V_e(x_n)) - (E(x) - E(x_n)) - h v_m^T C_p v_m for
    the linear potential V_e = -f_e . x, so the total energy is conserved exactly without damping,
    drag or moving handles, and otherwise falls by h v_m^T C_p v_m >= 0 (C_p is PSD): never rises.
-   What the solver leaves in r changes it by at most about |r| |v_m| / h per step. Second order:
-   the scheme is symmetric (swap n and n+1, h -> -h) and consistent.
+   What the solver leaves in r changes it by exactly (2/h) v_m . r per step (r = h/2 times the
+   momentum equation's imbalance): energy is conserved to the solver's tolerance. Second order:
+   undamped, the scheme is symmetric (swap n and n+1, h -> -h) and consistent; the damping's axes
+   below are O(h^2) from the midpoint's, which keeps it so (tests/energy_conserving.py).
    r is not the gradient of any function (gradbar's Jacobian, d gradbar / dx, is not symmetric), so
    the scheme sets no_objective: the problem asks the terms for their discrete gradients and exact
    (nonsymmetric) Jacobians, and the step is Newton with GMRES or LU and a residual-norm line search.
