@@ -10,6 +10,8 @@
   roundoff: the same function on the same state), and contact_n counts the vertices whose force
   is non-zero;
 - frame 0 (the cloth above the plane, beyond the contact distance) holds zero forces;
+- the plane as VI bounds (-msim_contact_bounds): the same force (the bound's reaction) with every
+  vertex exactly on the plane; a sphere or a tilted plane as bounds is refused in one line;
 - without obstacles the frames have no contact_force array.
 Usage: contact_output.py path/to/msim [--np N]"""
 import os
@@ -49,6 +51,7 @@ def main():
     cases = (("implicit Euler, Newton, vtu", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150"], "vtu"),
              ("implicit Euler, Newton, HDF5", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_output_format", "hdf5"], "hdf5"),
              ("implicit Euler, PD, vtu", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-snes_type", "pd", "-snes_max_it", "500"], "vtu"),
+             ("implicit Euler, Newton, the plane as VI bounds (-msim_contact_bounds)", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_contact_bounds"], "vtu"),
              ("symplectic Euler, penalty, HDF5", ["-msim_integrator", "symplectic_euler", "-msim_dt", "0.0005", "-msim_steps", "10000", "-msim_contact_stiffness", "2000",
                                                   "-msim_output_every", "2500", "-msim_output_format", "hdf5"], "hdf5"))
     for np_ in mt.ranks():
@@ -74,6 +77,15 @@ def main():
             check(abs(total[2] - MASS * G) <= 1e-3 * MASS * G and np.abs(total[:2]).max() <= 1e-6 * MASS * G,
                   f"np {np_}: {label}: at rest the frame's forces sum to m g = {MASS * G:.4f} N along +z (got {total}, rel. error {abs(total[2] - MASS * G) / (MASS * G):.2g})")
             check(np.abs(f[:, 2] - mv).max() <= 1e-3 * mv, f"np {np_}: {label}: each vertex carries its own weight m_v g = {mv:.5f} N (worst {np.abs(f[:, 2] - mv).max():.2g} N off)")
+            if "-msim_contact_bounds" in args:  # the bound's reaction at zero gap
+                z = vtu.read_vtu(vtu.read_pvd(os.path.join(out, "series.pvd"))[-1][1])["points"][:, 2]
+                check(np.abs(z + 0.05).max() == 0, f"np {np_}: {label}: every vertex rests exactly on the bound z = -0.05 (gap {np.abs(z + 0.05).max():.2g})")
+        # VI bounds refuse what is not an axis-aligned plane or box, in one line
+        for label, args in (("a sphere", ["-msim_contact_sphere", "0.5,0.5,-1,0.3", "-msim_contact_bounds"]),
+                            ("a tilted plane under -snes_type vinewtonrsls", ["-msim_contact_plane", "1,0,1,-1", "-snes_type", "vinewtonrsls"])):
+            r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"] + args, np_)
+            err = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(err) == 1 and "axis-aligned planes and boxes only" in err[0], f"np {np_}: VI bounds with {label}: refused in one line ({err})")
         out = os.path.join(tmp, f"none_{np_}")
         r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "2", "-msim_output", out], np_)
         if check(r.returncode == 0, f"np {np_}: without obstacles: runs"):

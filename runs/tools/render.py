@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
 """Render an msim ParaView series (.pvd) to PNG pictures and an animated GIF with matplotlib.
 Usage: /usr/bin/python3 runs/tools/render.py out/cloth/series.pvd (or .xdmf) [--png out/cloth/cloth.png]
-       [--gif out/cloth/cloth.gif] [--frames 50] [--view elev,azim] [--up y]
+       [--gif out/cloth/cloth.gif] [--frames 50] [--view elev,azim] [--up y] [--obstacles run.opts]
 The PNG shows four moments of the run side by side; the GIF plays the whole series. Springs are
-drawn as lines, a surface's triangles and a solid's boundary (the faces of one tet only) shaded."""
+drawn as lines, a surface's triangles and a solid's boundary (the faces of one tet only) shaded;
+--obstacles draws the planes, spheres and boxes an options file's -msim_contact_plane, _sphere and
+_box give (grey, translucent; static positions)."""
 import argparse
 import os
 import sys
@@ -40,8 +42,58 @@ def bounds(frames, up):
     return c, r
 
 
-def draw(ax, grid, c, r, title, view, up, max_lines=20000):
+def read_obstacles(path):
+    """[(kind, values)] from an options file's -msim_contact_plane / _sphere / _box lines (4, 4 and 6
+    values per obstacle, several per option)"""
+    found = []
+    with open(path) as f:
+        for line in f:
+            w = line.split("#")[0].split()
+            per = {"-msim_contact_plane": 4, "-msim_contact_sphere": 4, "-msim_contact_box": 6}.get(w[0] if w else "")
+            if per and len(w) > 1:
+                v = [float(x) for x in w[1].split(",")]
+                found += [(w[0].split("_")[-1], v[k:k + per]) for k in range(0, len(v), per)]
+    return found
+
+
+def draw_obstacles(ax, obstacles, c, r, up):
+    """the obstacles in plot coordinates, clipped to the cube of centre c and half-width r"""
+    grey = dict(color="#9a9a9a", alpha=0.35, linewidth=0)
+    perm = UP[up]
+    for kind, v in obstacles:
+        if kind == "sphere":
+            u, w = np.meshgrid(np.linspace(0, 2 * np.pi, 40), np.linspace(0, np.pi, 20))
+            xyz = np.array([v[0] + v[3] * np.cos(u) * np.sin(w), v[1] + v[3] * np.sin(u) * np.sin(w), v[2] + v[3] * np.cos(w)])[perm]
+            ax.plot_surface(*xyz, **grey)
+        elif kind == "box":
+            lo, hi = np.array(v[0::2]), np.array(v[1::2])
+            cmin, cmax = np.array(c) - r, np.array(c) + r  # plot coordinates
+            lo, hi = np.maximum(lo[perm], cmin), np.minimum(hi[perm], cmax)
+            corner = lambda b: np.where(np.array(b, dtype=bool), hi, lo)  # noqa: E731
+            quads = []
+            for axis in range(3):
+                for side in (0, 1):
+                    q = []
+                    for a, b in ((0, 0), (1, 0), (1, 1), (0, 1)):
+                        bits = [0, 0, 0]
+                        bits[axis], bits[(axis + 1) % 3], bits[(axis + 2) % 3] = side, a, b
+                        q.append(corner(bits))
+                    quads.append(q)
+            ax.add_collection3d(Poly3DCollection(quads, facecolors="#9a9a9a", alpha=0.3, edgecolors="#666666", linewidths=0.3))
+        elif kind == "plane":
+            n = np.array(v[:3])[perm] / np.linalg.norm(v[:3])
+            d = v[3] / np.linalg.norm(v[:3])
+            p0 = np.array(c) + (d - np.dot(n, c)) * n  # the point of the plane nearest the view's centre
+            t1 = np.cross(n, [1, 0, 0] if abs(n[0]) < 0.9 else [0, 1, 0])
+            t1 /= np.linalg.norm(t1)
+            t2 = np.cross(n, t1)
+            quad = [p0 + r * (a * t1 + b * t2) for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+            ax.add_collection3d(Poly3DCollection([quad], facecolors="#9a9a9a", alpha=0.3, edgecolors="none"))
+
+
+def draw(ax, grid, c, r, title, view, up, max_lines=20000, obstacles=()):
     ax.cla()
+    draw_obstacles(ax, obstacles, c, r, up)
     pts, conn = grid["points"][:, UP[up]], grid["connectivity"]
     if conn.shape[1] == 2:
         if len(conn) > max_lines:  # thin very dense meshes for legibility
@@ -78,7 +130,9 @@ def main():
     p.add_argument("--frames", type=int, default=50)
     p.add_argument("--view", default="20,-60", help="elevation,azimuth of the camera in degrees")
     p.add_argument("--up", default="z", choices="xyz", help="the axis drawn upward")
+    p.add_argument("--obstacles", help="an options file whose -msim_contact_plane/_sphere/_box lines are drawn")
     a = p.parse_args()
+    obstacles = read_obstacles(a.obstacles) if a.obstacles else []
     view = [float(v) for v in a.view.split(",")]
     frames = read_series(a.pvd)
     if not frames:
@@ -92,7 +146,7 @@ def main():
     fig = plt.figure(figsize=(4 * len(picks), 4.2))
     for k, i in enumerate(picks):
         ax = fig.add_subplot(1, len(picks), k + 1, projection="3d")
-        draw(ax, frames[i][1](), c, r, f"t = {frames[i][0]:.3f} s", view, a.up)
+        draw(ax, frames[i][1](), c, r, f"t = {frames[i][0]:.3f} s", view, a.up, obstacles=obstacles)
     fig.tight_layout()
     fig.savefig(png + ".tmp.png", dpi=110)
     os.replace(png + ".tmp.png", png)
@@ -104,7 +158,7 @@ def main():
     ax = fig.add_subplot(projection="3d")
 
     def update(k):
-        draw(ax, chosen[k][1](), c, r, f"t = {chosen[k][0]:.3f} s", view, a.up)
+        draw(ax, chosen[k][1](), c, r, f"t = {chosen[k][0]:.3f} s", view, a.up, obstacles=obstacles)
 
     anim = FuncAnimation(fig, update, frames=len(chosen))
     anim.save(gif + ".tmp.gif", writer=PillowWriter(fps=12), dpi=80)

@@ -7,6 +7,7 @@
    like the contact object itself) so that the output, which knows only the system, finds it. */
 #include <msim/contact_force.h>
 #include <msim/contact.h>
+#include <msim/contact_bounds.h>
 #include <msim/implicit.h>
 #include <cstring>
 
@@ -36,10 +37,12 @@ PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
 PetscErrorCode MSimContactHasObstacles(MSimSystem sys, PetscBool *has)
 {
   MSimContact ct;
+  Vec         R;
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, &ct));
-  *has = (PetscBool)(ct != NULL);
+  PetscCall(MSimContactBoundsGetReaction(sys, &R));
+  *has = (PetscBool)(ct != NULL || R != NULL);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -87,6 +90,27 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
     if (F) PetscCall(VecRestoreArray(F, &f));
     PetscCall(VecRestoreArrayRead(sys->mass, &m));
     PetscCall(VecRestoreArrayRead(X, &x));
+  }
+  {
+    /* obstacles taken as variable bounds (msim/contact_bounds.h): their reactions of the step */
+    Vec R;
+    PetscCall(MSimContactBoundsGetReaction(sys, &R));
+    if (R) {
+      const PetscScalar *r;
+      PetscCall(VecGetArrayRead(R, &r));
+      if (F) PetscCall(VecGetArray(F, &f));
+      for (PetscInt v = 0; v < sys->nown; v++) {
+        PetscBool touch = PETSC_FALSE;
+        for (int c = 0; c < 3; c++) {
+          if (f) f[3 * v + c] += r[3 * v + c];
+          sum[c] += PetscRealPart(r[3 * v + c]);
+          touch = (PetscBool)(touch || r[3 * v + c] != 0.0);
+        }
+        sum[3] += touch;
+      }
+      if (F) PetscCall(VecRestoreArray(F, &f));
+      PetscCall(VecRestoreArrayRead(R, &r));
+    }
   }
   if (totals) {
     PetscCall(MPIU_Allreduce(sum, totals, 4, MPIU_REAL, MPIU_SUM, sys->comm));

@@ -1,0 +1,158 @@
+/* Axis-aligned obstacles as variable bounds of PETSc's VI solvers (msim/contact_bounds.h). Why a
+   box gets one face per vertex and step: the outside of a solid box is a union of half-spaces, not
+   a box of bounds; the face region a vertex is in at x_n names the one half-space it keeps to for
+   the step, which keeps it outside the box (a vertex near an edge cannot slide round the corner
+   within one step: conservative, never inside). */
+#include <msim/contact_bounds.h>
+#include <msim/contact.h>
+#include <msim/options.h>
+#include <petscsnes.h>
+#include <vector>
+
+struct _n_MSimContactBounds {
+  MSimSystem                sys;
+  SNES                      snes;
+  std::vector<MSimObstacle> obs; /* taken from the contact object: the barrier no longer sees them */
+  Vec                       XL, XU, R;
+};
+
+static const char reaction_key[] = "MSimContactReaction";
+
+PetscErrorCode MSimContactBoundsGetReaction(MSimSystem sys, Vec *R)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectQuery((PetscObject)sys->X0, reaction_key, (PetscObject *)R));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* k with n = +-e_k (the other two components exactly 0), or -1 */
+static int AxisOf(const PetscReal n[3])
+{
+  int axis = -1, zeros = 0;
+  for (int c = 0; c < 3; c++) {
+    if (n[c] == 0) zeros++;
+    else axis = c;
+  }
+  return zeros == 2 ? axis : -1;
+}
+
+PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBounds *b)
+{
+  MSimContact ct;
+  PetscBool   want = PETSC_FALSE, vi, set;
+
+  PetscFunctionBeginUser;
+  *b = NULL;
+  PetscOptionsBegin(sys->comm, NULL, "msim contact as variable bounds", NULL);
+  PetscCall(PetscOptionsBool("-msim_contact_bounds", "Implicit integrators: axis-aligned planes and boxes as variable bounds of SNES's VI solver (vinewtonrsls; also with -snes_type vinewtonrsls/vinewtonssls) instead of the barrier: zero gap at contact", NULL, want, &want, NULL));
+  PetscOptionsEnd();
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)snes, &vi, SNESVINEWTONRSLS, SNESVINEWTONSSLS, ""));
+  if (!want && !vi) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimContactGet(sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS); /* nothing to bound: a VI type then solves unconstrained */
+  for (size_t k = 0; k < ct->obs.size(); k++) {
+    const MSimObstacle &o = ct->obs[k];
+    const char *what = o.kind == MSIM_OBSTACLE_SPHERE ? "a sphere" : o.kind == MSIM_OBSTACLE_MESH ? "a mesh" : o.kind == MSIM_OBSTACLE_PLANE && AxisOf(o.p) < 0 ? "a plane whose normal is not along an axis" : NULL;
+    PetscCheck(!what, sys->comm, PETSC_ERR_SUP, "%s takes axis-aligned planes and boxes only as variable bounds: obstacle %d is %s (use the barrier: no -msim_contact_bounds, a -snes_type that is not a VI)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls", (int)k, what);
+    PetscCheck(o.v[0] == 0 && o.v[1] == 0 && o.v[2] == 0, sys->comm, PETSC_ERR_SUP, "%s takes static obstacles only as variable bounds: obstacle %d moves (-msim_contact_velocity)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls", (int)k);
+  }
+  *b         = new _n_MSimContactBounds();
+  (*b)->sys  = sys;
+  (*b)->snes = snes;
+  (*b)->obs.swap(ct->obs); /* the barrier, its friction and its line-search limit no longer see them */
+  if (!vi) PetscCall(SNESSetType(snes, SNESVINEWTONRSLS));
+  /* msim's energy line search does not project onto the bounds; PETSc's backtracking on Phi does */
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
+  if (!set) {
+    SNESLineSearch ls;
+    PetscCall(SNESGetLineSearch(snes, &ls));
+    PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+  }
+  PetscCall(VecDuplicate(sys->X0, &(*b)->XL));
+  PetscCall(VecDuplicate(sys->X0, &(*b)->XU));
+  PetscCall(VecDuplicate(sys->X0, &(*b)->R));
+  PetscCall(VecSet((*b)->XL, PETSC_NINFINITY));
+  PetscCall(VecSet((*b)->XU, PETSC_INFINITY));
+  PetscCall(VecZeroEntries((*b)->R));
+  PetscCall(SNESVISetVariableBounds(snes, (*b)->XL, (*b)->XU));
+  PetscCall(PetscObjectCompose((PetscObject)sys->X0, reaction_key, (PetscObject)(*b)->R));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactBoundsBeginStep(MSimContactBounds b, Vec Xn)
+{
+  MSimSystem         sys = b->sys;
+  const PetscScalar *x;
+  PetscScalar       *lo, *hi;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetArrayRead(Xn, &x));
+  PetscCall(VecGetArray(b->XL, &lo));
+  PetscCall(VecGetArray(b->XU, &hi));
+  for (PetscInt i = 0; i < 3 * sys->nown; i++) lo[i] = PETSC_NINFINITY, hi[i] = PETSC_INFINITY;
+  for (PetscInt v = 0; v < sys->nown; v++)
+    for (const MSimObstacle &o : b->obs) {
+      const PetscReal *p = o.p, *xv = x + 3 * v;
+      if (o.kind == MSIM_OBSTACLE_PLANE) { /* n = s e_k: s x_k >= d */
+        const int k = AxisOf(p);
+        if (p[k] > 0) lo[3 * v + k] = PetscMax(PetscRealPart(lo[3 * v + k]), p[3] / p[k]);
+        else hi[3 * v + k] = PetscMin(PetscRealPart(hi[3 * v + k]), p[3] / p[k]);
+        continue;
+      }
+      /* box: the face whose half-space the vertex is farthest into (>= 0: it is outside or on it) */
+      int       axis = 0, upper = 0;
+      PetscReal best = PETSC_NINFINITY;
+      for (int c = 0; c < 3; c++) {
+        const PetscReal below = p[2 * c] - xv[c], above = xv[c] - p[2 * c + 1];
+        if (below > best) best = below, axis = c, upper = 0;
+        if (above > best) best = above, axis = c, upper = 1;
+      }
+      if (upper) lo[3 * v + axis] = PetscMax(PetscRealPart(lo[3 * v + axis]), p[2 * axis + 1]);
+      else hi[3 * v + axis] = PetscMin(PetscRealPart(hi[3 * v + axis]), p[2 * axis]);
+    }
+  PetscCall(VecRestoreArray(b->XU, &hi));
+  PetscCall(VecRestoreArray(b->XL, &lo));
+  PetscCall(VecRestoreArrayRead(Xn, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactBoundsEndStep(MSimContactBounds b, Vec X, Vec F, PetscReal h2, PetscReal *residual)
+{
+  const PetscScalar *x, *f, *lo, *hi;
+  PetscScalar       *r;
+  PetscReal          free2 = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArrayRead(F, &f));
+  PetscCall(VecGetArrayRead(b->XL, &lo));
+  PetscCall(VecGetArrayRead(b->XU, &hi));
+  PetscCall(VecGetArray(b->R, &r));
+  for (PetscInt i = 0; i < 3 * b->sys->nown; i++) {
+    const PetscReal xi = PetscRealPart(x[i]), fi = PetscRealPart(f[i]), l = PetscRealPart(lo[i]), u = PetscRealPart(hi[i]);
+    /* at a bound (the VI solvers project onto it exactly) and pushed against it */
+    const PetscBool active = (PetscBool)((l > PETSC_NINFINITY && xi <= l + 1e-12 * (1 + PetscAbsReal(l)) && fi > 0) || (u < PETSC_INFINITY && xi >= u - 1e-12 * (1 + PetscAbsReal(u)) && fi < 0));
+    r[i] = active ? fi / h2 : 0;
+    if (!active) free2 += fi * fi;
+  }
+  PetscCall(VecRestoreArray(b->R, &r));
+  PetscCall(VecRestoreArrayRead(b->XU, &hi));
+  PetscCall(VecRestoreArrayRead(b->XL, &lo));
+  PetscCall(VecRestoreArrayRead(F, &f));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &free2, 1, MPIU_REAL, MPIU_SUM, b->sys->comm));
+  *residual = PetscSqrtReal(free2);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactBoundsDestroy(MSimContactBounds *b)
+{
+  PetscFunctionBeginUser;
+  if (!*b) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecDestroy(&(*b)->XL));
+  PetscCall(VecDestroy(&(*b)->XU));
+  PetscCall(VecDestroy(&(*b)->R));
+  delete *b;
+  *b = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
