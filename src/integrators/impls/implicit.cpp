@@ -8,6 +8,7 @@
 #include <msim/integrator.h>
 #include <msim/implicit.h>
 #include <msim/convergence.h>
+#include <msim/contact_bounds.h>
 
 typedef struct {
   MSimImplicit           imp;
@@ -25,6 +26,7 @@ typedef struct {
   MSimInertiaCorrection  ic;
   PetscReal              step_atol;      /* -msim_step_atol: converged once a step moves less */
   PetscBool              mg_levels_set;  /* the user chose GAMG's smoothers (-mg_levels_ksp_type) */
+  MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
 } ImplicitData;
 
 /* -msim_step_atol d: also converged once an iteration's step dx has |dx|_2 < d (in metres), the rule
@@ -379,6 +381,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
   PetscCall(SNESSetFromOptions(ie->snes));
   if (discrete) PetscCall(RefuseMinimizers(integ, ie));
+  PetscCall(MSimContactBoundsCreate(sys, ie->snes, &ie->bounds)); /* before the barrier's checks: it may take every obstacle */
   for (PetscInt k = 0; k < ie->imp->nterms; k++)
     if (ie->imp->terms[k]->ops.max_step) {
       SNESLineSearch ls;
@@ -457,6 +460,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitBeginStep(ie->imp, t, integ->dt, X, V));
   if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv, integ->step, integ->first_step));
+  if (ie->bounds) PetscCall(MSimContactBoundsBeginStep(ie->bounds, X)); /* from x_n */
   PetscCall(MSimImplicitGuess(ie->imp, V, X));
   PetscCall(SNESSolve(ie->snes, NULL, X));
   PetscCall(SNESGetConvergedReason(ie->snes, &reason));
@@ -473,6 +477,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
   if (reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
+  if (ie->bounds) PetscCall(MSimContactBoundsEndStep(ie->bounds, X, F, ie->imp->step.h2, &integ->residual)); /* reactions; |g| off the active bounds */
   if (integ->want_phi && ie->imp->scheme->no_objective) integ->phi = NAN; /* the monitor's phi: none */
   else if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
   if (reason == SNES_DIVERGED_MAX_IT) {
@@ -518,6 +523,7 @@ static PetscErrorCode Destroy_Implicit(MSimIntegrator integ)
   PetscCall(VecDestroy(&ie->G));
   PetscCall(MSimImplicitDestroy(&ie->imp));
   PetscCall(MSimConvergenceMonitorDestroy(&ie->conv));
+  PetscCall(MSimContactBoundsDestroy(&ie->bounds));
   PetscCall(PetscFree(integ->data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
