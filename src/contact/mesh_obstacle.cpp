@@ -49,6 +49,10 @@ struct _n_MSimMeshObstacle {
   PetscBool             closed = PETSC_FALSE;
   PetscReal             lo[3], hi[3], diam = 0;
   PetscReal             band = PETSC_MAX_REAL; /* the inside test only within this distance */
+  /* the last query's answer: the next query's hint (the loops visit a rank's vertices in order,
+     neighbours of a cloth or mesh follow each other, so it starts the tree's search close) */
+  Tree::Point_and_primitive_id last;
+  bool                         has_last = false;
 };
 
 /* closest point p on triangle (a, b, c) to x; region 0 face, 1 edge (e its unit direction), 2 vertex */
@@ -211,7 +215,10 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri
 
 PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
 {
-  const auto hit = mo->tree.closest_point_and_primitive(Point(x[0], x[1], x[2]));
+  const Point pq(x[0], x[1], x[2]);
+  const auto  hit = mo->has_last ? mo->tree.closest_point_and_primitive(pq, mo->last) : mo->tree.closest_point_and_primitive(pq);
+  mo->last        = hit;
+  mo->has_last    = true;
   PetscReal  p[3], e[3] = {0, 0, 0}, q[3], r = 0;
   int        region;
 
