@@ -7,7 +7,8 @@
   with self-contact, for Newton-CG and PD (50 iterations), N x N cloths, 1 and 2 ranks, with the
   gradient evaluations (MSimResidual) and the self-contact events' share of -log_view's time;
 - self_contact.png: both.
-Usage: study.py path/to/msim [--sizes 21,31,41] [--ranks 1,2]"""
+Usage: study.py path/to/msim [--sizes 21,31,41] [--ranks 1,2] [--append: add these sizes and ranks to
+cost.csv, no frames] | --plot"""
 import os
 import re
 import resource
@@ -59,16 +60,17 @@ def main():
     tmp = tempfile.mkdtemp(prefix="msim_self_contact_study_")
     # 1. intersections per frame
     counts = {}
-    for on in (0, 1):
+    for on in ((0, 1) if "--append" not in sys.argv else ()):
         out = os.path.join(tmp, f"frames_{on}")
         r = subprocess.run(mt.command(exe, fold(21, 50) + ["-msim_self_contact", str(on), "-msim_output", out, "-msim_output_every", "2"]), capture_output=True, text=True)
         assert r.returncode == 0, r.stderr[-500:]
         counts[on] = [(t, intersections.intersecting_pairs(vtu.read_vtu(p)["points"], intersections.cloth_triangles(441)))
                       for t, p in vtu.read_pvd(os.path.join(out, "series.pvd"))]
-    with open(os.path.join(HERE, "frames.csv"), "w") as f:
-        f.write("t,pairs_without,pairs_with\n")
-        for (t, a), (_, b) in zip(counts[0], counts[1]):
-            f.write(f"{t:.4f},{a},{b}\n")
+    if counts:
+        with open(os.path.join(HERE, "frames.csv"), "w") as f:
+            f.write("t,pairs_without,pairs_with\n")
+            for (t, a), (_, b) in zip(counts[0], counts[1]):
+                f.write(f"{t:.4f},{a},{b}\n")
     # 2. cost per step
     rows = []
     for n in sizes:
@@ -86,6 +88,11 @@ def main():
                     rows.append(row)
                     print(row, flush=True)
     keys = list(rows[0].keys())
+    if "--append" in sys.argv and os.path.exists(os.path.join(HERE, "cost.csv")):  # keep other runs' rows
+        import csv
+        old = list(csv.DictReader(open(os.path.join(HERE, "cost.csv"))))
+        done = {(r["n"], r["ranks"]) for r in rows}
+        rows = [r for r in old if (int(r["n"]), int(r["ranks"])) not in done] + rows
     with open(os.path.join(HERE, "cost.csv"), "w") as f:
         f.write(",".join(keys) + "\n")
         for row in rows:
