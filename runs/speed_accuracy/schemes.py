@@ -49,6 +49,10 @@ LOOSE = "-snes_rtol 0 -snes_atol 0 -snes_stol 0"
 # Eisenstat-Walker to |dx| < 1e-4 m (2.7 mm from the tight solve at T = 0.2 s for implicit Euler in
 # trajectory.csv); --newton exact|cg chooses
 NEWTON_CG = f"-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew {LOOSE} -msim_step_atol 1e-4 -snes_max_it 30"
+# discrete_gradient's Newton: its Jacobian is not symmetric (a Cholesky factor would be wrong) and
+# PD / L-BFGS are refused (no objective): MUMPS LU
+DG_NEWTON = "-snes_type newtonls -ksp_type preonly -pc_type lu -pc_factor_mat_solver_type mumps -snes_rtol 1e-9 -snes_atol 1e-12 -snes_stol 0 -snes_max_it 100"
+DG_NEWTON_LOOSE = f"-snes_type newtonls -ksp_type preonly -pc_type lu -pc_factor_mat_solver_type mumps {LOOSE} -msim_step_atol 1e-4 -snes_max_it 30"
 SOLVERS = {  # label: options (msim's own implicit path)
     "Newton": NEWTON,
     "PD-10": "-snes_type pd -snes_pd_fixed -snes_max_it 10",
@@ -129,7 +133,11 @@ def configs(scene, msim, newton="exact"):
     hs = {"cloth": [H30, "0.0166666666666667"], "rope": [H30, "0.01", "0.005"], "solid": [H30, "0.01", "0.005"]}[scene]
     out = []
     for s in schemes:
-        for solver, opts in solvers.items():
+        if s == "discrete_gradient":
+            own = {"Newton": DG_NEWTON} if newton == "exact" else {"Newton LU |dx|<1e-4": DG_NEWTON_LOOSE}
+        else:
+            own = solvers
+        for solver, opts in own.items():
             for h in (hs if solver.startswith("Newton") or solver == "PD-10" else [H30]):
                 if scene == "cloth" and solver.startswith("Newton") and h != H30:
                     continue  # seconds per step on the benchmark cloth: one h only
@@ -248,25 +256,28 @@ def energy(a, msim):
         h10 = 10 * 2 / om
         for hname, h in (("1/30", float(H30)), ("10 x explicit limit", h10)):
             steps = round(a.energy_t / h)
-            runs = [(s, solver, f"-msim_integrator {s} {SOLVERS[solver]}") for s in schemes for solver in ("Newton", "PD-10")]
-            runs += [("ts alpha2", label, opts) for label, opts in TS_ALPHA.items()]
+            runs = [(s, solver, f"-msim_integrator {s} {SOLVERS[solver] if s != 'discrete_gradient' else DG_NEWTON}") for s in schemes
+                    for solver in (("Newton", "PD-10") if s != "discrete_gradient" else ("Newton",)) if s in WANT]
+            runs += [("ts alpha2", label, opts) for label, opts in TS_ALPHA.items() if "ts" in WANT]
             for scheme, solver, opts in runs:
                 rc, err, step_s, mon, _, user = run_timed(msim, f"{base} -msim_dt {h:.10g} -msim_steps {steps} -msim_output_every {steps} {opts}", f"energy_{scene}")
                 note = (err.strip().splitlines() or [""])[-1][:160] if rc else ""
                 for m in mon:
-                    rows.append(dict(scene=name, size=base, omega_max=f"{om:.6g}", h_name=hname, h=f"{h:.6g}", h_omega_max=f"{h * om:.3g}",
+                    rows.append(dict(scene=scene, size=base, omega_max=f"{om:.6g}", h_name=hname, h=f"{h:.6g}", h_omega_max=f"{h * om:.3g}",
                                      scheme=scheme, solver=solver, t=m["t"], total=m["total"], kinetic=m["kinetic"], potential=m["potential"], stopped=note))
                 print(f"energy {scene} h={h:.4g} ({hname}, h omega_max {h * om:.3g}) {scheme} {solver}: {len(mon)} steps, "
                       f"E {mon[0]['total'] if mon else '-'} -> {mon[-1]['total'] if mon else '-'} {note}", flush=True)
-    with open(os.path.join(HERE, "energy_schemes.csv"), "w", newline="") as f:
+    path = os.path.join(HERE, "energy_schemes.csv")
+    kept = [r for r in csv.DictReader(open(path)) if r["scheme"].split()[0] not in WANT] if os.path.exists(path) else []
+    with open(path, "w", newline="") as f:  # the schemes run replace their rows; the others stay
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
-        w.writerows(rows)
+        w.writerows(kept + rows)
 
 
 COLORS = {"implicit_euler": "k", "bdf2": "tab:blue", "implicit_midpoint": "tab:red", "newmark": "tab:orange",
           "discrete_gradient": "tab:green", "ts alpha2": "tab:purple"}
-MARKERS = {"Newton": "o", "Newton-CG |dx|<1e-4": "o", "PD-10": "s", "PD-20": "D", "PD+Anderson-10": "^", "L-BFGS-10": "v", "alpha2 r=1": "P", "alpha2 r=0.5": "X"}
+MARKERS = {"Newton": "o", "Newton-CG |dx|<1e-4": "o", "Newton LU |dx|<1e-4": "o", "PD-10": "s", "PD-20": "D", "PD+Anderson-10": "^", "L-BFGS-10": "v", "alpha2 r=1": "P", "alpha2 r=0.5": "X"}
 
 
 def targets(rows):
@@ -287,6 +298,11 @@ def targets(rows):
             so_best = min(so, key=lambda r: float(r["error_vs_rk4_m"])) if so else None
             so_any = min((r for r in sel if r["scheme"] != "implicit_euler"), key=lambda r: float(r["error_vs_rk4_m"]))
             e = lambda r: float(r["error_vs_rk4_m"])  # noqa: E731
+            # the factor (cloth: 2.5 at 0.2 s, 5 at 1 s; rope and beam: 10) and the cheapest
+            # second-order run that is that much below implicit Euler's best within the budget
+            factor = {0.2: 2.5, 1.0: 5.0}.get(T, 0) if scene.startswith("cloth") else 10.0
+            meet = [r for r in sel if r["scheme"] != "implicit_euler" and factor and e(r) * factor <= e(ie_budget)]
+            cheapest = min(meet, key=lambda r: float(r["cost_user_s_per_sim_s"])) if meet else None
             out.append(dict(scene=scene, T=T, budget_s_per_sim_s=f"{c:.4g}",
                             ie_best_in_budget=f"{ie_budget['solver']} h={float(ie_budget['h']):.3g}", ie_best_in_budget_m=f"{e(ie_budget):.3e}",
                             ie_best_h30_any_cost=f"{ie_any['solver']}", ie_best_h30_any_cost_m=f"{e(ie_any):.3e}",
@@ -295,7 +311,10 @@ def targets(rows):
                             ratio_vs_ie_in_budget=f"{e(ie_budget) / e(so_best):.2f}" if so_best else "",
                             ratio_vs_ie_any_cost=f"{e(ie_any) / e(so_best):.2f}" if so_best else "",
                             second_order_any_cost=f"{so_any['scheme']} {so_any['solver']} h={float(so_any['h']):.3g}",
-                            second_order_any_cost_m=f"{e(so_any):.3e}", second_order_any_cost_s=so_any["cost_user_s_per_sim_s"]))
+                            second_order_any_cost_m=f"{e(so_any):.3e}", second_order_any_cost_s=so_any["cost_user_s_per_sim_s"],
+                            target_factor=factor or "",
+                            cheapest_meeting_target=f"{cheapest['scheme']} {cheapest['solver']} h={float(cheapest['h']):.3g}" if cheapest else "none",
+                            its_cost_over_budget=f"{float(cheapest['cost_user_s_per_sim_s']) / c:.2f}" if cheapest else ""))
             print(out[-1])
     return out
 
@@ -368,9 +387,9 @@ def plot(a):
                     rs = [r for r in sel if r["scheme"] == scheme and r["solver"] == solver]
                     e0 = float(rs[0]["total"])
                     ax.plot([float(r["t"]) for r in rs], [float(r["total"]) - e0 for r in rs], color=COLORS.get(scheme, "gray"),
-                            ls="--" if "0.5" in solver else "-", label=f"{scheme} {solver}" + (" (stopped)" if rs[-1]["stopped"] else ""))
+                            ls="--" if "0.5" in solver else (":" if "r=1" in solver else "-"), lw=2 if "r=1" in solver else 1.2, label=f"{scheme} {solver}" + (" (stopped)" if rs[-1]["stopped"] else ""))
                 ax.set_title(f"{scene}, h = {hname} ({float(sel[0]['h']):.3g} s, h omega_max = {sel[0]['h_omega_max']}): "
-                             f"{'Newton to convergence, TS alpha2' if solver_kind == 'Newton' else 'PD, 10 iterations'}", fontsize=8)
+                             f"{'Newton to convergence, TS alpha2 (r = 1 dotted: on midpoint)' if solver_kind == 'Newton' else 'PD, 10 iterations'}", fontsize=8)
                 ax.set_xlabel("t (s)")
                 ax.set_ylabel("E(t) - E(0) (J)")
                 ax.set_yscale("symlog", linthresh=1e-3)
