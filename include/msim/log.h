@@ -8,6 +8,8 @@ extern PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacob
   MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor, MSIM_LLTSweep;
 /* rank 0's mesh work: parsing a file, validating it, finding its unique edges, TetGen */
 extern PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
+/* the tets' volume term (msim/volume.h): its force, energy, Hessian and feasible step */
+extern PetscLogEvent MSIM_Volume;
 /* -log_view stages: reading a file (rank 0), partitioning, moving the scene between ranks,
    refining, building the system and the solvers, time stepping */
 extern PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, MSIM_StageRefine, MSIM_StageSetup, MSIM_StageStep;

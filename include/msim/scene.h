@@ -42,6 +42,10 @@ typedef struct _n_MSimSceneData {
      at the directory of its first vertex: the scene needs neither spread nor edge search unless
      it refines */
   PetscBool              springs_made = PETSC_FALSE;
+  /* -msim_volume: a tet scene keeps its cells for the system's volume term (msim/volume.h); off by
+     default: it costs more than the 20% per step on the bunny that would have made it the default
+     (runs/self_contact/volume) */
+  PetscBool              volume = PETSC_FALSE;
   std::vector<PetscInt>  corners, edge; /* what -msim_fix corners|edge means (grids and chains) */
   std::string            name;         /* scene type, for messages */
   std::string            source;       /* where a mesh came from, for views */

@@ -42,6 +42,17 @@ static inline void MSimSpringsForEach(const MSimSprings &sp, F &&f)
   for (PetscInt s = 0; s < sp.n; s++) f(sp.i[s], sp.j[s], sp.k[s], sp.L[s]);
 }
 
+/* The tets of the volume term (msim/volume.h): each computed by one rank, the owner of its free
+   vertex of least global number, where all 4 vertices have slots (owned, ghost or fixed, as a
+   spring's ends) */
+typedef struct {
+  std::vector<PetscInt>  slot;      /* 4 local slots per tet */
+  std::vector<PetscReal> V0, iV0;   /* rest volume (> 0: the slots are ordered so) and 1 / V0 */
+  PetscInt               ntet = 0;  /* tets of the scene in the term (every rank knows it) */
+  PetscReal              kv = 0, kappa = 0, jhat = 0; /* msim/volume_kernels.hpp's TetMaterial */
+  Vec                    yloc = NULL; /* a direction's local slots, for max_step */
+} MSimTets;
+
 typedef struct _n_MSimSystem *MSimSystem;
 struct _n_MSimSystem {
   MPI_Comm    comm;
@@ -53,6 +64,7 @@ struct _n_MSimSystem {
   PetscInt    nfix_global;          /* fixed vertices of the scene */
   PetscInt    nspring_global;       /* springs with a free end */
   MSimSprings springs;              /* owned springs */
+  MSimTets    tets;                 /* the volume term's tets (none: ntet 0) */
   std::vector<PetscInt>   local_to_global; /* global block of each owned/ghost slot */
   std::vector<PetscReal>  b0;       /* 3 nfix: the local fixed slots' positions at t = 0 */
   PetscReal   fix_velocity[3];

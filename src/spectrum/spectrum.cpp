@@ -4,6 +4,7 @@
 #include <msim/spectrum.h>
 #include <msim/output.h>
 #include <msim/contact.h>
+#include <msim/volume.h>
 #include <slepceps.h>
 
 static PetscInt MSimSpectrumLastIterations = 0; /* restarts of the last solve, for the report */
@@ -25,6 +26,7 @@ static PetscErrorCode MSimSpectrumSolve(MSimSystem sys, Vec X, PetscInt nev, Pet
     const MSimMatrixCoefficients c = {0.0, X, 0.0, 0.0, 1.0, PETSC_FALSE, 0.0, NULL, 0.0}; /* K(X) alone */
     PetscCall(MSimSystemAssembleMatrix(sys, &c, K));
     if (largest) PetscCall(MSimContactAddPenaltyStiffness(sys, 0.0, X, K)); /* the explicit penalty's kc, every vertex as if in contact (msim/contact.h) */
+    PetscCall(MSimSystemVolumeHessian(sys, 0.0, X, 1.0, PETSC_FALSE, K)); /* the tets' volume term, if any */
   }
   PetscCall(MSimSystemCreateMassMatrix(sys, &M));
   PetscCall(EPSCreate(sys->comm, &eps));

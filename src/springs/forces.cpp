@@ -7,6 +7,7 @@
 #include <msim/kernels.hpp>
 #include <msim/spring_sweep.h>
 #include <msim/contact.h>
+#include <msim/volume.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;
@@ -106,6 +107,7 @@ PetscErrorCode MSimSystemComputeForce(MSimSystem sys, PetscReal t, Vec X, Vec V,
   PetscCall(MSimSystemExternalForce(sys, V, F, weight ? 4 * sys->springs.slices.nslice : 0));
   PetscCall(SpringSweep(sys, t, X, sys->damping > 0 ? V : NULL, F, weight, -1.0, 1.0, NULL));
   PetscCall(MSimContactAddPenaltyForce(sys, t, X, F)); /* obstacles' penalty (msim/contact.h), if any */
+  PetscCall(MSimSystemVolumeGradient(sys, t, X, -1.0, F, NULL, PETSC_TRUE)); /* tets' volume term, if any */
   PetscCall(PetscLogEventEnd(MSIM_Force, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -126,6 +128,7 @@ PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V
 
   PetscFunctionBeginUser;
   PetscCall(MSimSystemSpringEnergy(sys, t, X, &Es));
+  PetscCall(MSimSystemVolumeGradient(sys, t, X, 0.0, NULL, &local[0], PETSC_TRUE)); /* summed below */
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->mass, &m));
   for (PetscInt i = 0; i < 3 * sys->nown; i++) local[0] -= m[i] * sys->gravity[i % 3] * x[i];
@@ -162,13 +165,14 @@ PetscErrorCode MSimSystemGershgorin(MSimSystem sys, PetscReal *omega2)
     f[3 * i] += k;
     f[3 * j] += k;
   });
+  PetscCall(MSimSystemVolumeRowSums(sys, f)); /* the tets' volume term, in each slot's second entry */
   PetscCall(VecRestoreArray(sys->floc, &f));
   PetscCall(VecDuplicate(sys->mass, &ksum));
   PetscCall(VecZeroEntries(ksum));
   PetscCall(MSimSystemLocalToGlobalAdd(sys, sys->floc, ksum));
   PetscCall(VecGetArray(ksum, &f));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt i = 0; i < sys->nown; i++) best = PetscMax(best, (2.0 * f[3 * i] + kc) / m[3 * i]);
+  for (PetscInt i = 0; i < sys->nown; i++) best = PetscMax(best, (2.0 * f[3 * i] + f[3 * i + 1] + kc) / m[3 * i]);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArray(ksum, &f));
   PetscCall(VecDestroy(&ksum));

@@ -5,6 +5,7 @@
 #include <msim/partition.h>
 #include <msim/log.h>
 #include <msim/options.h>
+#include <msim/volume.h>
 #include <algorithm>
 #include <memory>
 
@@ -20,6 +21,13 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_part
   PetscCall(MSimOptionsVec3("-msim_wind", "Air velocity, m/s (acts through -msim_drag)", sys->wind, NULL));
   PetscCall(MSimOptionsReal("-msim_drag", "Air drag per vertex, N s/m: f = drag (wind - v)", NULL, sys->drag, &sys->drag, NULL));
   PetscCall(MSimOptionsReal("-msim_damping", "Spring damping along the spring, N s/m", NULL, sys->damping, &sys->damping, NULL));
+  /* the volume term's material (msim/volume.h); -1: its default, set once the springs are known */
+  sys->tets.kv    = -1;
+  sys->tets.kappa = -1;
+  sys->tets.jhat  = 0.2;
+  PetscCall(MSimOptionsReal("-msim_volume_stiffness", "Tet scenes: volume stiffness kv of -msim_volume, Pa (default: a tenth of the springs' Young's modulus)", NULL, sys->tets.kv, &sys->tets.kv, NULL));
+  PetscCall(MSimOptionsReal("-msim_volume_kappa", "Tet scenes: stiffness of -msim_volume's inversion barrier, Pa (default: kv; 0: no barrier)", NULL, sys->tets.kappa, &sys->tets.kappa, NULL));
+  PetscCall(MSimOptionsReal("-msim_volume_jhat", "Tet scenes: the inversion barrier acts on tets compressed below this fraction of their rest volume", NULL, sys->tets.jhat, &sys->tets.jhat, NULL));
   PetscCall(PetscOptionsBool("-msim_partition_view", "Print the scene's counts, the edge cut, ghosts per rank and the load balance", NULL, *view_partition, view_partition, NULL));
   {
     const char *orders[] = {"auto", "input", "morton"};
@@ -27,6 +35,7 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_part
   }
   PetscOptionsEnd();
   PetscCheck(sys->drag >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_drag must be >= 0 N s/m (got %g)", (double)sys->drag);
+  PetscCheck(sys->tets.jhat > 0 && sys->tets.jhat < 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_volume_jhat must be in (0, 1) (got %g)", (double)sys->tets.jhat);
   PetscCheck(sys->damping >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_damping must be >= 0 N s/m (got %g)", (double)sys->damping);
   PetscCheck(sys->drag > 0 || (sys->wind[0] == 0 && sys->wind[1] == 0 && sys->wind[2] == 0), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_wind acts through air drag: set -msim_drag > 0");
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -117,6 +126,9 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
       if (r.ga >= 0 && !is_owned(r.ga)) ghosts.push_back(r.ga);
       if (r.gb >= 0 && !is_owned(r.gb)) ghosts.push_back(r.gb);
     }
+  for (const MSimRoutedTet &r : L.tets)
+    for (int q = 0; q < 4; q++)
+      if (r.g[q] >= 0 && !is_owned(r.g[q])) ghosts.push_back(r.g[q]);
   std::sort(ghosts.begin(), ghosts.end());
   ghosts.erase(std::unique(ghosts.begin(), ghosts.end()), ghosts.end());
   sys->nghost = (PetscInt)ghosts.size();
@@ -130,6 +142,18 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     if (is_owned(g)) return g - sys->rstart;
     return sys->nown + (PetscInt)(std::lower_bound(ghosts.begin(), ghosts.end(), g) - ghosts.begin());
   };
+  sys->tets.ntet = L.ntet;
+  sys->tets.slot.resize(4 * L.tets.size());
+  sys->tets.V0.resize(L.tets.size());
+  sys->tets.iV0.resize(L.tets.size());
+  for (size_t c = 0; c < L.tets.size(); c++) {
+    PetscInt *sl = &sys->tets.slot[4 * c];
+    for (int q = 0; q < 4; q++) sl[q] = slot(L.tets[c].g[q], L.tets[c].v[q]);
+    if (L.tets[c].V0 < 0) std::swap(sl[1], sl[2]); /* every tet positive at rest, whatever the file's orientation */
+    sys->tets.V0[c]  = PetscAbsReal(L.tets[c].V0);
+    sys->tets.iV0[c] = 1.0 / sys->tets.V0[c];
+  }
+  std::vector<MSimRoutedTet>().swap(L.tets);
   sys->b0.resize(3 * sys->nfix);
   for (PetscInt f = 0; f < 3 * sys->nfix; f++) sys->b0[f] = scene->prestretch * L.fixed_x0[f];
   {
@@ -222,6 +246,8 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
       if (sys->damping > 0) PetscCall(MSimGhostExchangeCreate(comm, 3, sys->nown, sys->nghost, sys->local_to_global.data() + sys->nown, L.ranges.data(), &sys->vghosts));
     }
   }
+
+  PetscCall(MSimSystemVolumeSetUp(sys, L.modulus));
 
   /* natural order: the fixed vertices of this rank's block now, the Vec and its scatter on first
      use (MSimSystemNaturalSetUp): a run that writes nothing never builds them */
@@ -320,6 +346,7 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
   PetscCall(VecDestroy(&(*sys)->xloc));
   PetscCall(VecDestroy(&(*sys)->vloc));
   PetscCall(VecDestroy(&(*sys)->floc));
+  PetscCall(VecDestroy(&(*sys)->tets.yloc));
   PetscCall(VecDestroy(&(*sys)->natural));
   PetscCall(VecScatterDestroy(&(*sys)->g2l));
   PetscCall(VecScatterDestroy(&(*sys)->ghosts));

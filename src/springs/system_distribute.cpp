@@ -20,11 +20,7 @@ struct Migrant {
 struct Numbered {
   PetscInt vid, gnum;
 };
-/* what the directory tells about a vertex once it is partitioned */
-struct VertexInfo {
-  PetscMPIInt owner; /* -1: fixed */
-  PetscInt    gnum;
-};
+typedef MSimVertexOwner VertexInfo;
 struct Position {
   PetscReal x[3];
 };
@@ -222,6 +218,8 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, MSimPartiti
       if (table[v].gnum >= 0) table[v].owner = (PetscMPIInt)(std::upper_bound(L.ranges.begin(), L.ranges.end(), table[v].gnum) - L.ranges.begin() - 1);
   }
 
+  if (S.volume && S.cell_size == 4) PetscCall(MSimSystemDistributeTets(comm, S, table, L));
+
   /* every spring to the owner of its first free end; a halo copy to the owner of the other */
   {
     std::vector<VertexInfo>   info;
@@ -295,6 +293,9 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, MSimPartiti
       if (r.ga < 0) L.fixed_vid.push_back(r.va);
       if (r.gb < 0) L.fixed_vid.push_back(r.vb);
     }
+    for (const MSimRoutedTet &t : L.tets)
+      for (int q = 0; q < 4; q++)
+        if (t.g[q] < 0) L.fixed_vid.push_back(t.v[q]);
     std::sort(L.fixed_vid.begin(), L.fixed_vid.end());
     L.fixed_vid.erase(std::unique(L.fixed_vid.begin(), L.fixed_vid.end()), L.fixed_vid.end());
     PetscCall(MSimFetch(comm, S.dir, table, L.fixed_vid, got));

@@ -11,6 +11,19 @@ struct MSimRoutedSpring {
   PetscReal k, L;
 };
 
+/* A tet as the rank that computes it receives it (msim/volume.h): vertices by input id and global
+   free number (-1: fixed), signed rest volume */
+struct MSimRoutedTet {
+  PetscInt  v[4], g[4];
+  PetscReal V0;
+};
+
+/* what the directory tells about a vertex once it is partitioned */
+struct MSimVertexOwner {
+  PetscMPIInt owner; /* -1: fixed */
+  PetscInt    gnum;
+};
+
 struct MSimLocalPart {
   PetscInt               nfree = 0, nfix_global = 0, nown = 0, rstart = 0;
   std::vector<PetscInt>  ranges;            /* size + 1: rank r owns global free numbers [ranges[r], ranges[r+1]) */
@@ -21,7 +34,14 @@ struct MSimLocalPart {
   std::vector<PetscInt>  fixed_vid;         /* the fixed ends of owned springs, ascending input ids ... */
   std::vector<PetscReal> fixed_x0;          /* ... and their rest positions */
   PetscInt               nspring_moving = 0, between_free = 0, cut = 0;
+  std::vector<MSimRoutedTet> tets;          /* the tets this rank computes (-msim_volume) */
+  PetscInt               ntet = 0;          /* tets with a free vertex, all ranks */
+  PetscReal              modulus = 0;       /* the springs' equivalent Young's modulus (volume.cpp) */
 };
+
+/* The tets to the ranks that compute them (the owner of each tet's free vertex of least global
+   number) and the springs' modulus, before the springs are routed. Collective. */
+PetscErrorCode MSimSystemDistributeTets(MPI_Comm comm, const MSimSceneData &S, const std::vector<MSimVertexOwner> &table, MSimLocalPart &L);
 
 /* morton: number each rank's vertices along a Z-order curve (else in input order). The scene's
    spring lists (si, sj, sk, sL) are handed over: empty on return. */

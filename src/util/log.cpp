@@ -4,7 +4,7 @@
 
 PetscClassId  MSIM_CLASSID;
 PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor, MSIM_LLTSweep;
-PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen;
+PetscLogEvent MSIM_MeshRead, MSIM_MeshCheck, MSIM_MeshEdges, MSIM_TetGen, MSIM_Volume;
 PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, MSIM_StageRefine, MSIM_StageSetup, MSIM_StageStep;
 
 PetscErrorCode MSimLogRegister(void)
@@ -30,6 +30,7 @@ PetscErrorCode MSimLogRegister(void)
   PetscCall(PetscLogEventRegister("MSimMeshCheck", MSIM_CLASSID, &MSIM_MeshCheck));
   PetscCall(PetscLogEventRegister("MSimMeshEdges", MSIM_CLASSID, &MSIM_MeshEdges));
   PetscCall(PetscLogEventRegister("MSimTetGen", MSIM_CLASSID, &MSIM_TetGen));
+  PetscCall(PetscLogEventRegister("MSimVolume", MSIM_CLASSID, &MSIM_Volume));
   /* -log_view's stages: where setup goes at scale, apart from stepping */
   PetscCall(PetscLogStageRegister("Read", &MSIM_StageRead));
   PetscCall(PetscLogStageRegister("Partition", &MSIM_StagePartition));

@@ -2,6 +2,7 @@
    (ts_forms.h). */
 #include "ts_forms.h"
 #include <msim/solvers.h>
+#include <msim/volume.h>
 
 struct _n_MSimTSForms {
   MSimSystem sys;
@@ -24,6 +25,7 @@ static PetscErrorCode Assemble(MSimSystem sys, PetscReal t, Vec X, PetscReal mas
   PetscFunctionBeginUser;
   const MSimMatrixCoefficients c = {t, X, mass_coef, damp_coef * sys->drag, stiff_coef, PETSC_FALSE, t, damp_coef != 0 && sys->damping > 0 ? X : NULL, damp_coef};
   PetscCall(MSimSystemAssembleMatrix(sys, &c, A));
+  if (stiff_coef != 0) PetscCall(MSimSystemVolumeHessian(sys, t, X, stiff_coef, PETSC_FALSE, A)); /* the tets' volume term, if any */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

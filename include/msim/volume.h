@@ -1,0 +1,28 @@
+/* The volume term of tet scenes (-msim_volume, on by default): per tet the energy |V0| psi(J),
+   J = V / V0, of msim/volume_kernels.hpp, a Teschner volume term plus IPC's log barrier on J, so
+   that an implicit step whose line search stays where the barrier is finite (max_step) never
+   inverts a tet. The system holds the tets (sys->tets): every tet computed once, by the owner of
+   its free vertex of least global number, which has slots for all 4 vertices (the others are
+   joined to that one by the tet's edge springs: ghosts or fixed slots like any spring end; a tet
+   whose edge is no spring gets its ghost all the same). Forces on ghost slots go to their owners
+   with one reverse scatter. The explicit force, the energies, the Gershgorin bound, the spectrum's
+   K and the implicit term 'volume' (src/implicit/terms/volume.cpp) all call these. */
+#pragma once
+#include <msim/system.h>
+
+/* After the distribution: kv's default, the start state's check (every tet positive). Collective. */
+PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal kv_default);
+/* F += w grad E (w = -1: the force) on owned rows, and *e += this rank's E (w not applied; e may
+   be NULL; F may be NULL). X at time t (fixed slots from b(t)). Collective when F is given. With
+   clamp, J is taken >= jhat/100 in the barrier (the explicit force: finite where a step inverted
+   a tet); without, an inverted tet gives *e = +inf. */
+PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, PetscReal w, Vec F, PetscReal *e, PetscBool clamp);
+/* J += w D^2 E (12 x 12 blocks, PSD-projected with psd), ADD_VALUES, then assembled */
+PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, PetscReal w, PetscBool psd, Mat J);
+/* the largest alpha <= *alpha with every tet's signed volume positive along X - a Y for a in
+   [0, alpha / 0.8] (with the barrier; nothing without). Collective. */
+PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha);
+/* ksum's free slots += each vertex's sum over its tets of ||D^2 E_ij|| at rest (Gershgorin) */
+PetscErrorCode MSimSystemVolumeRowSums(MSimSystem sys, PetscScalar *floc);
+/* inverted tets (J <= 0) at X, summed over ranks */
+PetscErrorCode MSimSystemVolumeCountInverted(MSimSystem sys, PetscReal t, Vec X, PetscInt *n);

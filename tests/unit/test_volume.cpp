@@ -1,0 +1,229 @@
+/* The tets' volume term (msim/volume.h, msim/volume_kernels.hpp):
+   - one tet's energy, gradient and Hessian against central finite differences, inside and outside
+     the barrier's reach, and the PSD projection (no negative eigenvalue; unchanged where the
+     block is PSD already);
+   - the first zero of the signed volume along a line against a fine sampling of the cubic;
+   - through the implicit problem on a compressed tet box (every tet inside the barrier's reach) at
+     any rank count: the Jacobian against finite differences of g, g against finite differences of
+     Phi, the PD local step's Phi against the objective, and max_step: no tet inverted at X - alpha Y,
+     one flat at alpha / 0.8. */
+#include "harness.h"
+#include <msim/volume.h>
+#include <msim/volume_kernels.hpp>
+#include <random>
+
+using msim::Mat12;
+using msim::Vec12;
+
+static double Energy(const msim::TetMaterial &m, double V0, const Vec12 &x, Vec12 *g, Mat12 *H, bool psd)
+{
+  const double *p[4] = {x.data(), x.data() + 3, x.data() + 6, x.data() + 9};
+  return msim::TetEnergy(m, V0, p, g, H, psd);
+}
+
+static PetscErrorCode TestKernels(void)
+{
+  std::mt19937                           gen(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  const msim::TetMaterial                m = {3.0, 2.0, 0.6};
+
+  PetscFunctionBeginUser;
+  for (int trial = 0; trial < 6; trial++) {
+    /* a rest tet, then a deformed one with J in (0, jhat) for even trials (the barrier acts) */
+    Vec12 X0, x;
+    X0 << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+    for (int k = 0; k < 12; k++) X0(k) += 0.1 * u(gen);
+    if (trial % 3 == 2) { /* the other orientation: V0 < 0 */
+      const Eigen::Vector3d t = X0.segment<3>(3);
+      X0.segment<3>(3)        = X0.segment<3>(6);
+      X0.segment<3>(6)        = t;
+    }
+    const double *p0[4] = {X0.data(), X0.data() + 3, X0.data() + 6, X0.data() + 9};
+    const double  V0    = msim::TetSignedVolume(p0[0], p0[1], p0[2], p0[3]);
+    const double  s     = trial % 2 == 0 ? 0.7 : 1.1; /* scale of the tet: J = s^3 */
+    for (int k = 0; k < 12; k++) x(k) = s * X0(k) + 0.03 * u(gen);
+    const double *p[4] = {x.data(), x.data() + 3, x.data() + 6, x.data() + 9};
+    const double  J    = msim::TetSignedVolume(p[0], p[1], p[2], p[3]) / V0;
+    Vec12         g, gfd, gp, gm;
+    Mat12         H, Hfd, Hp;
+    const double  eps = 1e-6;
+    Energy(m, V0, x, &g, &H, false);
+    for (int k = 0; k < 12; k++) {
+      Vec12 xp = x, xm = x;
+      xp(k) += eps;
+      xm(k) -= eps;
+      gfd(k) = (Energy(m, V0, xp, &gp, NULL, false) - Energy(m, V0, xm, &gm, NULL, false)) / (2 * eps);
+      Hfd.col(k) = (gp - gm) / (2 * eps);
+    }
+    const double eg = (g - gfd).norm() / g.norm(), eH = (H - Hfd).norm() / H.norm();
+    NOTE("tet %d: J %.3f, V0 %+.3f: gradient vs FD %.1e, Hessian vs FD %.1e\n", trial, J, V0, eg, eH);
+    CHECK(eg < 1e-7, "tet %d: gradient off by %g relative", trial, eg);
+    CHECK(eH < 1e-6, "tet %d: Hessian off by %g relative", trial, eH);
+    CHECK((H - H.transpose()).norm() <= 1e-14 * H.norm(), "tet %d: Hessian not symmetric", trial);
+    /* the projection: PSD, and the identity on a PSD block */
+    Energy(m, V0, x, NULL, &Hp, true);
+    Eigen::SelfAdjointEigenSolver<Mat12> es(H), ep(Hp);
+    const double                         lmin = es.eigenvalues().minCoeff(), pmin = ep.eigenvalues().minCoeff();
+    NOTE("        least eigenvalue %.2e, projected %.2e\n", lmin, pmin);
+    CHECK(pmin >= -1e-12 * H.norm(), "tet %d: projected Hessian has eigenvalue %g", trial, pmin);
+    if (lmin >= 0) CHECK((Hp - H).norm() <= 1e-12 * H.norm(), "tet %d: projection changed a PSD block", trial);
+    /* the translations are in its null space: sum of the gradient's blocks is zero */
+    CHECK((g.segment<3>(0) + g.segment<3>(3) + g.segment<3>(6) + g.segment<3>(9)).norm() <= 1e-12 * g.norm(), "tet %d: gradient not translation invariant", trial);
+  }
+  /* the first zero along x - a y against sampling */
+  for (int trial = 0; trial < 200; trial++) {
+    Vec12 x, y;
+    x << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+    for (int k = 0; k < 12; k++) {
+      x(k) += 0.2 * u(gen);
+      y(k) = u(gen);
+    }
+    const double *p[4] = {x.data(), x.data() + 3, x.data() + 6, x.data() + 9}, *q[4] = {y.data(), y.data() + 3, y.data() + 6, y.data() + 9};
+    const double  V0 = msim::TetSignedVolume(p[0], p[1], p[2], p[3]), amax = 3.0;
+    const double  a  = msim::TetFirstZero(V0, p, q, amax);
+    /* sampled: the first sample whose volume has left V0's sign */
+    double first = amax;
+    for (int k = 1; k <= 30000; k++) {
+      const double t = amax * k / 30000;
+      Vec12        z = x - t * y;
+      if (msim::TetSignedVolume(z.data(), z.data() + 3, z.data() + 6, z.data() + 9) / V0 <= 0) {
+        first = t;
+        break;
+      }
+    }
+    const bool ok = first == amax ? a == amax || a > amax - 2 * amax / 30000 : a <= first && a >= first - amax / 30000;
+    if (!ok) NOTE("line %d: first zero %.9f, sampled %.9f\n", trial, a, first);
+    CHECK(ok, "line %d: first zero %g, sampled %g", trial, a, first);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestProblem(void)
+{
+  TestSim      s;
+  MSimImplicit imp;
+  Mat          J;
+  Vec          dX, Xp, Xm, Gp, Gm, JdX, Y, Z;
+  PetscReal    eps = 1e-7, err, nrm, alpha;
+  PetscInt     bad;
+
+  PetscFunctionBeginUser;
+  /* compressed to J = 0.8^3 = 0.51 with jhat 0.7: every tet is inside the barrier's reach */
+  PetscCall(TestSimCreate("-msim_scene box -msim_box_n 4,2,2 -msim_box_size 0.4,0.2,0.2 -msim_young 1e5 -msim_density 1000 -msim_fix_plane x_min -msim_prestretch 0.8 -msim_perturb 0.004 -msim_volume -msim_volume_jhat 0.7 -msim_volume_stiffness 2e4 -msim_integrator implicit_euler", &s));
+  CHECK(s.sys->tets.ntet == 4 * 2 * 2 * 6, "the box's tets: %d in the term, %d expected", (int)s.sys->tets.ntet, 4 * 2 * 2 * 6);
+  PetscCall(MSimImplicitCreate(s.sys, &imp));
+  imp->psd = PETSC_FALSE;
+  PetscCall(VecSet(s.V, 0.3));
+  PetscCall(MSimImplicitBeginStep(imp, 0.0, 0.01, s.X, s.V));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &J));
+  PetscCall(MSimImplicitJacobian(imp, s.X, J));
+  PetscCall(VecDuplicate(s.X, &dX));
+  PetscCall(VecDuplicate(s.X, &Xp));
+  PetscCall(VecDuplicate(s.X, &Xm));
+  PetscCall(VecDuplicate(s.X, &Gp));
+  PetscCall(VecDuplicate(s.X, &Gm));
+  PetscCall(VecDuplicate(s.X, &JdX));
+  PetscCall(VecDuplicate(s.X, &Y));
+  PetscCall(VecDuplicate(s.X, &Z));
+  {
+    PetscRandom r;
+    PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &r));
+    PetscCall(PetscRandomSetInterval(r, -1e-3, 1e-3));
+    PetscCall(VecSetRandom(dX, r));
+    PetscCall(PetscRandomSetInterval(r, -0.05, 0.05));
+    PetscCall(VecSetRandom(Y, r));
+    PetscCall(PetscRandomDestroy(&r));
+  }
+  PetscCall(VecWAXPY(Xp, eps, dX, s.X));
+  PetscCall(VecWAXPY(Xm, -eps, dX, s.X));
+  PetscCall(MSimImplicitResidual(imp, Xp, Gp));
+  PetscCall(MSimImplicitResidual(imp, Xm, Gm));
+  PetscCall(VecAXPY(Gp, -1.0, Gm));
+  PetscCall(VecScale(Gp, 1.0 / (2 * eps)));
+  PetscCall(MatMult(J, dX, JdX));
+  PetscCall(VecNorm(JdX, NORM_2, &nrm));
+  PetscCall(VecAXPY(Gp, -1.0, JdX));
+  PetscCall(VecNorm(Gp, NORM_2, &err));
+  NOTE("box in the barrier: Jacobian vs finite differences of g: relative error %.2e\n", (double)(err / nrm));
+  CHECK(err <= 1e-6 * nrm, "Jacobian off by %g relative", (double)(err / nrm));
+  {
+    /* the volume term's own part of the Jacobian: J - J(springs alone) must be nonzero, so the
+       check above tests it */
+    MSimImplicit springs;
+    Mat          Js;
+    PetscReal    dn;
+    PetscCall(PetscOptionsSetValue(NULL, "-msim_implicit_terms", "springs"));
+    PetscCall(MSimImplicitCreate(s.sys, &springs));
+    PetscCall(PetscOptionsClearValue(NULL, "-msim_implicit_terms"));
+    springs->psd = PETSC_FALSE;
+    PetscCall(MSimImplicitBeginStep(springs, 0.0, 0.01, s.X, s.V));
+    PetscCall(MSimSystemCreateMatrix(s.sys, &Js));
+    PetscCall(MSimImplicitJacobian(springs, s.X, Js));
+    PetscCall(MatAXPY(Js, -1.0, J, SUBSET_NONZERO_PATTERN));
+    PetscCall(MatNorm(Js, NORM_FROBENIUS, &dn));
+    PetscCall(MatNorm(J, NORM_FROBENIUS, &nrm));
+    NOTE("the volume term's share of the Jacobian: %.2e relative\n", (double)(dn / nrm));
+    CHECK(dn > 1e-3 * nrm, "the volume term adds nothing to the Jacobian (%g relative)", (double)(dn / nrm));
+    PetscCall(MatDestroy(&Js));
+    PetscCall(MSimImplicitDestroy(&springs));
+  }
+  {
+    /* a longer difference than g's: Phi's roundoff (1e-16 Phi) over 2 e (g . d) must stay small */
+    const PetscReal e = 1e-4;
+    PetscReal       pp, pm, gd;
+    PetscCall(VecWAXPY(Xp, e, dX, s.X));
+    PetscCall(VecWAXPY(Xm, -e, dX, s.X));
+    PetscCall(MSimImplicitObjective(imp, Xp, &pp));
+    PetscCall(MSimImplicitObjective(imp, Xm, &pm));
+    PetscCall(MSimImplicitResidual(imp, s.X, Gm));
+    PetscCall(VecDot(Gm, dX, &gd));
+    NOTE("g . d %.10e vs dPhi/de %.10e\n", (double)gd, (double)((pp - pm) / (2 * e)));
+    CHECK(std::abs(gd - (pp - pm) / (2 * e)) <= 1e-6 * std::abs(gd), "g is not the gradient of Phi");
+  }
+  {
+    PetscReal phi_obj, phi_pd;
+    Vec       rhs;
+    PetscCall(VecDuplicate(s.X, &rhs));
+    PetscCall(MSimImplicitObjective(imp, s.X, &phi_obj));
+    PetscCall(VecZeroEntries(rhs));
+    PetscCall(MSimImplicitPDRHS(imp, s.X, rhs, &phi_pd));
+    NOTE("Phi from the objective %.15e, from the PD local step %.15e\n", (double)phi_obj, (double)phi_pd);
+    CHECK(std::abs(phi_obj - phi_pd) <= 1e-12 * std::abs(phi_obj), "PD local step's Phi %g differs from the objective %g", (double)phi_pd, (double)phi_obj);
+    PetscCall(VecDestroy(&rhs));
+  }
+  /* max_step along a long random direction */
+  PetscCall(VecScale(Y, 20.0));
+  PetscCall(MSimImplicitMaxStep(imp, s.X, Y, &alpha));
+  PetscCall(VecWAXPY(Z, -alpha, Y, s.X));
+  PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+  NOTE("max_step %.6f: %d tets inverted there\n", (double)alpha, (int)bad);
+  CHECK(alpha < 1 && bad == 0, "max_step %g leaves %d tets inverted (or the direction tests nothing)", (double)alpha, (int)bad);
+  PetscCall(VecWAXPY(Z, -alpha / 0.8 * (1 + 1e-9), Y, s.X));
+  PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+  CHECK(bad >= 1, "at max_step / 0.8 no tet is flat: the step is not the largest");
+  PetscCall(VecWAXPY(Z, -alpha / 0.8 * (1 - 1e-6), Y, s.X));
+  PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+  CHECK(bad == 0, "just short of max_step / 0.8, %d tets inverted", (int)bad);
+  PetscCall(VecDestroy(&dX));
+  PetscCall(VecDestroy(&Xp));
+  PetscCall(VecDestroy(&Xm));
+  PetscCall(VecDestroy(&Gp));
+  PetscCall(VecDestroy(&Gm));
+  PetscCall(VecDestroy(&JdX));
+  PetscCall(VecDestroy(&Y));
+  PetscCall(VecDestroy(&Z));
+  PetscCall(MatDestroy(&J));
+  PetscCall(MSimImplicitDestroy(&imp));
+  PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode TestVolume(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(TestKernels());
+  PetscCall(TestProblem());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+MSIM_TEST_MAIN(TestVolume)
