@@ -1,0 +1,88 @@
+#!/usr/bin/env python3
+"""The tets' volume term (-msim_volume, msim/volume.h), checked on every frame from the frames'
+positions (signed tet volumes computed here, runs/self_contact/volume/tetcheck.py; not msim's
+volume_ratio field), at the rank count given:
+- a tet box squashed against its clamp by 50 g (Newton): with the term no tet is inverted in any
+  frame; without it some frames have inverted tets (so the check can fail);
+- the bunny (examples/bunny.opts, PD with Anderson, 12 steps: the springs alone invert tets from
+  step 9 on): the same two checks;
+- at 2 ranks the squashed box's final positions equal 1 rank's to roundoff;
+- explicit integrators get the term's force and stiffness: the Gershgorin limit the stability guard
+  prints is lower with the term; symplectic Euler at half that limit runs through the squash and
+  its inverted tets per frame are reported: the barrier guarantees nothing with explicit steps
+  (there it inverts tets, and at 0.9 x the rest-state limit it diverges: the barrier's stiffness
+  grows without bound as J -> 0, past any limit computed at rest);
+- bad input: -msim_volume_jhat out of (0, 1) is one error line; implicit_midpoint with the barrier
+  is refused.
+Usage: volume.py path/to/msim [--no-tetgen] [--np N]"""
+import os
+import re
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+sys.path.insert(0, os.path.join(mt.ROOT, "runs", "self_contact", "volume"))
+import tetcheck  # noqa: E402
+
+MSIM = mt.msim_path()
+check = mt.Checks()
+TETGEN = "--no-tetgen" not in sys.argv
+BOX = ["-msim_scene", "box", "-msim_box_n", "6,2,2", "-msim_box_size", "0.3,0.1,0.1", "-msim_fix_plane", "x_min",
+       "-msim_density", "1000", "-msim_young", "5e4", "-msim_gravity", "-500,0,0", "-msim_dt", "0.01"]
+NEWTON = ["-msim_integrator", "implicit_euler", "-msim_steps", "20", "-ksp_type", "preonly", "-pc_type", "cholesky",
+          "-pc_factor_mat_solver_type", "mumps"]
+
+
+def inverted_frames(args, np_, out, every):
+    """per frame the number of inverted tets, or None when msim failed"""
+    r = mt.run(MSIM, args + ["-msim_output", out, "-msim_output_every", str(every)], np_)
+    if r.returncode:
+        print(r.stderr[-1500:])
+        return None
+    return [int((J <= 0).sum()) for _, J in tetcheck.ratios(os.path.join(out, "series.pvd"))]
+
+
+def solid(name, args, np_, tmp, every):
+    on = inverted_frames(args + ["-msim_volume", "1"], np_, os.path.join(tmp, name + "_on"), every)
+    off = inverted_frames(args + ["-msim_volume", "0"], np_, os.path.join(tmp, name + "_off"), every)
+    check(on is not None and off is not None, f"np={np_} {name}: runs with and without the term")
+    if on is None or off is None:
+        return
+    print(f"np={np_} {name}: inverted tets per frame with the term {on}, without {off}")
+    check(len(on) > 2 and max(on) == 0, f"np={np_} {name}: with -msim_volume no inverted tet in any of {len(on)} frames")
+    check(sum(1 for n in off if n > 0) > 0, f"np={np_} {name}: without it {sum(1 for n in off if n > 0)} of {len(off)} frames have inverted tets (> 0: the check can fail)")
+
+
+def guard_limit(extra, np_):
+    r = mt.run(MSIM, BOX + ["-msim_integrator", "symplectic_euler", "-msim_steps", "1", "-msim_dt", "0.01"] + extra, np_)
+    m = re.search(r"stability limit h <= (\S+)", r.stderr)
+    return float(m.group(1)) if m else None
+
+
+for np_ in mt.ranks():
+    with tempfile.TemporaryDirectory() as tmp:
+        solid("squashed box", BOX + NEWTON, np_, tmp, 2)
+        if TETGEN:
+            solid("bunny", ["-options_file", os.path.join(mt.ROOT, "examples", "bunny.opts"), "-msim_steps", "12"], np_, tmp, 1)
+        if np_ > 1:
+            x1, _ = mt.final_positions(MSIM, BOX + NEWTON + ["-msim_volume", "1"], 1, tmp, "box")
+            xn, _ = mt.final_positions(MSIM, BOX + NEWTON + ["-msim_volume", "1"], np_, tmp, "box")
+            ok = x1 is not None and xn is not None
+            d = float(np.abs(x1 - xn).max()) if ok else float("nan")
+            check(ok and d <= 1e-9, f"np={np_}: the squashed box's final positions equal 1 rank's (max difference {d:.1e} m)")
+        h_on, h_off = guard_limit(["-msim_volume", "1"], np_), guard_limit(["-msim_volume", "0"], np_)
+        check(h_on is not None and h_off is not None and h_on < h_off, f"np={np_}: the explicit guard's Gershgorin limit counts the term: h <= {h_on} with it, {h_off} without")
+        if h_on:
+            ex = inverted_frames(BOX + ["-msim_integrator", "symplectic_euler", "-msim_dt", f"{0.5 * h_on:.6g}", "-msim_steps", f"{int(0.2 / (0.5 * h_on))}", "-msim_volume", "1"], np_, os.path.join(tmp, "explicit"), 10)
+            check(ex is not None, f"np={np_}: symplectic Euler with the term runs through the squash at half its limit")
+            print(f"np={np_}: symplectic Euler on the squash with the term (no guarantee): inverted tets per frame {ex}")
+        r = mt.run(MSIM, BOX + NEWTON + ["-msim_volume_jhat", "1.5"], np_)
+        lines = [l for l in mt.lines(r.stderr) if "error" in l]
+        check(r.returncode != 0 and len(lines) == 1 and "-msim_volume_jhat" in lines[0], f"np={np_}: -msim_volume_jhat 1.5 is one error line naming it: {lines}")
+        r = mt.run(MSIM, BOX + NEWTON + ["-msim_integrator", "implicit_midpoint", "-msim_volume", "1"], np_)
+        lines = [l for l in mt.lines(r.stderr) if "error" in l]
+        check(r.returncode != 0 and len(lines) == 1 and "barrier" in lines[0], f"np={np_}: implicit_midpoint with the barrier is refused in one line: {lines}")
+sys.exit(check.exit_code())
