@@ -1,0 +1,101 @@
+#!/usr/bin/env python3
+"""The volume term on the bunny (examples/bunny.opts) and on a squashed box: inverted tets per frame
+with and without it, its cost per step (CPU time, alternated runs), and what it changes in the
+explicit limit (Gershgorin bound msim prints, and SLEPc's omega_max of (K, M) with the term's
+Hessian in K).
+Usage: study.py [path/to/msim] (default build/msim); writes inverted.csv, cost.csv, limit.csv and
+inverted.png here. Steps: 45 of the bunny's 150 (the inversions start at step 9), 2 ranks."""
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, "..", "..", "tools"))
+import msimrun  # noqa: E402
+import tetcheck  # noqa: E402
+
+MSIM = os.path.abspath(sys.argv[1]) if len(sys.argv) > 1 else msimrun.MSIM
+ROOT = msimrun.ROOT
+MPI = ["mpirun", "--allow-run-as-root", "--oversubscribe", "-q", "-n"]
+
+
+def run(args, np):
+    """(stdout+stderr, user+system CPU seconds of msim's ranks, wall seconds)"""
+    t0, r0 = time.time(), os.times()
+    p = subprocess.run((MPI + [str(np)] if np > 1 else []) + [MSIM] + args, cwd=ROOT, env=msimrun.ENV, capture_output=True, text=True)
+    r1 = os.times()
+    if p.returncode:
+        sys.exit(f"msim failed: {' '.join(args)}\n{p.stderr[-2000:]}")
+    return p.stdout + p.stderr, (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system), time.time() - t0
+
+
+def inverted(tmp):
+    rows = []
+    for vol in (1, 0):
+        out = os.path.join(tmp, f"bunny{vol}")
+        run(["-options_file", "examples/bunny.opts", "-msim_steps", "45", "-msim_output", out, "-msim_volume", str(vol)], 2)
+        for t, J in tetcheck.ratios(os.path.join(out, "series.pvd")):
+            rows.append({"volume": vol, "t": f"{t:.2f}", "inverted": int((J <= 0).sum()), "J_min": f"{J.min():.4f}", "J_max": f"{J.max():.4f}"})
+    msimrun.write_csv(os.path.join(HERE, "inverted.csv"), rows)
+    return rows
+
+
+def cost(tmp):
+    """alternated pairs of 10-step runs at 1 and 2 ranks; CPU time and the MSimStep event"""
+    rows = []
+    for np in (1, 2):
+        for rep in range(2):
+            for vol in (0, 1):
+                log, cpu, wall = run(["-options_file", "examples/bunny.opts", "-msim_steps", "10", "-msim_output", os.path.join(tmp, "c"), "-msim_output_every", "10", "-msim_volume", str(vol), "-log_view"], np)
+                rows.append({"np": np, "rep": rep, "volume": vol, "cpu_s": f"{cpu:.2f}", "wall_s": f"{wall:.2f}", "step_event_s": f"{msimrun.event(log, 'MSimStep')[1]:.3f}", "volume_event_s": f"{msimrun.event(log, 'MSimVolume')[1]:.3f}"})
+                print(rows[-1], flush=True)
+    msimrun.write_csv(os.path.join(HERE, "cost.csv"), rows)
+    return rows
+
+
+def limit():
+    """explicit limit of the bunny with and without the term: SLEPc's omega_max of (K, M) with the
+    term's Hessian in K (-msim_spectrum), and the Gershgorin bound the stability guard uses (its
+    warning at a too-large h)"""
+    rows = []
+    base = ["-options_file", "examples/bunny.opts", "-msim_integrator", "symplectic_euler", "-msim_steps", "1", "-msim_output", os.path.join(tempfile.gettempdir(), "lim")]
+    for vol in (0, 1):
+        log, _, _ = run(base + ["-msim_volume", str(vol), "-msim_spectrum"], 1)
+        w = re.search(r"omega_max = (\S+) rad/s", log)
+        hs = re.search(r"symplectic_euler h < (\S+) s", log)
+        log2, _, _ = run(base + ["-msim_volume", str(vol), "-msim_dt", "0.01"], 1)
+        g = re.search(r"stability limit h <= (\S+) of \S+ \(omega_max <= (\S+) from the (\w+)", log2)
+        rows.append({"volume": vol, "slepc_omega_max": w.group(1), "slepc_h_symplectic": hs.group(1), "gershgorin_omega_max": g.group(2), "gershgorin_h_symplectic": g.group(1)})
+        print(rows[-1], flush=True)
+    msimrun.write_csv(os.path.join(HERE, "limit.csv"), rows)
+    return rows
+
+
+def plot(rows):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for vol, label in ((0, "springs alone"), (1, "with -msim_volume")):
+        r = [x for x in rows if x["volume"] == vol]
+        ax.plot([float(x["t"]) for x in r], [x["inverted"] for x in r], "o-", label=label)
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("inverted tets in the frame")
+    ax.set_title("bunny (examples/bunny.opts), 2 ranks, frames every 3 steps")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "inverted.png"), dpi=100)
+
+
+if __name__ == "__main__":
+    with tempfile.TemporaryDirectory() as tmp:
+        what = sys.argv[2:] or ["inverted", "cost", "limit"]
+        if "limit" in what:
+            limit()
+        if "inverted" in what:
+            plot(inverted(tmp))
+        if "cost" in what:
+            cost(tmp)
