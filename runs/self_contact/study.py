@@ -106,7 +106,8 @@ def plot():
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fr = list(csv.DictReader(open(os.path.join(HERE, "frames.csv"))))
-    cost = list(csv.DictReader(open(os.path.join(HERE, "cost.csv"))))
+    path = os.path.join(HERE, "cost.csv")
+    cost = list(csv.DictReader(open(path))) if os.path.exists(path) else []
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
     t = [float(r["t"]) for r in fr]
     ax[0].plot(t, [int(r["pairs_without"]) for r in fr], "o-", label="without")
