@@ -16,7 +16,8 @@ Writes schemes_long.csv, schemes_sweep.csv, schemes_long.png, schemes_sweep.png,
 schemes_theory.csv: each scheme's amplification per step on a linear oscillator at h omega = 0.1,
 1, 10 and the long run's h omega_max (how fast it damps a mode the step does not resolve).
 Usage: /usr/bin/python3 runs/stability/schemes.py [long|sweep|plot|all] [--msim PATH] [--cloth-n 31]
-  [--steps 150] [--ratios 0.5,1,3,10,30,100,1000]"""
+  [--steps 150] [--ratios 0.5,1,3,10,30,100,1000] [--schemes implicit_euler,bdf2,...,ts] (the rows of
+  the schemes run replace theirs in the CSVs; the others stay)"""
 import argparse
 import csv
 import os
@@ -33,6 +34,9 @@ H30 = 1 / 30
 NEWTON = ("-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps "
           "-msim_check_saddle 0 -snes_rtol 1e-9 -snes_atol 1e-12 -snes_stol 0 -snes_max_it 100")
 PD10 = "-snes_type pd -snes_pd_fixed -snes_max_it 10"
+# discrete_gradient: nonsymmetric Jacobian, no objective (PD, L-BFGS refused): Newton with MUMPS LU
+DG_NEWTON = "-snes_type newtonls -ksp_type preonly -pc_type lu -pc_factor_mat_solver_type mumps -snes_rtol 1e-9 -snes_atol 1e-12 -snes_stol 0 -snes_max_it 100"
+WANT = set()  # --schemes
 SCHEMES = ["implicit_euler", "bdf2", "implicit_midpoint", "newmark", "discrete_gradient"]
 TS = {"ts alpha2 r=1": "-msim_integrator ts -ts_type alpha2 -ts_alpha_radius 1 -ts_adapt_type none",
       "ts alpha2 r=0.5": "-msim_integrator ts -ts_type alpha2 -ts_alpha_radius 0.5 -ts_adapt_type none"}
@@ -68,8 +72,17 @@ def has(exe, name):
 
 
 def runs_for(exe, solvers):
-    out = [(s, solver, f"-msim_integrator {s} {opts}") for s in SCHEMES if s != "discrete_gradient" or has(exe, s) for solver, opts in solvers]
-    return out + [(name, "Newton (TS)", opts) for name, opts in TS.items()]
+    out = []
+    for s in SCHEMES:
+        if s not in WANT or (s == "discrete_gradient" and not has(exe, s)):
+            continue
+        for solver, opts in solvers:
+            if s == "discrete_gradient":
+                if solver != "Newton":
+                    continue
+                opts = DG_NEWTON
+            out.append((s, solver, f"-msim_integrator {s} {opts}"))
+    return out + [(name, "Newton (TS)", opts) for name, opts in TS.items() if "ts" in WANT]
 
 
 def long_runs(a, exe):
@@ -129,6 +142,9 @@ def amplification(scheme, hw, radius=1.0):
 
 
 def write(path, rows):
+    """rows replace those of the schemes run (--schemes); the others' rows stay"""
+    if os.path.exists(path) and "scheme" in rows[0]:
+        rows = [r for r in csv.DictReader(open(path)) if r["scheme"].split()[0] not in WANT] + rows
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
@@ -154,7 +170,10 @@ def plot():
                 z = amplification(scheme, x, 0.5 if "0.5" in scheme else 1.0)
                 theory.append(dict(scheme=scheme, h_omega=f"{x:.4g}", amplification_per_step=f"{z:.4g}",
                                    energy_left_after_1_s_at_h_1_30=f"{z ** (2 * 30):.3g}"))
-        write(os.path.join(HERE, "schemes_theory.csv"), theory)
+        with open(os.path.join(HERE, "schemes_theory.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=list(theory[0]))
+            w.writeheader()
+            w.writerows(theory)
         fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
         for ax, kind in zip(axes, ("Newton", "PD-10")):
             for key in dict.fromkeys((r["scheme"], r["solver"]) for r in rows):
@@ -162,7 +181,7 @@ def plot():
                     continue
                 rs = [r for r in rows if (r["scheme"], r["solver"]) == key]
                 e0 = float(rs[0]["total"])
-                stop = f" (stopped at step {rs[-1]['step']})" if rs[-1]["stopped"] else ""
+                stop = f" ({rs[-1]['stopped'][:40]})" if rs[-1]["stopped"] else ""
                 ax.plot([float(r["t"]) for r in rs], [float(r["total"]) - e0 for r in rs], color=COLORS.get(key[0], "gray"), label=f"{key[0]}{stop}")
                 if stop:
                     ax.plot([float(rs[-1]["t"])], [float(rs[-1]["total"]) - e0], "x", color=COLORS.get(key[0], "gray"), ms=9)
@@ -209,7 +228,9 @@ def main():
     p.add_argument("--cloth-n", type=int, default=31)
     p.add_argument("--steps", type=int, default=150)
     p.add_argument("--ratios", default="0.5,1,3,10,30,100,1000")
+    p.add_argument("--schemes", default=",".join(SCHEMES + ["ts"]), help="which schemes to run (ts: PETSc's alpha2)")
     a = p.parse_args()
+    WANT.update(a.schemes.split(","))
     os.makedirs(TMP, exist_ok=True)
     exe = os.path.abspath(a.msim)
     if a.part in ("long", "all"):
