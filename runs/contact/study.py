@@ -4,6 +4,7 @@ without contact, for each integrator and solver against h; explicit stability wi
 against the guard; friction on an incline against g (sin - mu cos) t^2/2; the cost targets on the
 benchmark cloth draped on a ball (analytic sphere and a >= 10^4-triangle mesh sphere).
 Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
+       [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh]
 Small sizes by default (2 shared cores); --bench-n 101 is the benchmark cloth. Costs: PETSc's
 MSimStep event (wall, ms per step; this machine is shared, so they vary by tens of %) and the
 run's CPU time per step."""
@@ -192,7 +193,11 @@ def targets(a, tmp):
     obstacles = {"none": [], "sphere": ["-msim_contact_sphere", "0.5,0.5,-0.4,0.3"], f"mesh{ntri}": ["-msim_contact_mesh", obj]}
     rows = []
     for s, sopts in solvers.items():
+        if a.solvers and s not in a.solvers.split(","):
+            continue
         for o, oopts in obstacles.items():
+            if a.obstacles and o.rstrip("0123456789") not in a.obstacles.split(","):
+                continue
             args = cloth + sopts + oopts
             if o == "none":
                 args = [x for x in args if x not in ("-msim_friction", "0.3")]
@@ -208,9 +213,9 @@ def targets(a, tmp):
                              contact_n_last=int(mon[-1]["contact_n"]) if mon else -1, note="" if rc == 0 else err.strip().splitlines()[-1][:150]))
             print(rows[-1], flush=True)
     for r in rows:
-        base = next(b for b in rows if b["solver"] == r["solver"] and b["obstacle"] == "none")
+        base = next((b for b in rows if b["solver"] == r["solver"] and b["obstacle"] == "none"), dict(cpu_ms_per_step=0))
         r["added_fraction"] = r["cpu_ms_per_step"] / base["cpu_ms_per_step"] - 1 if base["cpu_ms_per_step"] > 0 else float("nan")
-    msimrun.write_csv(os.path.join(HERE, f"targets_n{a.bench_n}.csv"), rows)
+    msimrun.write_csv(os.path.join(HERE, f"targets_n{a.bench_n}{'_' + a.solvers if a.solvers else ''}.csv"), rows)
 
 
 def plot(a):
@@ -250,6 +255,8 @@ def main():
     p.add_argument("--n", default="11")
     p.add_argument("--bench-n", default="41")
     p.add_argument("--msim", default=msimrun.MSIM)
+    p.add_argument("--solvers", help="targets: pd10,newton_cg (default both)")
+    p.add_argument("--obstacles", help="targets: none,sphere,mesh (default all)")
     a = p.parse_args()
     tmp = tempfile.mkdtemp(prefix="msim_contact_study_")
     for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets)):
