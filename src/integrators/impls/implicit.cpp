@@ -486,10 +486,17 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   if (ie->bounds) PetscCall(MSimContactBoundsEndStep(ie->bounds, X, F, ie->imp->step.h2, &integ->residual)); /* reactions; |g| off the active bounds */
   if (integ->want_phi && ie->imp->scheme->no_objective) integ->phi = NAN; /* the monitor's phi: none */
   else if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
-  if (reason == SNES_DIVERGED_MAX_IT) {
-    PetscReal atol, rtol, stol;
-    PetscInt  maxit, maxf;
-    PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
+  PetscReal atol, rtol, stol;
+  PetscInt  maxit, maxf;
+  PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
+  if (reason == SNES_DIVERGED_LINE_SEARCH && integ->residual <= 10 * atol) {
+    /* within a decade of -snes_atol Phi's decrease along any direction is below its roundoff
+       (|g|^2 / |H| against eps |Phi|), so no line search can accept a step: the iterate is as
+       converged as this precision allows. Counted with the steps that stopped short, not failed. */
+    integ->unconverged_steps++;
+    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (Phi's roundoff)", type, (double)integ->residual, (double)atol));
+  }
+  else if (reason == SNES_DIVERGED_MAX_IT) {
     if (atol > 0 || rtol > 0 || ie->step_atol > 0) {
       integ->unconverged_steps++;
       char step_rule[64] = "";
