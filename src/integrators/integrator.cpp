@@ -92,7 +92,15 @@ PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ)
         other->help_listing = PETSC_TRUE;
         PetscCall(MSimIntegratorSetType(other, names[k]));
         if (other->ops.setfromoptions) PetscCall((*other->ops.setfromoptions)(other));
-        PetscCall(MSimIntegratorSetUp(other));
+        {
+          /* a type that refuses this scene (e.g. implicit_midpoint with an obstacle) has listed
+             its options by now; its refusal belongs to a run that chooses it, not to -help */
+          PetscErrorCode ierr;
+          PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+          ierr = MSimIntegratorSetUp(other);
+          PetscCall(PetscPopErrorHandler());
+          if (ierr) PetscCall(PetscInfo(NULL, "-help: %s's set-up refused this scene (error %d)\n", names[k], (int)ierr));
+        }
         PetscCall(MSimIntegratorDestroy(&other));
       }
       PetscCall(PetscFree(names));
