@@ -39,23 +39,8 @@ typedef struct {
                             its given shape moved by v t */
 } MSimObstacle;
 
+/* The body is private (msim/private/contactimpl.h). */
 typedef struct _n_MSimContact *MSimContact;
-struct _n_MSimContact {
-  MSimSystem                sys;
-  std::vector<MSimObstacle> obs;
-  PetscReal                 dhat;  /* the barrier acts below this distance */
-  PetscReal                 mu;    /* Coulomb friction coefficient */
-  PetscReal                 kappa; /* barrier stiffness per unit mass (1/s^2); 0: chosen at the first step */
-  PetscReal                 kc;    /* explicit penalty stiffness, N/m per vertex */
-  PetscReal                 eps_v; /* friction's static velocity threshold (m/s) */
-  PetscReal                 thickness; /* mesh obstacles: the shell the cloth keeps out of */
-  PetscBool                 moving;    /* some obstacle has a velocity */
-  PetscBool                 pd_weight; /* PD: the barrier's stiffness in the matrix (else the rhs only) */
-  PetscBool                 psd_curvature; /* PSD Hessian: keep the barrier's curvature term, clamped */
-  /* this rank's totals at the last force or gradient evaluation: the monitor's columns */
-  PetscReal                 force[3];
-  PetscInt                  ncontact;
-};
 
 /* The system's contact object (NULL when no obstacle option is given), made from the options on
    the first call: reads -msim_contact_*, checks every start vertex outside every obstacle. */

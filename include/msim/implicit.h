@@ -18,131 +18,10 @@
 #include <msim/system.h>
 #include <msim/solvers.h>
 
+/* The bodies and the schemes' and terms' ops are private (msim/private/implicitimpl.h). */
 typedef struct _n_MSimImplicit       *MSimImplicit;
 typedef struct _n_MSimImplicitScheme *MSimImplicitScheme;
 typedef struct _n_MSimImplicitTerm   *MSimImplicitTerm;
-
-/* What the terms need from the step, set from the scheme at each step (and for PD's matrix). */
-typedef struct {
-  PetscReal t, h;  /* start and size of the step */
-  PetscReal h2;    /* beta h^2: the weight of potential energies in Phi */
-  PetscReal hd;    /* the weight of a dissipation potential d/2 |x - xref|^2 for a viscous force
-                      -d v(x): beta h^2 dv/dx (implicit Euler: h) */
-  PetscReal tx;    /* time at which the unknown x sees the boundary b(t) (Euler: t + h) */
-  PetscReal tref;  /* time of xref (Euler: t) */
-  Vec       xref;  /* the state dissipative terms measure from, and spring damping takes its
-                      axes from (Euler: x_n) */
-} MSimImplicitStep;
-
-/* A time scheme: Phi's y and beta, the first iterate, and the velocity update. */
-typedef struct {
-  /* from (X, V) at t: y, x_n and whatever history the scheme keeps; imp->step.xref, tref, tx */
-  PetscErrorCode (*begin_step)(MSimImplicitScheme, MSimImplicit, PetscReal t, PetscReal h, Vec X, Vec V);
-  /* X holds x_n on entry: the first iterate (Euler: x_n + h v_n) */
-  PetscErrorCode (*guess)(MSimImplicitScheme, MSimImplicit, Vec V, Vec X);
-  /* X holds the minimizer on entry: x_{n+1} into X and v_{n+1} into V */
-  PetscErrorCode (*end_step)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
-  /* the vectors an exact restart needs besides x and v, the scheme's own (none for Euler; BDF2:
-     x_{n-1}, v_{n-1}; Newmark: a_n): a checkpoint writes them, a restart loads them in place */
-  PetscErrorCode (*get_history)(MSimImplicitScheme, PetscInt *n, Vec **history);
-  PetscErrorCode (*view)(MSimImplicitScheme, PetscViewer);
-  PetscErrorCode (*destroy)(MSimImplicitScheme);
-} MSimImplicitSchemeOps;
-
-struct _n_MSimImplicitScheme {
-  char                  type[64];
-  MSimImplicit          imp;   /* the problem it belongs to (set before its create function) */
-  PetscReal             beta;  /* h2 = beta h^2 */
-  PetscReal             gamma; /* hd = gamma h (Euler 1; BDF2 2/3; midpoint and Newmark 1/2) */
-  /* why a term that keeps the unknown feasible (a contact barrier) cannot guarantee x_{n+1}
-     with this scheme, or NULL where it can; such terms refuse the scheme with this reason */
-  const char           *no_barrier;
-  /* why the step's residual is not the gradient of Phi, or NULL where it is (all but
-     discrete_gradient): the terms then give their discrete gradient between x_n and the unknown
-     (discrete_gradient, discrete_jacobian) where they otherwise give Phi's gradient and Hessian,
-     the problem has no objective, and what needs one (pd, qn, ntr, msim's energy line search) or
-     a term without a discrete gradient refuses the scheme with this reason */
-  const char           *no_objective;
-  MSimImplicitSchemeOps ops;
-  void                 *data;
-  /* get_history's vectors hold the previous step's history: set by end_step, and by a restart
-     that loaded them; while false, begin_step starts the scheme up from (x_n, v_n) alone */
-  PetscBool             history_valid;
-};
-
-/* An energy term. Every op is optional but energy and gradient; a term with a diagonal op is the
-   quadratic w/2 |x - c|^2 and needs no other: the problem folds it into its inertia pass (one
-   loop over the dofs for energy, gradient, Hessian diagonal, PD matrix and right-hand side). */
-typedef struct {
-  PetscErrorCode (*diagonal)(MSimImplicitTerm, PetscReal *w, Vec *c);
-  /* *e += this rank's part of the term's Phi at X (the problem sums over ranks) */
-  PetscErrorCode (*energy)(MSimImplicitTerm, Vec X, PetscReal *e);
-  /* G += the term's gradient at X (owned rows) */
-  PetscErrorCode (*gradient)(MSimImplicitTerm, Vec X, Vec G);
-  /* Hessian at X (psd: each block projected to PSD), as coefficients of the system's one-pass
-     assembly ... */
-  PetscErrorCode (*hessian_coefficients)(MSimImplicitTerm, Vec X, PetscBool psd, MSimMatrixCoefficients *c);
-  /* ... or as blocks of its own, added into the assembled J (ADD_VALUES, then assemble) */
-  PetscErrorCode (*hessian)(MSimImplicitTerm, Vec X, PetscBool psd, Mat J);
-  /* projective dynamics: its weights in the scalar PD matrix A (ADD_VALUES; A is assembled by
-     the problem), and its local step: rhs += sum A_s^T w_s p_s(X) (owned rows), *e += its Phi at X
-     when e is not NULL. pd_begin (optional) starts what pd_rhs needs (the ghost exchange), so it
-     travels while the problem's inertia pass runs. */
-  PetscErrorCode (*pd_matrix)(MSimImplicitTerm, Mat A);
-  PetscErrorCode (*pd_begin)(MSimImplicitTerm, Vec X);
-  PetscErrorCode (*pd_rhs)(MSimImplicitTerm, Vec X, Vec rhs, PetscReal *e);
-  /* optional, before each local step: a term whose PD weights depend on the state (contact:
-     the vertices near an obstacle) updates them at X and sets *changed when they changed; the
-     problem then reassembles A and refactors it (pd_matrix and pd_rhs use the new weights) */
-  PetscErrorCode (*pd_reweight)(MSimImplicitTerm, Vec X, PetscBool *changed);
-  /* the largest alpha in (0, *alpha] for which X - alpha Y stays where the term is defined
-     (contact barriers: the line search starts there); lowers *alpha where it must, else leaves it */
-  PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha);
-  /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
-     vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
-     back towards A instead of x_n) */
-  PetscErrorCode (*feasible_start)(MSimImplicitTerm, Vec A);
-  /* for a scheme whose residual is not Phi's gradient (scheme->no_objective): G += the term's
-     part of that residual at X, its discrete gradient between imp->Xn and X (times step.h2) with
-     its dissipation; and that part's exact Jacobian, blocks added into the assembled J
-     (ADD_VALUES, then assemble) */
-  PetscErrorCode (*discrete_gradient)(MSimImplicitTerm, Vec X, Vec G);
-  PetscErrorCode (*discrete_jacobian)(MSimImplicitTerm, Vec X, Mat J);
-  PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer);
-  PetscErrorCode (*destroy)(MSimImplicitTerm);
-} MSimImplicitTermOps;
-
-struct _n_MSimImplicitTerm {
-  char                type[64];
-  MSimImplicit        imp;
-  MSimImplicitTermOps ops;
-  void               *data;
-};
-
-struct _n_MSimImplicit {
-  MSimSystem         sys;
-  PetscReal          h, t;    /* step and start time of the current step */
-  MSimImplicitStep   step;    /* the terms' view of the step (MSimImplicitStepUpdate) */
-  Vec                Xn, Y;   /* x_n and y */
-  PetscBool          psd;     /* project Hessian blocks to PSD in the Jacobian */
-  MSimImplicitScheme scheme;
-  PetscInt           nterms;
-  MSimImplicitTerm   terms[16];
-  /* projective dynamics: scalar matrix A = M + the terms' weights (springs: h^2 k_s + h kd per
-     spring's Laplacian; drag: h c I) over free vertices, factored once (KSP prefix pd_), three
-     columns solved together */
-  Mat        A;
-  Mat        A3;              /* A kron I3 on block-size-3 Vecs (MAIJ), made on first use */
-  KSP        pdksp;
-  Mat        B, Xd;           /* dense nown x 3: right-hand sides and solutions */
-  PetscBool  pd_direct;       /* preonly + msimllt: solve the interleaved Vec arrays directly */
-  PetscBool  pd_iterative;    /* a Krylov -pd_ksp_type: x, y, z one at a time from a guess */
-  Vec        pdb, pdx;        /* one column of the right-hand side and of the solution */
-  PetscInt   pd_lits;         /* Krylov iterations of the PD solves in the current step */
-  PetscInt   nfactor;         /* numeric factorizations done by the PD solves */
-  Vec        rhs;
-  MSimPDProblem pd;
-};
 
 /* Registries, PETSc style: -msim_integrator lists the schemes (each is an implicit integrator of
    the same name), -msim_implicit_terms the terms. A new scheme or term is one file under
@@ -166,6 +45,12 @@ PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp);
 PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[], MSimImplicit *imp);
 PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp);
 PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer);
+/* Project each Hessian block to PSD in the Jacobian (the default) or not (-msim_psd) */
+PetscErrorCode MSimImplicitSetPSD(MSimImplicit imp, PetscBool psd);
+/* How many energy terms the problem sums */
+PetscErrorCode MSimImplicitGetNumTerms(MSimImplicit imp, PetscInt *n);
+/* The current step's x_n and y (the problem's own Vecs; either may be NULL) */
+PetscErrorCode MSimImplicitGetStepState(MSimImplicit imp, Vec *Xn, Vec *Y);
 /* imp->step from the scheme's beta and gamma at step size imp->h */
 PetscErrorCode MSimImplicitStepUpdate(MSimImplicit imp);
 /* start a step from (X, V) at t: sets x_n, y (the scheme's begin_step) */

@@ -77,13 +77,8 @@ typedef struct _n_MSimSceneData {
   std::string            identity;
 } MSimSceneData;
 
+/* The body is private (msim/private/sceneimpl.h). */
 typedef struct _n_MSimScene *MSimScene;
-struct _n_MSimScene {
-  MSimSceneData data;
-  PetscReal     fix_velocity[3]; /* fixed vertices translate with this velocity */
-  PetscReal     prestretch;      /* initial positions = prestretch * rest positions */
-  PetscReal     perturb;         /* plus a deterministic pseudo-random displacement of this size */
-};
 
 typedef PetscErrorCode (*MSimSceneGenerator)(MPI_Comm, MSimSceneData *);
 /* Whether output draws the scene's cells (a series, mode shapes): only then are they kept past setup */
@@ -95,6 +90,8 @@ PetscErrorCode MSimSceneFinalizePackage(void);
 /* Build from options (-msim_scene, stiffness, mass, fixed vertices). Collective. */
 PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene);
 PetscErrorCode MSimSceneDestroy(MSimScene *scene);
+/* The scene's data as the generators and the directory left it (read only). */
+PetscErrorCode MSimSceneGetData(MSimScene scene, const MSimSceneData **data);
 
 PetscReal      MSimSceneHash(PetscInt v, PetscInt c);
 

@@ -7,107 +7,10 @@
    rows: nothing travels back. */
 #pragma once
 #include <msim/scene.h>
-#include <msim/spring_sweep.h>
-#include <msim/ghost_exchange.h>
-#include <msim/exchange.h>
 #include <vector>
 
-/* Owned springs. Endpoints are local vertex slots: [0, nown) owned (also the rows of the rank's
-   block of a global Vec), [nown, nown+nghost) ghosts, then fixed vertices. Springs with both ends
-   owned are stored by slices for the hot loop (msim/spring_sweep.h); the remaining ones are plain
-   arrays: first the owned-owned ones of vertices past the last full slice (ninner of them), then
-   those with a ghost or fixed end. The halo springs are not owned: each joins an owned vertex (hi)
-   to a ghost (hj) and belongs to the ghost's rank; a sweep that counts them adds their force to
-   hi's row only and leaves their energy to the owner. Ghosts are the other ends of owned and halo
-   springs alike. */
-typedef struct {
-  MSimSlices             slices;
-  std::vector<PetscInt>  i, j;
-  std::vector<PetscReal> k, L;
-  PetscInt               n, ninner; /* entries of i, j, k, L; the owned-owned ones among them */
-  PetscInt               total;     /* owned springs in all */
-  std::vector<PetscInt>  hi, hj;    /* halo springs: owned slot, ghost slot */
-  std::vector<PetscReal> hk, hL;
-} MSimSprings;
-
-/* Calls f(i, j, k, L) for every owned spring (slots as above). */
-template <class F>
-static inline void MSimSpringsForEach(const MSimSprings &sp, F &&f)
-{
-  const MSimSlices &sl = sp.slices;
-  for (PetscInt c = 0; c < sl.nslice; c++)
-    for (PetscInt q = sl.cptr[c]; q < sl.cptr[c + 1]; q++)
-      for (PetscInt l = 0; l < 4; l++)
-        if (sl.sj[4 * q + l] != 4 * c + l) f(4 * c + l, sl.sj[4 * q + l], sl.sk[4 * q + l], sl.sL[4 * q + l]);
-  for (PetscInt s = 0; s < sp.n; s++) f(sp.i[s], sp.j[s], sp.k[s], sp.L[s]);
-}
-
-/* The tets of the volume term (msim/volume.h): each computed by one rank, the owner of its free
-   vertex of least global number, where all 4 vertices have slots (owned, ghost or fixed, as a
-   spring's ends) */
-typedef struct {
-  std::vector<PetscInt>  slot;      /* 4 local slots per tet */
-  std::vector<PetscReal> V0, iV0;   /* rest volume (> 0: the slots are ordered so) and 1 / V0 */
-  PetscInt               ntet = 0;  /* tets of the scene in the term (every rank knows it) */
-  PetscReal              kv = 0, kappa = 0, jhat = 0; /* msim/volume_kernels.hpp's TetMaterial */
-  Vec                    yloc = NULL; /* a direction's local slots, for max_step */
-} MSimTets;
-
+/* The body, with the springs' and the volume term's storage, is private (msim/private/systemimpl.h). */
 typedef struct _n_MSimSystem *MSimSystem;
-struct _n_MSimSystem {
-  MPI_Comm    comm;
-  PetscMPIInt rank, size;
-  PetscInt    nv;                   /* input vertices, fixed included */
-  PetscInt    nfree, nown, rstart;  /* free vertices: global, owned, first owned (blocks) */
-  PetscInt    nghost, nfix, nloc;   /* local slots: nloc = nown + nghost + nfix, nfix the fixed
-                                       vertices this rank's springs touch */
-  PetscInt    nfix_global;          /* fixed vertices of the scene */
-  PetscInt    nspring_global;       /* springs with a free end */
-  MSimSprings springs;              /* owned springs */
-  MSimTets    tets;                 /* the volume term's tets (none: ntet 0) */
-  std::vector<PetscInt>   local_to_global; /* global block of each owned/ghost slot */
-  std::vector<PetscReal>  b0;       /* 3 nfix: the local fixed slots' positions at t = 0 */
-  PetscReal   fix_velocity[3];
-  PetscReal   gravity[3], wind[3], drag, damping;
-  PetscReal   total_mass, diameter;
-  Vec         mass;                 /* per dof (block size 3), global layout */
-  Vec         massinv;              /* 1 / mass: made on first use (MSimSystemGetInverseMass) */
-  Vec         xloc, vloc, floc;     /* local slots, 3 nloc */
-  MSimSweepScratch      sweep;      /* the sliced sweep's scratch */
-  VecScatter  g2l;                  /* global free -> owned+ghost slots */
-  VecScatter  ghosts;               /* global free -> ghost slots only (GhostsAdd's reverse scatter) */
-  MSimGhostExchange xghosts;        /* the hot loops' forward exchange of ghost positions (ranks > 1) */
-  MSimGhostExchange vghosts;        /* the same for velocities (spring damping only) */
-  Vec         X0, V0;               /* initial state */
-  /* Output in input vertex order ("natural" order): a Vec of 3 nv entries in the scene's directory
-     layout (rank r holds the input ids of its block), filled from the free Vecs by a scatter and
-     with b(t) at the fixed vertices of each block. Output, spectra and -msim_view_final go
-     through it; nothing is gathered whole unless a serial .vtu series asks for it. */
-  MSimBlockLayout       dir;
-  Vec                   natural;       /* 3 nv, block size 3; made on first use (MSimSystemNaturalSetUp) */
-  VecScatter            to_natural;    /* free global -> natural; likewise */
-  std::vector<PetscInt> nat_gnum;      /* the block's global free numbers (-1: fixed), until then */
-  std::vector<PetscInt> nat_fixed;     /* the fixed vertices of this rank's block (local index) ... */
-  std::vector<PetscReal> nat_b0;       /* ... and their positions at t = 0 */
-  std::vector<char>     nat_fixed_flag; /* every vertex of the block */
-  /* the cells drawn (a mesh's tets or triangles held here, otherwise the springs held here as
-     lines), input ids */
-  int                   out_cell_size; /* vertices per cell: 4, 3 or 2 */
-  std::vector<PetscInt> out_cells;
-  /* what frames show besides positions, kept only when something draws (MSimSceneCellsDrawn) */
-  std::vector<PetscReal> out_cell_V0;  /* rest volume of each tet of out_cells (tet scenes) */
-  std::vector<PetscInt>  out_springs;  /* a mesh's springs held here as input-id pairs (for grids
-                                          and chains out_cells are the springs) */
-  std::vector<PetscReal> out_spring_L; /* rest length of each spring drawn: of out_springs, or of
-                                          out_cells' lines where those are the springs */
-  std::vector<PetscInt>  nat_file_id;  /* each block vertex's id in the input file (-1: made by
-                                          msim, TetGen or refinement); empty: the input id */
-  PetscInt              ncell_global;  /* a mesh's tets or triangles (0 for grids and chains) */
-  int                   cell_size;     /* 4 tets, 3 triangles, 0 none */
-  PetscInt              nspring_total; /* every spring of the scene, those between fixed vertices too */
-  std::string           scene_name;
-  std::string           scene_identity; /* the options that defined the scene (MSimSceneData::identity) */
-};
 
 /* Collective. Reads the physics options (-msim_gravity, wind, drag, damping; the partitioner reads
    -msim_partition).
@@ -119,6 +22,13 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys);
    ranks), each rank's owned and ghost vertices and springs, and the load balance. Collective. */
 PetscErrorCode MSimSystemViewPartition(MSimSystem sys, const char partition[], PetscInt cut, PetscInt between_free);
 PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v);
+/* The initial state X0, V0 (the system's own Vecs: copy them, do not change or destroy them). */
+PetscErrorCode MSimSystemGetInitialState(MSimSystem sys, Vec *X0, Vec *V0);
+/* Vertices of the scene (fixed included), free vertices and this rank's owned free vertices;
+   each may be NULL. */
+PetscErrorCode MSimSystemGetSizes(MSimSystem sys, PetscInt *nv, PetscInt *nfree, PetscInt *nown);
+/* The lumped mass per dof (block size 3; the system's own Vec). */
+PetscErrorCode MSimSystemGetMass(MSimSystem sys, Vec *mass);
 
 /* Local slots from global X at time t (fixed slots from b(t)); the returned array is sys->xloc's. */
 PetscErrorCode MSimSystemGlobalToLocal(MSimSystem sys, PetscReal t, Vec X, Vec xloc);

@@ -25,7 +25,8 @@ extern "C" int LLVMFuzzerInitialize(int *, char ***)
   dir         = mkdtemp(tmpl);
   if (PetscOptionsInsertString(NULL, scene_options) || PetscOptionsSetValue(NULL, "-msim_restart", (dir + "/input.ck").c_str())) return 1;
   if (MSimSceneCreateFromOptions(PETSC_COMM_SELF, &scene) || MSimSystemCreate(PETSC_COMM_SELF, scene, &sys) || MSimSceneDestroy(&scene)) return 1;
-  if (VecDuplicate(sys->X0, &X) || VecDuplicate(sys->V0, &V)) return 1;
+  Vec X0, V0;
+  if (MSimSystemGetInitialState(sys, &X0, &V0) || VecDuplicate(X0, &X) || VecDuplicate(V0, &V)) return 1;
   PetscPushErrorHandler(MSimFuzzQuiet, NULL);
   return 0;
 }

@@ -105,7 +105,9 @@ static PetscErrorCode Model(void)
   PetscCall(PetscOptionsGetIntArray(NULL, NULL, "-parts", parts, &nparts, &set));
   PetscCheck(set, PETSC_COMM_WORLD, PETSC_ERR_ARG_WRONG, "-parts P1,P2,... is needed");
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
-  const MSimSceneData &S = scene->data;
+  const MSimSceneData   *data;
+  PetscCall(MSimSceneGetData(scene, &data));
+  const MSimSceneData &S = *data;
   /* one rank: the directory holds every vertex, and every spring is here */
   PetscInt nfree = 0;
   fid.assign(S.nv, -1);

@@ -14,7 +14,7 @@ static PetscErrorCode MSimMain(void)
   MSimSystem     sys;
   MSimIntegrator integ;
   MSimRunInfo    info;
-  Vec            X, V;
+  Vec            X, V, X0, V0;
   PetscBool      spectrum_only, view = PETSC_FALSE;
 
   PetscFunctionBeginUser;
@@ -31,10 +31,11 @@ static PetscErrorCode MSimMain(void)
     PetscCall(PetscOptionsBool("-msim_traceback", "Print PETSc's full error traceback instead of one line", NULL, traceback, &traceback, NULL));
   }
   PetscOptionsEnd();
-  PetscCall(VecDuplicate(sys->X0, &X));
-  PetscCall(VecDuplicate(sys->V0, &V));
-  PetscCall(VecCopy(sys->X0, X));
-  PetscCall(VecCopy(sys->V0, V));
+  PetscCall(MSimSystemGetInitialState(sys, &X0, &V0));
+  PetscCall(VecDuplicate(X0, &X));
+  PetscCall(VecDuplicate(V0, &V));
+  PetscCall(VecCopy(X0, X));
+  PetscCall(VecCopy(V0, V));
   PetscCall(MSimSpectrumFromOptions(sys, X, &spectrum_only));
   if (!spectrum_only) {
     PetscErrorCode rerr = MSimRun(sys, integ, X, V, &info);

@@ -22,6 +22,8 @@
 #include <msim/contact.h>
 #include <msim/options.h>
 #include <msim/errors.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/contactimpl.h>
 #include <cmath>
 #include <string>
 #include <vector>

@@ -6,6 +6,8 @@
 #include <msim/contact_bounds.h>
 #include <msim/contact.h>
 #include <msim/options.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/contactimpl.h>
 #include <petscsnes.h>
 #include <vector>
 

@@ -9,6 +9,8 @@
 #include <msim/contact.h>
 #include <msim/contact_bounds.h>
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/contactimpl.h>
 #include <cstring>
 
 static const char barrier_key[] = "MSimContactForceBarrier";

@@ -12,6 +12,7 @@
    from its planned position: two elements then moved together by at most the margin. */
 #include <msim/self_contact.h>
 #include <msim/errors.h>
+#include <msim/private/systemimpl.h>
 #include <cmath>
 
 PetscLogEvent MSIM_SelfBroad = 0, MSIM_SelfHalo = 0, MSIM_SelfNarrow = 0, MSIM_SelfCCD = 0;

@@ -1,6 +1,8 @@
 /* The implicit problem (msim/implicit.h): Phi, g and the Hessian as the inertia term plus the
    registered energy terms; the scheme's y, x_n and velocity update. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp)
 {
@@ -50,6 +52,28 @@ PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer)
   if (imp->scheme->ops.view) PetscCall(imp->scheme->ops.view(imp->scheme, viewer));
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.view) PetscCall(imp->terms[k]->ops.view(imp->terms[k], viewer));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitSetPSD(MSimImplicit imp, PetscBool psd)
+{
+  PetscFunctionBeginUser;
+  imp->psd = psd;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitGetNumTerms(MSimImplicit imp, PetscInt *n)
+{
+  PetscFunctionBeginUser;
+  *n = imp->nterms;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitGetStepState(MSimImplicit imp, Vec *Xn, Vec *Y)
+{
+  PetscFunctionBeginUser;
+  if (Xn) *Xn = imp->Xn;
+  if (Y) *Y = imp->Y;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

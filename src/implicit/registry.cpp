@@ -1,6 +1,8 @@
 /* The registries of time schemes and energy terms (PetscFunctionList, as PETSc's own types), and
    the problem's creation from them: the scheme by name, the terms from -msim_implicit_terms. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 static PetscFunctionList MSimSchemeList = NULL, MSimTermList = NULL;
 static PetscBool         MSimImplicitRegistered = PETSC_FALSE;

@@ -3,6 +3,8 @@
 #include <msim/registry.h>
 #include <msim/implicit.h>
 #include <msim/self_contact.h>
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
 
 static MSimRegistry<PetscErrorCode (*)(MSimIntegrator)> MSimIntegrators;
 
@@ -162,5 +164,22 @@ PetscErrorCode MSimIntegratorDestroy(MSimIntegrator *integ)
   if ((*integ)->ops.destroy) PetscCall((*(*integ)->ops.destroy)(*integ));
   delete *integ;
   *integ = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorGetTimeStep(MSimIntegrator integ, PetscReal *dt)
+{
+  PetscFunctionBeginUser;
+  *dt = integ->dt;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimIntegratorGetStepResult(MSimIntegrator integ, PetscBool *failed, PetscInt *nonlinear_its, PetscInt *linear_its, PetscReal *residual)
+{
+  PetscFunctionBeginUser;
+  if (failed) *failed = integ->failed;
+  if (nonlinear_its) *nonlinear_its = integ->nonlinear_its;
+  if (linear_its) *linear_its = integ->linear_its;
+  if (residual) *residual = integ->residual;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -3,6 +3,8 @@
 #include <msim/run.h>
 #include <msim/spectrum.h>
 #include <msim/contact_force.h>
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
 #include <cmath>
 
 /* Largest stable h for an explicit method given omega_max. Without damping: limit / omega_max.

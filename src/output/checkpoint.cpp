@@ -13,6 +13,8 @@
 #include <msim/integrator.h>
 #include <msim/options.h>
 #include <msim/log.h>
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
 #include <sstream>
 #include <string>
 #include <sys/stat.h>

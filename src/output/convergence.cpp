@@ -1,5 +1,6 @@
 #include <msim/convergence.h>
 #include <msim/output.h>
+#include <msim/private/systemimpl.h>
 #include <cstdio>
 
 struct _n_MSimConvergenceMonitor {

@@ -13,6 +13,7 @@
 #include "hdf5_series.h"
 #include "frame_fields.h"
 #include <msim/contact_force.h>
+#include <msim/private/systemimpl.h>
 #include <petscviewerhdf5.h>
 #include <algorithm>
 #include <cstdio>

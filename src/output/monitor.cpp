@@ -1,6 +1,7 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
    with wall time. Energies: kinetic, potential (springs + gravity), total. */
 #include <msim/output.h>
+#include <msim/private/systemimpl.h>
 #include <algorithm>
 #include <cerrno>
 #include <cstdlib>

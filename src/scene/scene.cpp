@@ -3,6 +3,7 @@
 #include <msim/scene.h>
 #include <msim/log.h>
 #include <msim/registry.h>
+#include <msim/private/sceneimpl.h>
 #include <memory>
 #include <cmath>
 #include <algorithm>
@@ -235,5 +236,12 @@ PetscErrorCode MSimSceneDestroy(MSimScene *scene)
   PetscFunctionBeginUser;
   delete *scene;
   *scene = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneGetData(MSimScene scene, const MSimSceneData **data)
+{
+  PetscFunctionBeginUser;
+  *data = &scene->data;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

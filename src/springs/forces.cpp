@@ -8,6 +8,8 @@
 #include <msim/spring_sweep.h>
 #include <msim/contact.h>
 #include <msim/volume.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/contactimpl.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;

@@ -1,6 +1,7 @@
 /* What a partition costs: the edge cut and the ghosts set the exchange's size, the balance the
    time the slowest rank takes. */
 #include <msim/system.h>
+#include <msim/private/systemimpl.h>
 #include <algorithm>
 
 PetscErrorCode MSimSystemViewPartition(MSimSystem sys, const char partition[], PetscInt cut, PetscInt between_free)

@@ -6,6 +6,8 @@
 #include <msim/log.h>
 #include <msim/options.h>
 #include <msim/volume.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/sceneimpl.h>
 #include <algorithm>
 #include <memory>
 
@@ -320,6 +322,30 @@ PetscErrorCode MSimSystemCreateVec(MSimSystem sys, Vec *v)
   PetscCall(VecSetSizes(*v, 3 * sys->nown, 3 * sys->nfree));
   PetscCall(VecSetBlockSize(*v, 3));
   PetscCall(VecSetType(*v, VECSTANDARD));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGetInitialState(MSimSystem sys, Vec *X0, Vec *V0)
+{
+  PetscFunctionBeginUser;
+  if (X0) *X0 = sys->X0;
+  if (V0) *V0 = sys->V0;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGetSizes(MSimSystem sys, PetscInt *nv, PetscInt *nfree, PetscInt *nown)
+{
+  PetscFunctionBeginUser;
+  if (nv) *nv = sys->nv;
+  if (nfree) *nfree = sys->nfree;
+  if (nown) *nown = sys->nown;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSystemGetMass(MSimSystem sys, Vec *mass)
+{
+  PetscFunctionBeginUser;
+  *mass = sys->mass;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,5 +1,6 @@
 /* Moving data between the global free-vertex Vecs and each rank's local slots. */
 #include <msim/system.h>
+#include <msim/private/systemimpl.h>
 
 PetscErrorCode MSimSystemBoundary(MSimSystem sys, PetscReal t, PetscReal *b)
 {

@@ -5,6 +5,7 @@
 #include <msim/volume.h>
 #include <msim/volume_kernels.hpp>
 #include <msim/log.h>
+#include <msim/private/systemimpl.h>
 
 static msim::TetMaterial Material(MSimSystem sys)
 {

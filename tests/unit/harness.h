@@ -28,12 +28,15 @@ typedef struct {
   MSimSystem     sys;
   MSimIntegrator integ;
   Vec            X, V;
+  PetscReal      dt;   /* the integrator's step */
+  PetscMPIInt    rank; /* in PETSC_COMM_WORLD */
 } TestSim;
 
 /* Replace the options database with opts and build everything. */
 static inline PetscErrorCode TestSimCreate(const char *opts, TestSim *s)
 {
   MSimScene scene;
+  Vec       X0, V0;
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsClear(NULL));
   PetscCall(PetscOptionsInsertString(NULL, opts));
@@ -42,10 +45,13 @@ static inline PetscErrorCode TestSimCreate(const char *opts, TestSim *s)
   PetscCall(MSimSceneDestroy(&scene));
   PetscCall(MSimIntegratorCreate(s->sys, &s->integ));
   PetscCall(MSimIntegratorSetFromOptions(s->integ));
-  PetscCall(VecDuplicate(s->sys->X0, &s->X));
-  PetscCall(VecDuplicate(s->sys->X0, &s->V));
-  PetscCall(VecCopy(s->sys->X0, s->X));
-  PetscCall(VecCopy(s->sys->V0, s->V));
+  PetscCall(MSimSystemGetInitialState(s->sys, &X0, &V0));
+  PetscCall(VecDuplicate(X0, &s->X));
+  PetscCall(VecDuplicate(V0, &s->V));
+  PetscCall(VecCopy(X0, s->X));
+  PetscCall(VecCopy(V0, s->V));
+  PetscCall(MSimIntegratorGetTimeStep(s->integ, &s->dt));
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &s->rank));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -43,15 +43,19 @@ static PetscErrorCode StepWith(const char *solver, Vec result)
   PetscFunctionBeginUser;
   PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -ksp_rtol 1e-12", kScene));
   PetscCall(TestSimCreate(opts, &s));
-  for (PetscInt n = 0; n < 5; n++) PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
+  for (PetscInt n = 0; n < 5; n++) PetscCall(MSimIntegratorStep(s.integ, n * s.dt, s.X, s.V));
   PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s %s", kScene, solver));
   /* same state, new solver */
   {
     TestSim t;
     PetscCall(TestSimCreate(opts, &t));
-    PetscCall(MSimIntegratorStep(t.integ, 5 * t.integ->dt, s.X, s.V));
-    CHECK(!t.integ->failed, "%s: the step failed", solver);
-    NOTE("%-90s its %3" PetscInt_FMT " |g| %.2e\n", solver, t.integ->nonlinear_its, (double)t.integ->residual);
+    PetscBool failed;
+    PetscInt  its;
+    PetscReal residual;
+    PetscCall(MSimIntegratorStep(t.integ, 5 * t.dt, s.X, s.V));
+    PetscCall(MSimIntegratorGetStepResult(t.integ, &failed, &its, NULL, &residual));
+    CHECK(!failed, "%s: the step failed", solver);
+    NOTE("%-90s its %3" PetscInt_FMT " |g| %.2e\n", solver, its, (double)residual);
     PetscCall(TestSimDestroy(&t));
   }
   PetscCall(VecCopy(s.X, result));
@@ -137,7 +141,7 @@ static PetscErrorCode TestPDMonotoneAndOneFactorization(const char *variant)
   PetscCallMPI(MPI_Bcast(path, sizeof(path), MPI_CHAR, 0, PETSC_COMM_WORLD));
   PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s -snes_type pd -snes_max_it 10 -snes_pd_fixed %s -msim_monitor_convergence %s", kScene, variant, path));
   PetscCall(TestSimCreate(opts, &s));
-  for (PetscInt n = 0; n < 50; n++) PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
+  for (PetscInt n = 0; n < 50; n++) PetscCall(MSimIntegratorStep(s.integ, n * s.dt, s.X, s.V));
   PetscCall(MSimImplicitEulerGetFactorizations(s.integ, &nfact));
   NOTE("PD %s: numeric factorizations over 50 steps: %" PetscInt_FMT "\n", variant, nfact);
   CHECK(nfact == 1, "PD factored %" PetscInt_FMT " times over 50 steps", nfact);
@@ -182,7 +186,7 @@ static PetscErrorCode TestJacobianFD(void)
   PetscFunctionBeginUser;
   PetscCall(TestSimCreate("-msim_cloth_n 6 -msim_perturb 0.02 -msim_prestretch 0.95 -msim_damping 0.7 -msim_drag 0.05 -msim_fix_velocity 0,0,0.1", &s));
   PetscCall(MSimImplicitCreate(s.sys, &imp));
-  imp->psd = PETSC_FALSE;
+  PetscCall(MSimImplicitSetPSD(imp, PETSC_FALSE));
   PetscCall(VecSet(s.V, 0.3));
   PetscCall(MSimImplicitBeginStep(imp, 0.1, 0.02, s.X, s.V));
   PetscCall(VecAXPY(s.X, 0.02, s.V));
@@ -212,7 +216,6 @@ static PetscErrorCode TestJacobianFD(void)
     PetscReal phi_obj, phi_pd;
     Vec       rhs;
     PetscCall(VecDuplicate(s.X, &rhs));
-    imp->h = 0.02;
     PetscCall(MSimImplicitObjective(imp, s.X, &phi_obj));
     PetscCall(MSimImplicitPDRHS(imp, s.X, rhs, &phi_pd));
     NOTE("Phi from the objective %.15e, from the PD local step %.15e\n", (double)phi_obj, (double)phi_pd);
@@ -330,9 +333,12 @@ static PetscErrorCode TestNewtonToRoundoff(void)
   PetscFunctionBeginUser;
   PetscCall(TestSimCreate("-msim_cloth_n 21 -msim_dt 0.0333333333333 -msim_integrator implicit_euler -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-13 -snes_atol 0 -snes_stol 0 -snes_max_it 30", &s));
   for (PetscInt n = 0; n < 5; n++) {
-    PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
-    failed = (PetscBool)(failed || s.integ->failed);
-    worst  = PetscMax(worst, s.integ->residual);
+    PetscBool step_failed;
+    PetscReal residual;
+    PetscCall(MSimIntegratorStep(s.integ, n * s.dt, s.X, s.V));
+    PetscCall(MSimIntegratorGetStepResult(s.integ, &step_failed, NULL, NULL, &residual));
+    failed = (PetscBool)(failed || step_failed);
+    worst  = PetscMax(worst, residual);
   }
   NOTE("Newton to roundoff, 5 steps: largest final |g| %.2e, a step failed: %s\n", (double)worst, failed ? "yes" : "no");
   CHECK(!failed, "a Newton step failed (line search)");
@@ -357,9 +363,12 @@ static PetscErrorCode RunIndefinite(PetscBool fallback, PetscInt *failed_at, Pet
   *unconverged = 0;
   PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
   for (PetscInt n = 0; n < 20 && *failed_at < 0; n++) {
-    ierr = MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V);
-    if (ierr || s.integ->failed) *failed_at = n + 1;
-    else if (s.integ->nonlinear_its >= 100) (*unconverged)++; /* stopped at -snes_max_it */
+    PetscBool step_failed = PETSC_FALSE;
+    PetscInt  its         = 0;
+    ierr                  = MSimIntegratorStep(s.integ, n * s.dt, s.X, s.V);
+    if (!ierr) PetscCall(MSimIntegratorGetStepResult(s.integ, &step_failed, &its, NULL, NULL));
+    if (ierr || step_failed) *failed_at = n + 1;
+    else if (its >= 100) (*unconverged)++; /* stopped at -snes_max_it */
   }
   PetscCall(PetscPopErrorHandler());
   PetscCall(MSimImplicitEulerGetProjectedFallbacks(s.integ, nfallback));
@@ -418,10 +427,13 @@ static PetscErrorCode TestTrustRegionIndefinite(void)
   PetscCall(MSimImplicitEulerGetSNES(s.integ, &snes));
   PetscCall(SNESMonitorSet(snes, MonitorPhiRise, &rise, NULL));
   for (PetscInt n = 0; n < 20; n++) {
-    PetscCall(MSimIntegratorStep(s.integ, n * s.integ->dt, s.X, s.V));
-    failed = (PetscBool)(failed || s.integ->failed);
-    if (s.integ->nonlinear_its >= 200) unconverged++;
-    maxits = PetscMax(maxits, s.integ->nonlinear_its);
+    PetscBool step_failed;
+    PetscInt  its;
+    PetscCall(MSimIntegratorStep(s.integ, n * s.dt, s.X, s.V));
+    PetscCall(MSimIntegratorGetStepResult(s.integ, &step_failed, &its, NULL, NULL));
+    failed = (PetscBool)(failed || step_failed);
+    if (its >= 200) unconverged++;
+    maxits = PetscMax(maxits, its);
   }
   PetscCall(SNESNTRGetCounts(snes, &rejected, &negative));
   NOTE("trust-region Newton on the indefinite scene: a step failed: %s, %d steps at -snes_max_it, at most %d iterations, %d steps rejected, %d CG solves ended by negative curvature, largest rise of Phi %.1e relative\n", failed ? "yes" : "no", (int)unconverged, (int)maxits, (int)rejected, (int)negative, (double)rise.worst);
@@ -457,7 +469,12 @@ static PetscErrorCode TestTermsSum(void)
   PetscCall(PetscOptionsClearValue(NULL, "-msim_implicit_terms"));
   /* by default every registered term: springs, drag, obstacles and friction (the last two with no
      op where the scene has no obstacle) */
-  CHECK(all->nterms >= 5 && springs->nterms == 1, "terms: %d by default, %d with -msim_implicit_terms springs", (int)all->nterms, (int)springs->nterms);
+  {
+    PetscInt nall, nsprings;
+    PetscCall(MSimImplicitGetNumTerms(all, &nall));
+    PetscCall(MSimImplicitGetNumTerms(springs, &nsprings));
+    CHECK(nall >= 5 && nsprings == 1, "terms: %d by default, %d with -msim_implicit_terms springs", (int)nall, (int)nsprings);
+  }
   PetscCall(VecSet(s.V, 0.3));
   PetscCall(MSimImplicitBeginStep(all, 0.1, h, s.X, s.V));
   PetscCall(MSimImplicitBeginStep(springs, 0.1, h, s.X, s.V));

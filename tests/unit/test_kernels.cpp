@@ -6,6 +6,9 @@
 #include "harness.h"
 #include <msim/kernels.hpp>
 #include <msim/system.h>
+/* the sweep test fills the system's spring storage (MSimSprings) by hand and walks it with
+   MSimSpringsForEach: both are the system's internals */
+#include <msim/private/systemimpl.h>
 #include <random>
 #include <Eigen/Eigenvalues>
 

@@ -42,14 +42,18 @@ static PetscErrorCode TestBoxGeometry(void)
   /* nothing draws or refines this box: it counts its tets and stores none */
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
   {
-    PetscInt held = (PetscInt)scene->data.cells.size();
+    const MSimSceneData *data;
+    PetscCall(MSimSceneGetData(scene, &data));
+    PetscInt held = (PetscInt)data->cells.size();
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &held, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
-    CHECK(held == 0 && scene->data.ncell == 6 * nx * ny * nz, "a box nothing draws holds %" PetscInt_FMT " cell corners and counts %" PetscInt_FMT " tets", held, scene->data.ncell);
+    CHECK(held == 0 && data->ncell == 6 * nx * ny * nz, "a box nothing draws holds %" PetscInt_FMT " cell corners and counts %" PetscInt_FMT " tets", held, data->ncell);
   }
   PetscCall(MSimSceneDestroy(&scene));
   PetscCall(PetscOptionsInsertString(NULL, "-msim_scene_keep_cells"));
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
-  const MSimSceneData  &s = scene->data;
+  const MSimSceneData  *data;
+  PetscCall(MSimSceneGetData(scene, &data));
+  const MSimSceneData   &s = *data;
   std::vector<PetscReal> x;
   /* each rank's tets, with their corners' positions from the directory */
   PetscCall(MSimSceneFetchPositions(PETSC_COMM_WORLD, &s, s.cells, x));
@@ -87,7 +91,10 @@ static PetscErrorCode TestBoxDirect(void)
     PetscCall(PetscOptionsSetValue(NULL, "-msim_box_springs", w ? "cells" : "direct"));
     PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene[w]));
   }
-  const MSimSceneData &a = scene[0]->data, &b = scene[1]->data;
+  const MSimSceneData *da, *db;
+  PetscCall(MSimSceneGetData(scene[0], &da));
+  PetscCall(MSimSceneGetData(scene[1], &db));
+  const MSimSceneData &a = *da, &b = *db;
   /* both hold each spring where its lower vertex has its directory, in the order of its ends */
   bad += a.si != b.si || a.sj != b.sj || a.mass.size() != b.mass.size();
   for (size_t q = 0; !bad && q < a.sk.size(); q++) worst = PetscMax(worst, PetscMax(PetscAbsReal(a.sk[q] - b.sk[q]) / b.sk[q], PetscAbsReal(a.sL[q] - b.sL[q]) / b.sL[q]));
@@ -120,16 +127,18 @@ static PetscErrorCode TestOwnership(int which)
   std::vector<char>     fixed;
   std::vector<PetscInt> cells;
   PetscCall(MSimSystemGatherTopology(s.sys, fixed, cells));
-  if (s.sys->rank == 0) {
+  PetscInt nv, nfree_sys;
+  PetscCall(MSimSystemGetSizes(s.sys, &nv, &nfree_sys, NULL));
+  if (s.rank == 0) {
     PetscInt bad = 0, nfree = 0;
-    for (PetscInt v = 0; v < s.sys->nv; v++) {
+    for (PetscInt v = 0; v < nv; v++) {
       const PetscReal want = fixed[v] ? 0.0 : 1.0;
       nfree += fixed[v] ? 0 : 1;
       for (int c = 0; c < 3; c++) bad += all[3 * v + c] != want;
     }
-    CHECK(bad == 0 && nfree == s.sys->nfree, "%s: %" PetscInt_FMT " gathered entries not 1 at free (0 at fixed) vertices", kScenes[which][0], bad);
+    CHECK(bad == 0 && nfree == nfree_sys, "%s: %" PetscInt_FMT " gathered entries not 1 at free (0 at fixed) vertices", kScenes[which][0], bad);
   }
-  CHECK(sum == 3.0 * s.sys->nfree, "%s: owned rows add up to %g, not 3 x %" PetscInt_FMT, kScenes[which][0], (double)sum, s.sys->nfree);
+  CHECK(sum == 3.0 * nfree_sys, "%s: owned rows add up to %g, not 3 x %" PetscInt_FMT, kScenes[which][0], (double)sum, nfree_sys);
   PetscCall(VecDestroy(&ones));
   PetscCall(TestSimDestroy(&s));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -146,7 +155,11 @@ static PetscErrorCode TestDilation(int which)
   PetscCall(PetscSNPrintf(opts, sizeof(opts), "%s -msim_young %g -msim_density %g -msim_prestretch %.17g -msim_fix none -msim_gravity 0,0,0", kScenes[which][1], (double)E, (double)rho, 1 + eps));
   PetscCall(TestSimCreate(opts, &s));
   PetscCall(MSimSystemSpringEnergy(s.sys, 0.0, s.X, &energy));
-  PetscCall(VecSum(s.sys->mass, &mass));
+  {
+    Vec M;
+    PetscCall(MSimSystemGetMass(s.sys, &M));
+    PetscCall(VecSum(M, &mass));
+  }
   const PetscReal want = 3 * E * eps * eps * kVolume[which];
   CHECK(PetscAbsReal(energy - want) <= 1e-11 * want, "%s: spring energy %.15g under dilation, want 3 E eps^2 V = %.15g", kScenes[which][0], (double)energy, (double)want);
   CHECK(PetscAbsReal(mass / 3 - rho * kVolume[which]) <= 1e-12 * rho * kVolume[which], "%s: masses add up to %.15g, want rho V = %.15g", kScenes[which][0], (double)(mass / 3), (double)(rho * kVolume[which]));

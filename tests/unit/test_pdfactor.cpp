@@ -5,6 +5,9 @@
    rank count (ctest runs it at 1, 2 and 3), with the supernodes as they come, merged by the
    default rule, and merged far beyond it (the solves then carry many explicit zeros). */
 #include "harness.h"
+/* the test compares the PD factorization itself: it sets the problem's step before PDSetUp and
+   reads the PD matrix and KSP the implicit problem keeps, which no function exposes */
+#include <msim/private/implicitimpl.h>
 
 static PetscErrorCode CompareWithMUMPS(const char *scene, PetscInt64 *entries, PetscInt *supernodes)
 {

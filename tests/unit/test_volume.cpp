@@ -10,6 +10,10 @@
 #include "harness.h"
 #include <msim/volume.h>
 #include <msim/volume_kernels.hpp>
+/* the test checks internals: how many tets the system holds for the term (sys->tets), and counts
+   inverted tets at the time the step's unknown sees the boundary (imp->step.tx) */
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 #include <random>
 
 using msim::Mat12;
@@ -112,7 +116,7 @@ static PetscErrorCode TestProblem(void)
   PetscCall(TestSimCreate("-msim_scene box -msim_box_n 4,2,2 -msim_box_size 0.4,0.2,0.2 -msim_young 1e5 -msim_density 1000 -msim_fix_plane x_min -msim_prestretch 0.8 -msim_perturb 0.004 -msim_volume -msim_volume_jhat 0.7 -msim_volume_stiffness 2e4 -msim_integrator implicit_euler", &s));
   CHECK(s.sys->tets.ntet == 4 * 2 * 2 * 6, "the box's tets: %d in the term, %d expected", (int)s.sys->tets.ntet, 4 * 2 * 2 * 6);
   PetscCall(MSimImplicitCreate(s.sys, &imp));
-  imp->psd = PETSC_FALSE;
+  PetscCall(MSimImplicitSetPSD(imp, PETSC_FALSE));
   PetscCall(VecSet(s.V, 0.3));
   PetscCall(MSimImplicitBeginStep(imp, 0.0, 0.01, s.X, s.V));
   PetscCall(MSimSystemCreateMatrix(s.sys, &J));

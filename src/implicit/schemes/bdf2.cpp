@@ -16,6 +16,8 @@
    gamma, hence PD's factor, unchanged (an implicit Euler start-up would need another one).
    History for an exact restart: x_{n-1}, v_{n-1}. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 typedef struct {
   Vec hist[2]; /* x_{n-1}, v_{n-1} (valid when scheme->history_valid) */

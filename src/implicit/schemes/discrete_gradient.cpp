@@ -30,6 +30,8 @@
    spring to a handle gets the discrete gradient between its two true states. First iterate
    x_n + h v_n. No history beyond (x_n, v_n): a checkpoint holds all a restart needs. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 typedef struct {
   Vec P; /* the midpoint predictor p = x_n + h/2 v_n: the damping's axes, the drag's reference */

@@ -11,6 +11,8 @@
      y += beta h^2 M^-1 f_d(p, u),   f_d = -C_p [u; b'] (spring damping and drag -c u),
    and the step's gradient is M (x - y) + beta h^2 (C_p v - f_s(x) - f_e) as the scheme has it. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 /* Y += s M^-1 f_d(P, U) at time t (P's handles at b(t)); F, W: work vectors. Nothing without
    damping and drag; drag alone costs one pass, spring damping two force sweeps. */

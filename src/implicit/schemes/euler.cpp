@@ -2,6 +2,7 @@
    iterate x_n + h v_n, v_{n+1} = (x_{n+1} - x_n)/h. Dissipative terms measure from x_n (gamma = 1:
    a viscous force -d v costs h d/2 |x - x_n|^2). No history beyond (x_n, v_n). */
 #include <msim/implicit.h>
+#include <msim/private/implicitimpl.h>
 
 static PetscErrorCode BeginStep_Euler(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
 {

@@ -12,6 +12,8 @@
    without damping, drag and moving handles it keeps quadratic invariants and the energy of the
    springs bounded (no drift), where implicit Euler loses it. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 typedef struct {
   Vec P, F, W; /* the predictor p = x_n + h/2 v_n; work vectors */

@@ -13,6 +13,8 @@
    relation (equal to M^-1 f(x_{n+1}, v_{n+1}) where the step is solved exactly), which costs no
    force evaluation and keeps the recursion consistent with an inexact solve. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 typedef struct {
   Vec A;  /* a_n (valid when scheme->history_valid) */

@@ -2,6 +2,8 @@
    The wind's part c w is a constant force, folded into the scheme's y. A diagonal quadratic, so
    the problem carries it in its inertia pass: no pass of its own, and nothing when c = 0. */
 #include <msim/implicit.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 static PetscErrorCode Diagonal_Drag(MSimImplicitTerm term, PetscReal *w, Vec *c)
 {

@@ -13,6 +13,9 @@
    v_o (tx - t)). */
 #include <msim/implicit.h>
 #include <msim/contact.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
+#include <msim/private/contactimpl.h>
 #include <cmath>
 
 /* f(v, lambda, P (3 x 3), u, y) for every owned vertex and obstacle in contact at x_n */

@@ -20,6 +20,9 @@
 #include <msim/errors.h>
 #include <string>
 #include <vector>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
+#include <msim/private/contactimpl.h>
 
 /* kappa's default at the first step: the barrier's stiffness at dhat/2 equals the mass's */
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)

@@ -23,6 +23,8 @@
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <msim/self_contact.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 #include <cmath>
 
 typedef struct {

@@ -8,6 +8,8 @@
 #include <msim/implicit.h>
 #include <msim/kernels.hpp>
 #include <msim/spring_sweep.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3> CMap3;

@@ -24,6 +24,8 @@
    springs.cpp): a ghost end's share goes to its owner (residual) or through the Mat's stash. */
 #include <msim/implicit.h>
 #include <msim/kernels.hpp>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 using msim::Vec3;
 typedef Eigen::Map<const Vec3>                   CMap3;

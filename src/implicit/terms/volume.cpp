@@ -10,6 +10,8 @@
    (midpoint, Newmark) are refused while the barrier is on, as the obstacles' are. */
 #include <msim/implicit.h>
 #include <msim/volume.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 static PetscErrorCode Energy_Volume(MSimImplicitTerm term, Vec X, PetscReal *e)
 {

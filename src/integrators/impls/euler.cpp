@@ -4,6 +4,8 @@
    - symplectic_euler: v' = v + h a(x, v), x' = x + h v'. Stable iff h omega_max < 2 without
      damping; its energy error stays bounded (no drift). */
 #include <msim/integrator.h>
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
 
 typedef struct {
   Vec F; /* force work vector */

@@ -9,6 +9,9 @@
 #include <msim/implicit.h>
 #include <msim/convergence.h>
 #include <msim/contact_bounds.h>
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
 
 typedef struct {
   MSimImplicit           imp;

@@ -1,6 +1,8 @@
 /* Classical fourth-order Runge-Kutta on (x, v). Stable iff h omega_max <= 2 sqrt(2) without damping
    (the imaginary-axis extent of its stability region). */
 #include <msim/integrator.h>
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
 
 typedef struct {
   Vec Xs, Vs, F, dX, dV; /* stage state, stage force, accumulated increments */

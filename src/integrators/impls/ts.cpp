@@ -8,6 +8,8 @@
    monitors and checkpoints; it starts each interval with the step it proposed last. */
 #include <msim/integrator.h>
 #include "ts_forms.h"
+#include <msim/private/integratorimpl.h>
+#include <msim/private/systemimpl.h>
 
 typedef enum { TS_FORM_EXPLICIT, TS_FORM_FIRST_ORDER, TS_FORM_SECOND_ORDER } TSForm;
 

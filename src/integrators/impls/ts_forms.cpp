@@ -3,6 +3,7 @@
 #include "ts_forms.h"
 #include <msim/solvers.h>
 #include <msim/volume.h>
+#include <msim/private/systemimpl.h>
 
 struct _n_MSimTSForms {
   MSimSystem sys;
