@@ -1,7 +1,7 @@
 /* Mesh layer: files in, validated simplices out. A mesh is read on rank 0 alone (MSimMeshRead),
    checked (MSimMeshCheck), and turned into springs by the scene layer. Every fault of a file is one
    error line naming the file, the line (or element) and the fault; the other ranks learn it by
-   MSimCallOnRankZero, so it prints once whatever the rank count.
+   MSimCallOnRankZero (msim/errors.h), so it prints once whatever the rank count.
 
    Conventions: a vertex's id is its place in the file, from 0 (Medit's and OBJ's 1-based ids and
    Gmsh's tags are turned into that), for every format: the ids users type. Readers keep every
@@ -17,8 +17,7 @@
    quadrangle is then cut through its own smallest corner whichever cell holds it, so neighbouring
    cells share their faces' triangles (a conforming mesh). */
 #pragma once
-#include <msim/sys.h>
-#include <functional>
+#include <msim/petsc_compat.h>
 #include <string>
 #include <vector>
 
@@ -128,11 +127,3 @@ PetscErrorCode MSimMeshEdges(const MSimMesh *m, std::vector<PetscInt> &ei, std::
 /* Each vertex's share of the cells' measure (a quarter of each tet's volume, a third of each
    triangle's area) and the total measure. */
 PetscErrorCode MSimMeshVertexMeasure(const MSimMesh *m, std::vector<PetscReal> &share, PetscReal *total);
-
-/* Runs fn on rank 0 of comm while the others wait; an error raised inside fn becomes one error on
-   all ranks of comm with fn's first message, so it prints once (and out-of-memory is an error, not
-   a crash). */
-PetscErrorCode MSimCallOnRankZero(MPI_Comm comm, const std::function<PetscErrorCode(void)> &fn);
-/* Collective: if ok is false on any rank, one error on comm with the message of the lowest such
-   rank (printed once). */
-PetscErrorCode MSimCollectiveCheck(MPI_Comm comm, PetscBool ok, const std::string &message);

@@ -1,6 +1,6 @@
 /* msim's own nonlinear solver types, registered with SNESRegister. */
 #pragma once
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <petscsnes.h>
 
 #define SNESPD "pd"

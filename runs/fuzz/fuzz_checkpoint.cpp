@@ -6,6 +6,7 @@
 #include <msim/output.h>
 #include <msim/scene.h>
 #include <msim/system.h>
+#include <msim/init.h>
 #include "fuzz_common.h"
 #include <cstdio>
 #include <string>

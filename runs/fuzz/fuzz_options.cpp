@@ -8,6 +8,7 @@
 #include <msim/integrator.h>
 #include <msim/scene.h>
 #include <msim/system.h>
+#include <msim/init.h>
 #include "fuzz_common.h"
 #include <cstdio>
 #include <cstring>

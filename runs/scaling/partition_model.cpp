@@ -9,6 +9,7 @@
    Usage: msim_partition_model [msim scene options] -parts 2,4,...,1024
           mpirun -n 2 msim_partition_model -pingpong */
 #include <msim/system.h>
+#include <msim/init.h>
 #include <metis.h>
 #include <algorithm>
 #include <slepcsys.h>

@@ -3,6 +3,8 @@
 #include <msim/run.h>
 #include <msim/spectrum.h>
 #include <msim/contact_force.h>
+#include <msim/signals.h>
+#include <msim/log.h>
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 #include <cmath>

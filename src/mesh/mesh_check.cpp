@@ -3,6 +3,7 @@
    of the mesh's bounding-box diagonal, a tet of zero volume below 1e-12 of its longest edge cubed,
    a triangle of zero area below 1e-12 of its longest edge squared. */
 #include <msim/mesh.h>
+#include <msim/log.h>
 #include <algorithm>
 #include <cmath>
 

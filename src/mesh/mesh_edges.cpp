@@ -2,6 +2,7 @@
    vertex, so that sorting happens within a vertex's few neighbours, never across the whole mesh:
    work and memory grow with the number of cells (12 bytes per cell edge, transient). */
 #include <msim/mesh.h>
+#include <msim/log.h>
 #include <algorithm>
 #include <cmath>
 

@@ -1,6 +1,7 @@
 /* The mesh readers as a registry, PETSc style: a PetscFunctionList by name (so -msim_mesh_format
    and -help list them) and the extensions each reads, so a new format is one registration line. */
 #include <msim/mesh.h>
+#include <msim/log.h>
 #include <cctype>
 #include <cstring>
 #include <unistd.h>

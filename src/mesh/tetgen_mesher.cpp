@@ -2,6 +2,8 @@
    default): a binary linked with TetGen is AGPL-3+ as a whole, one without it is BSD-2-Clause, and
    then every input but a surface to tetrahedralize still works. */
 #include <msim/mesh.h>
+#include <msim/log.h>
+#include <msim/crash_guard.h>
 #include <csetjmp>
 #include <csignal>
 #include <cstring>

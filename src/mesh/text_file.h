@@ -4,7 +4,7 @@
    about 400 MB of text). Lines may end in LF or CRLF; '#' starts a comment where the format has
    them. Every check is a PETSc error on PETSC_COMM_SELF. */
 #pragma once
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <algorithm>
 #include <cstdint>
 #include <string>

@@ -7,6 +7,7 @@
 #include "hdf5_series.h"
 #include "frame_fields.h"
 #include <msim/contact_force.h>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <string>
 #include <vector>

@@ -3,6 +3,7 @@
    edge has its directory (so every edge is seen by one rank, whichever ranks hold its cells). */
 #include "local_edges.h"
 #include <cmath>
+#include <msim/errors.h>
 
 namespace {
 struct VertexRecord {

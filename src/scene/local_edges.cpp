@@ -1,5 +1,6 @@
 #include "local_edges.h"
 #include <algorithm>
+#include <msim/log.h>
 
 namespace {
 const int kTetEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};

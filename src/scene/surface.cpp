@@ -2,6 +2,7 @@
    -msim_springs edge,bending, one across every edge two triangles share, joining the vertices
    opposite it. Masses by area. The file is read on rank 0. */
 #include <msim/scene.h>
+#include <msim/errors.h>
 
 PetscErrorCode MSimSceneShareHeader(MPI_Comm comm, MSimSceneData *s);
 

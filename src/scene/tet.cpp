@@ -3,6 +3,7 @@
    Read, checked and meshed on rank 0, which holds the vertices and tets until the scene spreads
    them; springs come from the unique tet edges. */
 #include <msim/scene.h>
+#include <msim/errors.h>
 
 PetscErrorCode MSimSceneMeshFileOptions(PetscOptionItems *PetscOptionsObject, char file[], size_t len, PetscReal *scale, PetscBool *set, char format[], size_t flen)
 {

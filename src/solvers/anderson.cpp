@@ -1,5 +1,5 @@
-#include <msim/sys.h>
 #include "anderson.h"
+#include <msim/petsc_compat.h>
 #include <Eigen/Dense>
 
 PetscErrorCode MSimAndersonCreate(Vec tmpl, PetscInt m, MSimAnderson *aa)

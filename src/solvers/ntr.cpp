@@ -15,6 +15,7 @@
    minimum. Options: -snes_ntr_eta, -snes_ntr_forcing_max, -snes_ntr_delta0. */
 #include <petsc/private/snesimpl.h>
 #include <msim/solvers.h>
+#include <msim/options.h>
 
 typedef struct {
   PetscReal eta;         /* accept a step when actual / predicted decrease of Phi > eta */

@@ -8,6 +8,8 @@
    (-pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps), for partitions whose interface is
    too large for a dense Schur complement. */
 #include <msim/solvers.h>
+#include <msim/log.h>
+#include <msim/options.h>
 #include "supernodal.h"
 #include "schur_cholesky.h"
 #include <petscksp.h>

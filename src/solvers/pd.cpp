@@ -8,7 +8,7 @@
    -snes_type anderson -npc_snes_type pd composes too, but has no safeguard, so its Phi can rise. */
 #include <msim/solvers.h>
 #include "anderson.h"
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <msim/registry.h>
 
 PETSC_EXTERN PetscErrorCode SNESCreate_Shell(SNES); /* exported by PETSc, declared in no public header */

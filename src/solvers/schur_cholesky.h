@@ -7,7 +7,7 @@
    system, and sweeps back: each rank touches only its own part of the sparse factor. */
 #pragma once
 #include "supernodal.h"
-#include <msim/sys.h>
+#include <msim/petsc_compat.h>
 #include <vector>
 
 namespace msim {

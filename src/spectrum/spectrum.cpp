@@ -5,6 +5,7 @@
 #include <msim/output.h>
 #include <msim/contact.h>
 #include <msim/volume.h>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <slepceps.h>
 

@@ -8,6 +8,7 @@
 #include <msim/spring_sweep.h>
 #include <msim/contact.h>
 #include <msim/volume.h>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
 

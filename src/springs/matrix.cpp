@@ -1,6 +1,7 @@
 /* Assembly of spring matrices (stiffness, Newton Jacobian) into a Mat preallocated once. */
 #include <msim/system.h>
 #include <msim/kernels.hpp>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <algorithm>
 

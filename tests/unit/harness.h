@@ -4,6 +4,7 @@
 #include <msim/run.h>
 #include <msim/implicit.h>
 #include <msim/spectrum.h>
+#include <msim/init.h>
 #include <slepcsys.h>
 #include <cmath>
 #include <algorithm>
