@@ -30,7 +30,9 @@ PetscErrorCode MSimInitialize(void)
 
   PetscFunctionBeginUser;
   MSimSingleThreadedBLAS();
-  /* before any options block, so its errors are one line too; listed for -help by main */
+  /* a direct look-up, not an options block: it chooses the error handler, which must be in place
+     before any object exists and before any options block runs, so that their errors are one line
+     too; it is listed for -help by main's "msim program" block */
   PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_traceback", &trace, NULL));
   if (!trace) PetscCall(PetscPushErrorHandler(MSimErrorHandler, NULL));
   msim_handler_pushed = (PetscBool)!trace;

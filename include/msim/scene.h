@@ -81,8 +81,6 @@ typedef struct _n_MSimSceneData {
 typedef struct _n_MSimScene *MSimScene;
 
 typedef PetscErrorCode (*MSimSceneGenerator)(MPI_Comm, MSimSceneData *);
-/* Whether output draws the scene's cells (a series, mode shapes): only then are they kept past setup */
-PetscErrorCode MSimSceneCellsDrawn(PetscBool *drawn);
 PetscErrorCode MSimSceneRegister(const char name[], MSimSceneGenerator gen);
 PetscErrorCode MSimSceneRegisterAll(void);
 PetscErrorCode MSimSceneFinalizePackage(void);

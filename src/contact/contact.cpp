@@ -305,7 +305,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
 {
   PetscContainer container;
   MSimContact    ct;
-  PetscBool      view = PETSC_FALSE, set;
+  PetscBool      set;
 
   PetscFunctionBeginUser;
   PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));
@@ -385,8 +385,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(CheckStart(ct)); /* the meshes' inside test everywhere, then only where the barrier reaches */
   for (MSimObstacle &o : ct->obs)
     if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
-  PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_scene_view", &view, &set));
-  if (view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
+  /* -msim_scene_view is the scene's option; the system carries it here */
+  if (sys->scene_view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;
   active   = ct;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -93,8 +93,14 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   sc->fix_velocity[0] = sc->fix_velocity[1] = sc->fix_velocity[2] = 0.0;
   sc->prestretch = 1.0;
   sc->perturb    = 0.0;
-  PetscCall(MSimSceneCellsDrawn(&drawn));
   PetscOptionsBegin(comm, NULL, "msim scene", NULL);
+  /* whether output will draw the cells: -msim_output and -msim_spectrum_modes are read by their
+     owners, the output series and the spectrum, in their own blocks once the system exists, after
+     the scene is built; the scene must know now, to keep its cells only then (at scale they are
+     most of setup's memory). So it asks whether they are set, inside its block, without reading
+     (listing) them a second time */
+  PetscCall(PetscOptionsHasName(PetscOptionsObject->options, NULL, "-msim_output", &drawn));
+  if (!drawn) PetscCall(PetscOptionsHasName(PetscOptionsObject->options, NULL, "-msim_spectrum_modes", &drawn));
   /* what is printed and kept of the scene, not what the scene is: read before the watch */
   PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
   PetscCall(PetscOptionsBool("-msim_scene_keep_cells", "Keep the scene's cells when nothing draws or refines them (for code that reads them)", NULL, keep_cells, &keep_cells, NULL));
@@ -206,18 +212,9 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscLogStagePop());
   PetscCall(MSimOptionsWatchEnd(&watch, S.identity));
   if (view) PetscCall(MSimSceneView(comm, &S));
+  sc->view  = view;
+  sc->drawn = drawn;
   *scene = owner.release();
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimSceneCellsDrawn(PetscBool *drawn)
-{
-  PetscBool series, modes;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_output", &series));
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_spectrum_modes", &modes));
-  *drawn = (PetscBool)(series || modes);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

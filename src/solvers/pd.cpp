@@ -9,9 +9,51 @@
 #include <msim/solvers.h>
 #include "anderson.h"
 #include <msim/petsc_compat.h>
+#include <msim/options.h>
 #include <msim/registry.h>
 
 PETSC_EXTERN PetscErrorCode SNESCreate_Shell(SNES); /* exported by PETSc, declared in no public header */
+
+/* The pd type's options, read in the SNES's own options block: SNESSetFromOptions runs the handlers
+   added to the object (PetscObjectAddOptionsHandler) inside its block, with its prefix, so pd as
+   the NPC reads -npc_snes_pd_* and -help lists them once, under the SNES that is pd. */
+typedef struct {
+  PetscBool fixed;    /* -snes_pd_fixed */
+  PetscInt  anderson; /* -snes_pd_anderson */
+} SNESPDOptions;
+
+static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *PetscOptionsObject, void *ctx)
+{
+  SNESPDOptions *o = (SNESPDOptions *)ctx;
+  PetscBool      pd;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare(obj, SNESPD, &pd));
+  if (!pd) PetscFunctionReturn(PETSC_SUCCESS); /* the SNES was pd once and has another type now */
+  PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations", NULL, o->fixed, &o->fixed, NULL));
+  PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, o->anderson, &o->anderson, NULL));
+  PetscCheck(o->anderson >= 0, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_anderson must be >= 0 (got %" PetscInt_FMT ")", o->anderson);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The options composed on the SNES (made with it, freed with it) */
+static PetscErrorCode SNESPDGetOptions(SNES snes, SNESPDOptions **o)
+{
+  PetscContainer c;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDOptions", (PetscObject *)&c));
+  if (!c) {
+    PetscCall(PetscNew(o));
+    PetscCall(PetscContainerCreate(PetscObjectComm((PetscObject)snes), &c));
+    PetscCall(PetscContainerSetPointer(c, *o));
+    PetscCall(PetscContainerSetUserDestroy(c, PetscContainerUserDestroyDefault));
+    PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDOptions", (PetscObject)c));
+    PetscCall(PetscContainerDestroy(&c));
+    PetscCall(PetscObjectAddOptionsHandler((PetscObject)snes, SNESPDSetFromOptions, NULL, *o));
+  } else PetscCall(PetscContainerGetPointer(c, (void **)o));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 static PetscErrorCode SNESPDGetProblem(SNES snes, MSimPDProblem **pd)
 {
@@ -50,18 +92,17 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   MSimPDProblem      *pd;
   Vec                 F, rhs, G = NULL;
   PetscReal           atol, rtol, stol, fnorm = 0, fnorm0 = 0, phi = 0, phi_new;
-  PetscInt            maxit, maxf, k, m = 0, fallbacks = 0;
-  PetscBool           fixed = PETSC_FALSE, accelerated;
-  const char         *prefix;
+  PetscInt            maxit, maxf, k, m, fallbacks = 0;
+  PetscBool           fixed, accelerated;
+  SNESPDOptions      *opts;
   SNESConvergedReason reason = SNES_CONVERGED_ITERATING;
   MSimAnderson        aa;
 
   PetscFunctionBeginUser;
   PetscCall(SNESPDGetProblem(snes, &pd));
-  PetscCall(SNESGetOptionsPrefix(snes, &prefix));
-  PetscCall(PetscOptionsGetBool(NULL, prefix, "-snes_pd_fixed", &fixed, NULL));
-  PetscCall(PetscOptionsGetInt(NULL, prefix, "-snes_pd_anderson", &m, NULL));
-  PetscCheck(m >= 0, PetscObjectComm((PetscObject)snes), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_anderson must be >= 0 (got %" PetscInt_FMT ")", m);
+  PetscCall(SNESPDGetOptions(snes, &opts));
+  fixed = opts->fixed;
+  m     = opts->anderson;
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
   PetscCall(SNESGetFunction(snes, &F, NULL, NULL));
   PetscCall(VecDuplicate(X, &rhs));
@@ -121,9 +162,12 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
 
 static PetscErrorCode SNESCreate_PD(SNES snes)
 {
+  SNESPDOptions *opts;
+
   PetscFunctionBeginUser;
   PetscCall(SNESCreate_Shell(snes));
   PetscCall(SNESShellSetSolve(snes, SNESSolve_PD));
+  PetscCall(SNESPDGetOptions(snes, &opts)); /* its options handler, for the SetFromOptions that follows */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -68,6 +68,7 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   sys->nv            = S.nv;
   sys->scene_name    = S.name;
   sys->scene_identity = S.identity;
+  sys->scene_view     = scene->view;
   sys->diameter      = S.diameter;
   sys->cell_size     = S.cell_size;
   sys->ncell_global  = S.ncell;
@@ -86,8 +87,7 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   /* the cells output draws: a mesh's cells held here, or the springs held here as lines (taken
      now: the distribution consumes the scene's springs); none (and the scene's topology freed
      with the scene) when no option writes a series or modes */
-  PetscBool drawn;
-  PetscCall(MSimSceneCellsDrawn(&drawn));
+  const PetscBool drawn = scene->drawn;
   sys->out_cell_size = S.cell_size ? S.cell_size : 2;
   if (drawn) {
     /* the springs as input-id pairs: a grid's or chain's cells, a mesh's second piece */

@@ -18,6 +18,8 @@ static std::string MSimOptionsWithValue(const std::string &value, const std::str
   std::string       names, prev, tok;
   std::stringstream ss;
 
+  /* the whole database, read directly: this runs inside the error handler, after some options
+     block failed, to find which option holds the offending value; no object owns that search */
   if (PetscOptionsGetAll(NULL, &all) || !all) return names;
   ss << all;
   while (ss >> tok) {

@@ -13,6 +13,8 @@ PetscErrorCode MSimWarnUnusedOptions(MPI_Comm comm)
   char    **names, **values;
 
   PetscFunctionBeginUser;
+  /* PETSc's own option, read by PetscFinalize, which no msim object owns: only asked here whether
+     PETSc will list the unread options itself */
   PetscCall(PetscOptionsHasName(NULL, NULL, "-options_left", &left));
   if (left) PetscFunctionReturn(PETSC_SUCCESS); /* PetscFinalize lists them */
   PetscCall(PetscOptionsLeftGet(NULL, &n, &names, &values));

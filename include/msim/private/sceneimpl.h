@@ -9,4 +9,8 @@ struct _n_MSimScene {
   PetscReal     fix_velocity[3]; /* fixed vertices translate with this velocity */
   PetscReal     prestretch;      /* initial positions = prestretch * rest positions */
   PetscReal     perturb;         /* plus a deterministic pseudo-random displacement of this size */
+  PetscBool     view;            /* -msim_scene_view: what the system builds from the scene (its
+                                    obstacles) is printed too */
+  PetscBool     drawn;           /* output draws the cells (a series, mode shapes): the system
+                                    keeps them past setup */
 };

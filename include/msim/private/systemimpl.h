@@ -90,7 +90,7 @@ struct _n_MSimSystem {
      lines), input ids */
   int                   out_cell_size; /* vertices per cell: 4, 3 or 2 */
   std::vector<PetscInt> out_cells;
-  /* what frames show besides positions, kept only when something draws (MSimSceneCellsDrawn) */
+  /* what frames show besides positions, kept only when something draws (the scene's drawn) */
   std::vector<PetscReal> out_cell_V0;  /* rest volume of each tet of out_cells (tet scenes) */
   std::vector<PetscInt>  out_springs;  /* a mesh's springs held here as input-id pairs (for grids
                                           and chains out_cells are the springs) */
@@ -103,4 +103,5 @@ struct _n_MSimSystem {
   PetscInt              nspring_total; /* every spring of the scene, those between fixed vertices too */
   std::string           scene_name;
   std::string           scene_identity; /* the options that defined the scene (MSimSceneData::identity) */
+  PetscBool             scene_view;     /* the scene's -msim_scene_view: the contact object prints its obstacles */
 };

@@ -294,13 +294,6 @@ static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
   PetscCall(MSimOptionsReal("-msim_step_atol", "Converged also once an iteration's step dx has |dx|_2 below this (m; 0: off): graphics codes' rule, absolute where -snes_stol is relative to |x| (newtonls, ntr, qn)", NULL, ie->step_atol, &ie->step_atol, NULL));
   PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
-  {
-    /* read by the pd type itself at each solve (it has no options hook); listed here for -help */
-    PetscBool pd_fixed = PETSC_FALSE;
-    PetscInt  pd_anderson = 0;
-    PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations (prefix -npc_ when pd is the NPC)", NULL, pd_fixed, &pd_fixed, NULL));
-    PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, pd_anderson, &pd_anderson, NULL));
-  }
   PetscOptionsEnd();
   PetscCall(PetscOptionsHasName(NULL, NULL, "-mg_levels_ksp_type", &ie->mg_levels_set));
   PetscFunctionReturn(PETSC_SUCCESS);
