@@ -305,7 +305,6 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
 {
   PetscContainer container;
   MSimContact    ct;
-  PetscBool      set;
 
   PetscFunctionBeginUser;
   PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));

@@ -3,6 +3,7 @@
    (springs: |p| = L, and spring damping and drag folded in exactly, see terms/), so the x-step
    matrix A = M + the terms' weights is constant: factor once per h. */
 #include <msim/implicit.h>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 

@@ -1,6 +1,7 @@
 /* The implicit problem (msim/implicit.h): Phi, g and the Hessian as the inertia term plus the
    registered energy terms; the scheme's y, x_n and velocity update. */
 #include <msim/implicit.h>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 

@@ -3,6 +3,7 @@
 #include <msim/registry.h>
 #include <msim/implicit.h>
 #include <msim/self_contact.h>
+#include <msim/log.h>
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 

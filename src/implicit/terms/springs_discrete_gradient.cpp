@@ -24,6 +24,7 @@
    springs.cpp): a ghost end's share goes to its owner (residual) or through the Mat's stash. */
 #include <msim/implicit.h>
 #include <msim/kernels.hpp>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 
