@@ -107,7 +107,7 @@ static void BoxSprings(MSimSceneData *s, const PetscInt n[3], const PetscReal si
 PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
 {
   PetscInt    n[3] = {4, 4, 4}, nn = 3, nl = 3;
-  PetscReal   size[3] = {1, 1, 1}, young = 0;
+  PetscReal   size[3] = {1, 1, 1};
   PetscBool   nset, lset;
   PetscMPIInt rank, nranks;
   PetscInt    way = 0;
@@ -117,7 +117,6 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
   PetscOptionsBegin(comm, NULL, "msim box scene (a tet box)", NULL);
   PetscCall(MSimOptionsIntArray("-msim_box_n", "Cubes along x, y, z", NULL, n, &nn, &nset));
   PetscCall(MSimOptionsRealArray("-msim_box_size", "Side lengths along x, y, z, m", NULL, size, &nl, &lset));
-  PetscCall(MSimOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
   PetscCall(PetscOptionsEList("-msim_box_springs", "How the box gets its springs and masses: direct (from its structure) or cells (the edges of its tets, as a mesh)", NULL, ways, 2, ways[0], &way, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
@@ -128,7 +127,6 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
     PetscCheck(size[d] > 0 && PetscIsNormalReal(size[d]), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_box_size: %c side must be > 0 m (got %g)", "xyz"[d], (double)size[d]);
   }
   PetscCheck((double)(n[0] + 1) * (n[1] + 1) * (n[2] + 1) < PETSC_MAX_INT / 4 && 6.0 * n[0] * n[1] * n[2] < PETSC_MAX_INT / 4, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_box_n %" PetscInt_FMT ",%" PetscInt_FMT ",%" PetscInt_FMT ": too many tets for this build's %d-bit indices", n[0], n[1], n[2], (int)(8 * sizeof(PetscInt)));
-  PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCallMPI(MPI_Comm_size(comm, &nranks));
 
@@ -146,7 +144,6 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
   const PetscBool store = (PetscBool)(s->cells_wanted || way != 0);
   if (store) s->cells.reserve(24 * (size_t)(last - first));
   s->k_cell    = s->stiffness;
-  s->young     = young;
   s->source    = "box";
   for (PetscInt v = first; v < last; v++) {
     const PetscInt i = v % nx, j = (v / nx) % ny, l = v / (nx * ny);
@@ -168,6 +165,6 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
       s->cells.insert(s->cells.end(), t, t + 4);
     }
   }
-  if (way == 0) BoxSprings(s, n, size, first, last, s->stiffness, young);
+  if (way == 0) BoxSprings(s, n, size, first, last, s->stiffness, s->young); /* s->young: -msim_young, read by the scene */
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -81,7 +81,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   char               type[64] = "cloth";
   MSimSceneGenerator gen;
   PetscReal          mass = 1.0, density = 0;
-  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set, keep_cells = PETSC_FALSE, drawn;
+  PetscBool          mass_set, density_set, view = PETSC_FALSE, refine_set, keep_cells = PETSC_FALSE, drawn, young_set;
   PetscInt           refine = 0;
   MSimOptionsWatch   watch;
 
@@ -110,6 +110,8 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsWatchBegin(&watch));
   PetscCall(PetscOptionsFList("-msim_scene", "Scene generator", NULL, MSimScenes.list, type, type, sizeof(type), NULL));
   PetscCall(MSimOptionsReal("-msim_stiffness", "Spring constant of every spring, N/m", NULL, S.stiffness, &S.stiffness, NULL));
+  /* read here, once, for the solid scenes' generators (tet, box), which take it from S.young */
+  PetscCall(MSimOptionsReal("-msim_young", "Young's modulus of the solid scenes (tet, box), Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, S.young, &S.young, &young_set));
   PetscCall(MSimOptionsReal("-msim_mass", "Total mass, kg, lumped to the vertices: equally on grids and chains, by volume or area on meshes", NULL, mass, &mass, &mass_set));
   PetscCall(MSimOptionsReal("-msim_density", "Mass per volume (tets, kg/m^3) or per area (surfaces, kg/m^2), instead of -msim_mass", NULL, density, &density, &density_set));
   PetscCall(MSimOptionsVec3("-msim_fix_velocity", "Velocity of the fixed vertices (moving handles), m/s", sc->fix_velocity, NULL));
@@ -118,6 +120,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
   PetscOptionsEnd();
   PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
+  PetscCheck(S.young >= 0 && !PetscIsInfOrNanReal(S.young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)S.young);
   PetscCheck(S.stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)S.stiffness);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
   PetscCheck(!density_set || density > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_density must be > 0 (got %g)", (double)density);
@@ -132,6 +135,12 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall((*gen)(comm, &S));
   PetscCall(PetscLogStagePop());
+  if (S.cell_size != 4) {
+    /* Young's modulus sets the springs of solids only: said to be irrelevant here, not applied to
+       a surface's triangles */
+    if (young_set) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msim: note: -msim_young does not apply to -msim_scene %s%s; it sets the springs of the solid scenes tet and box\n", type, S.cell_size == 3 ? " (a surface's springs take -msim_stiffness_edge, N/m)" : ""));
+    S.young = 0;
+  }
 
   /* -help lists every scene's options, not only the chosen one's: the other generators read
      their options on a scratch scene and build nothing */

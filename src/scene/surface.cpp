@@ -32,14 +32,6 @@ PetscErrorCode MSimSceneGenerate_Mesh(MPI_Comm comm, MSimSceneData *s)
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   {
-    /* Young's modulus sets the springs of solids; a shell's are -msim_stiffness_edge. Read here,
-       so that it is not reported as misspelled, and said to be irrelevant instead. */
-    PetscReal young;
-    PetscBool young_set;
-    PetscCall(PetscOptionsGetReal(NULL, NULL, "-msim_young", &young, &young_set));
-    if (young_set) PetscCall(PetscFPrintf(comm, PETSC_STDERR, "msim: note: -msim_young does not apply to -msim_scene mesh (a surface's springs take -msim_stiffness_edge, N/m); it sets the springs of the solid scenes tet and box\n"));
-  }
-  {
     PetscBool edge_only, both;
     PetscCall(PetscStrcmp(springs, "edge", &edge_only));
     PetscCall(PetscStrcmp(springs, "edge,bending", &both));

@@ -73,21 +73,19 @@ static PetscErrorCode ReadTets(const char file[], const char format[], const cha
 PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
 {
   char      file[PETSC_MAX_PATH_LEN] = "", switches[256] = "pq1.414Y", format[64] = "auto";
-  PetscReal scale = 1, young = 0;
+  PetscReal scale = 1;
   PetscBool set;
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim tet scene (a solid: springs on tet edges)", NULL);
   PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set, format, sizeof(format)));
   PetscCall(PetscOptionsString("-msim_tetgen_switches", "TetGen switches for a surface (p: keep the surface, q1.414: radius-edge ratio bound, Y: no new vertices on the surface, a0.1: tet volume bound)", NULL, switches, switches, sizeof(switches), NULL));
-  PetscCall(MSimOptionsReal("-msim_young", "Young's modulus, Pa: each spring's stiffness E V_e / L^2 (V_e: volume of the tets around the edge) instead of -msim_stiffness", NULL, young, &young, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, Gmsh .msh, or Medit .mesh)");
   PetscCheck(scale > 0 && PetscIsNormalReal(scale), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mesh_scale must be a positive number (got %g)", (double)scale);
-  PetscCheck(young >= 0 && !PetscIsInfOrNanReal(young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)young);
   s->k_cell = s->stiffness;
-  s->young  = young;
+  /* s->young: -msim_young, read by the scene (msim/scene.h) */
   PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadTets(file, format, switches, scale, s); }));
   PetscCall(MSimSceneShareHeader(comm, s));
   PetscFunctionReturn(PETSC_SUCCESS);

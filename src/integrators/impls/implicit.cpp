@@ -28,7 +28,11 @@ typedef struct {
   PetscBool              inertia_correction; /* -msim_inertia_correction */
   MSimInertiaCorrection  ic;
   PetscReal              step_atol;      /* -msim_step_atol: converged once a step moves less */
-  PetscBool              mg_levels_set;  /* the user chose GAMG's smoothers (-mg_levels_ksp_type) */
+  /* what the user chose for the SNES's parts, asked in its options block (SNESUserChoices) */
+  PetscBool              mg_levels_set;  /* GAMG's smoothers (-mg_levels_ksp_type) */
+  PetscBool              pc_type_set;    /* the preconditioner (-pc_type) */
+  PetscBool              linesearch_set; /* the line search (-snes_linesearch_type) */
+  PetscInt               icntl13;        /* MUMPS's ICNTL(13) (-mat_mumps_icntl_13; 1 unless set) */
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
 } ImplicitData;
 
@@ -160,7 +164,7 @@ static PetscErrorCode SetUpInertia(ImplicitData *ie, PetscMPIInt size)
 {
   KSP           ksp;
   PC            pc;
-  PetscBool     newton, cholesky, mumps, set;
+  PetscBool     newton, cholesky, mumps;
   MatSolverType solver;
   PetscInt      icntl13 = 1;
 
@@ -177,7 +181,7 @@ static PetscErrorCode SetUpInertia(ImplicitData *ie, PetscMPIInt size)
   if (!solver || !mumps) PetscFunctionReturn(PETSC_SUCCESS);
   if (size > 1) {
     Mat F;
-    PetscCall(PetscOptionsGetInt(NULL, NULL, "-mat_mumps_icntl_13", &icntl13, &set));
+    icntl13 = ie->icntl13; /* a user's -mat_mumps_icntl_13 wins over the 1 set below */
     PetscCall(KSPSetOperators(ksp, ie->J, ie->J));
     PetscCall(PCFactorSetUpMatSolverType(pc));
     PetscCall(PCFactorGetMatrix(pc, &F));
@@ -245,7 +249,7 @@ static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
 
   PetscFunctionBeginUser;
   PetscCall(MSimSNESUsesJacobian(ie->snes, &uses));
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-pc_type", &has_pc));
+  has_pc = ie->pc_type_set;
   for (const auto &d : kTypeDefaults) {
     PetscBool match;
     PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, d.type, &match));
@@ -283,6 +287,26 @@ static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Whether the user chose the SNES's preconditioner, line search and GAMG smoothers, and MUMPS's
+   ICNTL(13): msim's defaults for them depend on the SNES type and give way to a user's choice.
+   Asked inside the SNES's own options block (an options handler, run by SNESSetFromOptions after
+   the type is set, with the SNES's prefix, which its KSP, PC and line search share). PETSc keeps
+   no record of whether a type came from an option or a default, so this asks whether the names
+   are set; it lists nothing in -help (their owners do, when they read them). */
+static PetscErrorCode SNESUserChoices(PetscObject obj, PetscOptionItems *PetscOptionsObject, void *ctx)
+{
+  ImplicitData *ie = (ImplicitData *)ctx;
+  PetscBool     set;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-pc_type", &ie->pc_type_set));
+  PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-snes_linesearch_type", &ie->linesearch_set));
+  PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-mg_levels_ksp_type", &ie->mg_levels_set));
+  ie->icntl13 = 1;
+  PetscCall(PetscOptionsGetInt(PetscOptionsObject->options, PetscOptionsObject->prefix, "-mat_mumps_icntl_13", &ie->icntl13, &set));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
 {
   PetscFunctionBeginUser;
@@ -295,7 +319,6 @@ static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
   PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
   PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
   PetscOptionsEnd();
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-mg_levels_ksp_type", &ie->mg_levels_set));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -337,12 +360,12 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   MSimSystem      sys = integ->sys;
   PC              pc;
   DM              dm;
-  PetscBool       set;
   const PetscBool discrete = (PetscBool)(ie->imp->scheme->no_objective != NULL);
 
   PetscFunctionBeginUser;
   PetscCall(VecDuplicate(sys->X0, &ie->G));
   PetscCall(SNESCreate(integ->comm, &ie->snes));
+  PetscCall(PetscObjectAddOptionsHandler((PetscObject)ie->snes, SNESUserChoices, NULL, ie));
   PetscCall(SNESSetFunction(ie->snes, ie->G, FormFunction, ie->imp));
   if (!discrete) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
   PetscCall(SNESGetDM(ie->snes, &dm));
@@ -357,20 +380,19 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
      cap on function evaluations (PETSc's 10,000 stopped L-BFGS, two per iteration, at 5,000
      iterations as a failure). */
   PetscCall(SNESSetTolerances(ie->snes, 1e-10 * sys->total_mass * PetscMax(sys->diameter, PETSC_SMALL), 1e-8, 1e-12, 50, -1));
-  /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence,
-     unless the user chose one (-snes_linesearch_type) */
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
   if (discrete) {
     /* a GMRES iterate that stopped short still lowers the linearized |r| (GMRES minimizes it over
        its space), so it descends for |r|^2: Newton goes on with it (GMRES(30) with ILU stalled at
        step 238 of a 7 x 7 cloth at h = 1/30 s); -snes_max_linear_solve_fail overrides */
     PetscCall(SNESSetMaxLinearSolveFailures(ie->snes, PETSC_MAX_INT));
   }
-  if (discrete && !set) {
+  /* Newton's line search: msim's backtracking on Phi with the |g| fallback near convergence; a
+     default set before SNESSetFromOptions, so a user's -snes_linesearch_type replaces it there */
+  if (discrete) {
     SNESLineSearch ls;
     PetscCall(SNESGetLineSearch(ie->snes, &ls));
     PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHL2));
-  } else if (!set) {
+  } else {
     SNESLineSearch ls;
     PetscCall(SNESGetLineSearch(ie->snes, &ls));
     PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHSHELL));
@@ -400,7 +422,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
          left the feasible set and ended in DIVERGED_DTOL on a cloth dropped on a plane): with a
          barrier, backtracking on Phi unless the user chose a search */
       PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESQN, &qn));
-      if (qn && !set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+      if (qn && !ie->linesearch_set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
       break;
     }
   if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ConvergenceEval, ie));
