@@ -63,12 +63,14 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
   (*b)->snes = snes;
   (*b)->obs.swap(ct->obs); /* the barrier, its friction and its line-search limit no longer see them */
   if (!vi) PetscCall(SNESSetType(snes, SNESVINEWTONRSLS));
-  /* msim's energy line search does not project onto the bounds; PETSc's backtracking on Phi does */
-  PetscCall(PetscOptionsHasName(NULL, NULL, "-snes_linesearch_type", &set));
-  if (!set) {
+  /* msim's energy line search (the shell type, msim's default, set before SNESSetFromOptions) does
+     not project onto the bounds; PETSc's backtracking on Phi does. A user's -snes_linesearch_type
+     has replaced the shell by now and is kept. */
+  {
     SNESLineSearch ls;
     PetscCall(SNESGetLineSearch(snes, &ls));
-    PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+    PetscCall(PetscObjectTypeCompare((PetscObject)ls, SNESLINESEARCHSHELL, &set));
+    if (set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
   }
   PetscCall(VecDuplicate(sys->X0, &(*b)->XL));
   PetscCall(VecDuplicate(sys->X0, &(*b)->XU));
