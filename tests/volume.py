@@ -39,7 +39,8 @@ NEWTON = ["-msim_integrator", "implicit_euler", "-msim_steps", "20", "-ksp_type"
 
 def inverted_frames(args, np_, out, every):
     """per frame the number of inverted tets, or None when msim failed"""
-    r = mt.run(MSIM, args + ["-msim_output", out, "-msim_output_every", str(every)], np_)
+    # from the project root: the example options files name their meshes relative to it
+    r = mt.run(MSIM, args + ["-msim_output", out, "-msim_output_every", str(every)], np_, cwd=mt.ROOT)
     if r.returncode:
         print(r.stderr[-1500:])
         return None
