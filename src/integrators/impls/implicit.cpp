@@ -227,10 +227,14 @@ static PetscErrorCode GAMGSmoothersSOR(PC pc, KSP ksp)
    blocks exist only once the PC is set up, hence before each solve; a user's -sub_pc_type wins. */
 static PetscErrorCode BlockJacobiICC(PC pc, KSP ksp)
 {
-  KSP     *sub;
-  PetscInt n;
+  KSP      *sub;
+  PetscInt  n;
+  PetscBool bjacobi;
 
   PetscFunctionBeginUser;
+  /* the PC may have changed type since the hook was set (a later -pc_type, msim's PD factor) */
+  PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCBJACOBI, &bjacobi));
+  if (!bjacobi) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PCBJacobiGetSubKSP(pc, &n, NULL, &sub));
   for (PetscInt b = 0; b < n; b++) {
     PC        bpc;
