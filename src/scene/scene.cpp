@@ -120,7 +120,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
   PetscOptionsEnd();
   PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
-  PetscCheck(S.young >= 0 && !PetscIsInfOrNanReal(S.young), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)S.young);
+  PetscCheck(!young_set || (S.young > 0 && !PetscIsInfOrNanReal(S.young)), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)S.young);
   PetscCheck(S.stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)S.stiffness);
   PetscCheck(mass > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_mass must be > 0 kg (got %g)", (double)mass);
   PetscCheck(!density_set || density > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_density must be > 0 (got %g)", (double)density);

@@ -436,7 +436,9 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
   PetscCall(SNESSetFromOptions(ie->snes));
   if (discrete) PetscCall(RefuseMinimizers(integ, ie));
-  PetscCall(MSimContactBoundsCreate(sys, ie->snes, &ie->bounds)); /* before the barrier's checks: it may take every obstacle */
+  /* before the barrier's checks: it takes the obstacles it serves as bounds out of the system's
+     contact object for good, so -help's throwaway integrators must not make one */
+  if (!integ->help_listing) PetscCall(MSimContactBoundsCreate(sys, ie->snes, &ie->bounds));
   for (PetscInt k = 0; k < ie->imp->nterms; k++)
     if (ie->imp->terms[k]->ops.max_step) {
       SNESLineSearch ls;
@@ -543,7 +545,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
        (|g|^2 / |H| against eps |Phi|), so no line search can accept a step: the iterate is as
        converged as this precision allows. Counted with the steps that stopped short, not failed. */
     integ->unconverged_steps++;
-    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (Phi's roundoff)", type, (double)integ->residual, (double)atol));
+    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (roundoff)", type, (double)integ->residual, (double)atol));
   }
   else if (reason == SNES_DIVERGED_MAX_IT) {
     if (atol > 0 || rtol > 0 || ie->step_atol > 0) {
@@ -566,7 +568,7 @@ static PetscErrorCode View_Implicit(MSimIntegrator integ, PetscViewer viewer)
 {
   ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped at -snes_max_it before its tolerance: %" PetscInt_FMT "\n", integ->unconverged_steps));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "steps whose solve stopped before its tolerance (-snes_max_it, or a line search stalled at roundoff): %" PetscInt_FMT "\n", integ->unconverged_steps));
   if (ie->inertia_correction) PetscCall(PetscViewerASCIIPrintf(viewer, "inertia correction: %" PetscInt_FMT " Newton iterations factored H + delta M (delta up to %g), %" PetscInt_FMT " factorizations beyond one per iteration\n", ie->ic.shifted, (double)ie->ic.delta_max, ie->ic.extra));
   if (ie->inertia && ie->check_saddle) PetscCall(PetscViewerASCIIPrintf(viewer, "steps converged to a saddle point of Phi (negative pivots in the exact Hessian's LDL^T): %" PetscInt_FMT ", at most %" PetscInt_FMT " negative eigenvalues\n", integ->saddle_steps, integ->saddle_negative));
   if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
