@@ -56,6 +56,34 @@ static inline PetscErrorCode TestSimCreate(const char *opts, TestSim *s)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* |J dX - (g(X + eps dX) - g(X - eps dX)) / (2 eps)| and |J dX|: J, assembled at X, against central
+   differences of the problem's residual along dX (err / nrm is O(eps^2) for an exact Jacobian) */
+static inline PetscErrorCode JacobianFDError(MSimImplicit imp, Mat J, Vec X, Vec dX, PetscReal eps, PetscReal *err, PetscReal *nrm)
+{
+  Vec Xp, Gp, Gm, JdX;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(X, &Xp));
+  PetscCall(VecDuplicate(X, &Gp));
+  PetscCall(VecDuplicate(X, &Gm));
+  PetscCall(VecDuplicate(X, &JdX));
+  PetscCall(VecWAXPY(Xp, eps, dX, X));
+  PetscCall(MSimImplicitResidual(imp, Xp, Gp));
+  PetscCall(VecWAXPY(Xp, -eps, dX, X));
+  PetscCall(MSimImplicitResidual(imp, Xp, Gm));
+  PetscCall(VecAXPY(Gp, -1.0, Gm));
+  PetscCall(VecScale(Gp, 1.0 / (2 * eps)));
+  PetscCall(MatMult(J, dX, JdX));
+  PetscCall(VecNorm(JdX, NORM_2, nrm));
+  PetscCall(VecAXPY(Gp, -1.0, JdX));
+  PetscCall(VecNorm(Gp, NORM_2, err));
+  PetscCall(VecDestroy(&JdX));
+  PetscCall(VecDestroy(&Gm));
+  PetscCall(VecDestroy(&Gp));
+  PetscCall(VecDestroy(&Xp));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static inline PetscErrorCode TestSimDestroy(TestSim *s)
 {
   PetscFunctionBeginUser;
