@@ -10,7 +10,7 @@
 - the same 20 steps of the damped cloth solved by Newton, by PD to convergence and by L-BFGS with the
   PD factor end within 1e-7 m of each other (each solved to |g| < 1e-12 kg m, about |g| / m = 1e-10 m
   per step for these 28 g vertices: the bound leaves a factor 50 for 20 steps' growth);
-- BDF2 and Newmark (and midpoint) restarted from a checkpoint at step 10 end bit for bit where 20
+- BDF2 and Newmark (and midpoint and discrete_gradient) restarted from a checkpoint at step 10 end bit for bit where 20
   uninterrupted steps do, and the checkpoint carries the scheme's history (2 vectors for BDF2, 1 for
   Newmark: its size grows by that many vectors of 3 n doubles over implicit Euler's);
 - implicit midpoint at a large step (21 x 21 cloth, h = 1/30 s, 12 steps) is PETSc's own implicit
@@ -79,10 +79,12 @@ def solvers(np_, tmp):
 
 
 def restarts(np_, tmp):
-    base = CLOTH + ["-msim_dt", "0.01", "-snes_type", "pd", "-snes_max_it", "5", "-snes_pd_fixed"]
+    base = CLOTH + ["-msim_dt", "0.01"]
+    pd = ["-snes_type", "pd", "-snes_max_it", "5", "-snes_pd_fixed"]
     sizes = {}
-    for s in ("implicit_euler",) + SCHEMES:
-        args = base + ["-msim_integrator", s]
+    # discrete_gradient has no objective for PD: its own default solver (Newton, GMRES)
+    for s in ("implicit_euler",) + SCHEMES + ("discrete_gradient",):
+        args = base + (pd if s != "discrete_gradient" else []) + ["-msim_integrator", s]
         full, ck, part = (os.path.join(tmp, f"{s}_{k}") for k in ("full.bin", "ck", "part.bin"))
         msim(np_, args + ["-msim_steps", "20", "-msim_view_final", f"binary:{full}"])
         msim(np_, args + ["-msim_steps", "10", "-msim_checkpoint", ck])
@@ -92,7 +94,7 @@ def restarts(np_, tmp):
             check(open(full, "rb").read() == open(part, "rb").read(), f"np={np_}: {s}: restarted at step 10, step 20 is bit for bit the uninterrupted run's")
     nv = 36
     vec = 8 + 3 * nv * 8  # a PETSc binary Vec: class id, size, 3 nv doubles
-    for s, n in (("bdf2", 2), ("newmark", 1), ("implicit_midpoint", 0)):
+    for s, n in (("bdf2", 2), ("newmark", 1), ("implicit_midpoint", 0), ("discrete_gradient", 0)):
         grown = sizes[s] - sizes["implicit_euler"]
         check(grown == (n * vec + len(s) if n else 0), f"np={np_}: {s}'s checkpoint carries {n} history vector(s): {grown} bytes more than implicit Euler's")
 
