@@ -38,6 +38,8 @@ PetscErrorCode MSimImplicitTermRegister(const char name[], PetscErrorCode (*crea
 PetscErrorCode MSimImplicitRegisterAll(void);
 /* the registered schemes' names (the strings are the registry's; PetscFree the array) */
 PetscErrorCode MSimImplicitSchemeGetNames(const char ***names, PetscInt *n);
+/* whether an integrator type is one of the implicit schemes (so it has a feasible line search) */
+PetscErrorCode MSimImplicitSchemeIsRegistered(const char type[], PetscBool *is);
 
 /* Create with a scheme by name (NULL: implicit Euler) and the terms of -msim_implicit_terms
    (default: every registered term; a term whose physics the scene lacks costs nothing). */

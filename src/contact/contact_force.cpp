@@ -11,23 +11,17 @@
 #include <msim/implicit.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
-#include <cstring>
 
 static const char barrier_key[] = "MSimContactForceBarrier";
 
 PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
 {
-  const char   **names;
-  PetscInt       n;
-  PetscBool      barrier = PETSC_FALSE;
+  PetscBool      barrier;
   PetscContainer mark;
 
   PetscFunctionBeginUser;
-  /* the implicit integrators are the registered schemes, by name (src/integrators/impls/implicit.cpp) */
-  PetscCall(MSimImplicitSchemeGetNames(&names, &n));
-  for (PetscInt k = 0; k < n; k++)
-    if (!strcmp(names[k], type)) barrier = PETSC_TRUE;
-  PetscCall(PetscFree(names));
+  /* the implicit integrators (the registered schemes) use the barrier; the others the penalty */
+  PetscCall(MSimImplicitSchemeIsRegistered(type, &barrier));
   if (barrier) {
     PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &mark));
     PetscCall(PetscObjectCompose((PetscObject)sys->X0, barrier_key, (PetscObject)mark));

@@ -74,6 +74,17 @@ PetscErrorCode MSimImplicitSchemeGetNames(const char ***names, PetscInt *n)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimImplicitSchemeIsRegistered(const char type[], PetscBool *is)
+{
+  PetscErrorCode (*create)(MSimImplicitScheme) = NULL;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitRegisterAll());
+  PetscCall(PetscFunctionListFind(MSimSchemeList, type, &create));
+  *is = (PetscBool)(create != NULL);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode AddTerm(MSimImplicit imp, const char name[])
 {
   PetscErrorCode (*create)(MSimImplicitTerm);

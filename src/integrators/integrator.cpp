@@ -118,12 +118,8 @@ PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ)
   if (integ->setupcalled) PetscFunctionReturn(PETSC_SUCCESS);
   if (!integ->type[0]) PetscCall(MSimIntegratorSetType(integ, MSIMSYMPLECTICEULER));
   if (!integ->help_listing) { /* self-contact needs an implicit scheme's feasible line search */
-    const char **names;
-    PetscInt     n;
-    PetscBool    implicit = PETSC_FALSE;
-    PetscCall(MSimImplicitSchemeGetNames(&names, &n));
-    for (PetscInt k = 0; k < n; k++) implicit = (PetscBool)(implicit || !strcmp(names[k], integ->type));
-    PetscCall(PetscFree(names));
+    PetscBool implicit;
+    PetscCall(MSimImplicitSchemeIsRegistered(integ->type, &implicit));
     PetscCall(MSimSelfContactCheckIntegrator(integ->comm, integ->type, implicit));
   }
   if (integ->ops.setup) PetscCall((*integ->ops.setup)(integ));
