@@ -9,11 +9,24 @@
    p = x_n + h v_n instead (spring damping's axes O(h^2) from x_{n+1}'s; handles at b(t + h) like
    x's), and y takes the rest, 4/9 h^2 M^-1 f_d(p, u) with u = 3 (p - xh)/(2 h) (dissipation.cpp).
    First iterate p.
-   Start-up (the first step, or a restart without this scheme's history): the same BDF2 step from
-   a past state made by Taylor expansion, x_{-1} = x_0 - h v_0 + h^2/2 a_0, v_{-1} = v_0 - h a_0 with
-   a_0 = M^-1 f(x_0, v_0) (one force evaluation): errors O(h^3) and O(h^2), which the step passes on
-   as O(h^3) in x_1 and O(h^2) in v_1 once, so the scheme stays second order; and it keeps beta and
-   gamma, hence PD's factor, unchanged (an implicit Euler start-up would need another one).
+   Start-up (the first step, or a restart without this scheme's history): one step of
+     x_1 = x_0 + h v_0 + 4/9 h^2 a_1,   v_1 = v_0 + h a_1,
+   with a_1 the acceleration of the solve. It is the BDF2 solve above with the past state
+   x_{-1} = x_0 - h v_0, v_{-1} = v_0 (then xh = x_0 + h/3 v_0, vh = v_0, y = x_0 + h v_0 +
+   4/9 h^2 M^-1 f_e, u = v_0): the same beta and gamma, hence PD's factor; only the velocity update
+   differs, v_1 = v_0 + 9 (x_1 - x_0 - h v_0) / (4 h) in place of 3 (x_1 - xh) / (2 h). Its local
+   errors are O(h^2) in x_1 (-h^2/18 a_0) and in v_1 (h^2/2 a'_0), made once: a zero-stable
+   two-step method started from values with O(h^2) errors stays second order (the usual BDF2
+   start by one implicit Euler step, with BDF2's beta). It needs no force at (x_0, v_0) and is
+   stable on modes the step does not resolve: on an undamped linear mode of frequency w, with
+   theta = h w, (w x_1, v_1) = [[1, theta], [-theta, 1 - 5/9 theta^2]] (w x_0, v_0) / (1 + 4/9 theta^2),
+   whose norm is below 5/4 for every theta (BDF2 then damps such modes). The Taylor past state
+   used before, x_{-1} = x_0 - h v_0 + h^2/2 a_0, v_{-1} = v_0 - h a_0 with a_0 = M^-1 f(x_0, v_0),
+   is second order too but multiplies such a mode by about theta/4: tests/order.py's chain with its
+   vertices displaced by 1 cm, undamped, ended step 1 with 2.3 x its energy at h w_max = 5.8 and
+   was stopped as diverged at 17 (runs/speed_accuracy/bdf2_startup.py; now 0.21 and 0.029 x); the
+   external acceleration alone in its
+   place left v_1 an O(h) error (v_{-1} off by h (a_0 - a_e)) and first order.
    History for an exact restart: x_{n-1}, v_{n-1}. */
 #include <msim/implicit.h>
 #include <msim/private/systemimpl.h>
@@ -24,6 +37,7 @@ typedef struct {
   Vec Xh, Vn; /* xh and v_n, kept for the velocity update */
   Vec P, U;   /* the predictor p = x_n + h v_n (the dissipation's reference) and u = 3 (p - xh)/(2 h) */
   Vec F, W;
+  PetscBool startup; /* this step is the start-up step (its own velocity update) */
 } BDF2Data;
 
 static PetscErrorCode BeginStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
@@ -31,12 +45,10 @@ static PetscErrorCode BeginStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp
   BDF2Data *d = (BDF2Data *)scheme->data;
 
   PetscFunctionBeginUser;
-  if (!scheme->history_valid) {
-    /* start-up: x_{-1}, v_{-1} by Taylor from (x_0, v_0) */
-    PetscCall(MSimSystemAcceleration(imp->sys, t, X, V, d->hist[1]));
+  d->startup = (PetscBool)!scheme->history_valid;
+  if (d->startup) { /* start-up: the past state x_{-1} = x_0 - h v_0, v_{-1} = v_0 */
     PetscCall(VecWAXPY(d->hist[0], -h, V, X));
-    PetscCall(VecAXPY(d->hist[0], 0.5 * h * h, d->hist[1]));
-    PetscCall(VecAYPX(d->hist[1], -h, V));
+    PetscCall(VecCopy(V, d->hist[1]));
   }
   PetscCall(VecCopy(X, imp->Xn));
   PetscCall(VecCopy(V, d->Vn));
@@ -63,13 +75,16 @@ static PetscErrorCode Guess_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, Ve
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* v_{n+1} = 3 (x_{n+1} - xh) / (2 h); (x_n, v_n) become the history */
+/* v_{n+1} = 3 (x_{n+1} - xh) / (2 h) (start-up: v_0 + h a_1); (x_n, v_n) become the history */
 static PetscErrorCode EndStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, Vec X, Vec V)
 {
   BDF2Data *d = (BDF2Data *)scheme->data;
 
   PetscFunctionBeginUser;
-  PetscCall(VecAXPBYPCZ(V, 1.5 / imp->h, -1.5 / imp->h, 0.0, X, d->Xh));
+  if (d->startup) { /* v_0 + 9 (x_1 - x_0 - h v_0) / (4 h) */
+    PetscCall(VecAXPBYPCZ(V, 2.25 / imp->h, -2.25 / imp->h, 0.0, X, imp->Xn));
+    PetscCall(VecAXPY(V, -1.25, d->Vn));
+  } else PetscCall(VecAXPBYPCZ(V, 1.5 / imp->h, -1.5 / imp->h, 0.0, X, d->Xh));
   PetscCall(VecCopy(imp->Xn, d->hist[0]));
   PetscCall(VecCopy(d->Vn, d->hist[1]));
   scheme->history_valid = PETSC_TRUE;
