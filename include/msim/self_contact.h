@@ -133,3 +133,16 @@ PetscErrorCode MSimSelfSurfaceAddGradient(MSimSelfSurface s, const std::vector<P
 
 extern PetscLogEvent MSIM_SelfBroad, MSIM_SelfHalo, MSIM_SelfNarrow, MSIM_SelfCCD;
 PetscErrorCode MSimSelfContactLogRegister(void);
+
+/* A pair within dhat, for self-friction's lag (src/implicit/terms/self_friction.cpp): its four
+   vertices' global free numbers (-1: fixed), the closest points' weights w (r = sum_k w_k x_k),
+   the unit normal n = r / |r|, and the barrier's normal force |dE/dd| = 2 C |b'(d^2)| d in Phi's
+   units (beta h^2 times newtons) */
+typedef struct {
+  PetscInt  gnum[4];
+  PetscReal w[4], n[3], force;
+} MSimSelfContactPair;
+typedef struct _n_MSimImplicitTerm *MSimImplicitTerm;
+/* The pairs within dhat at X (time t) that this rank computes, from the self-contact term's
+   candidate list (collective: the surface's gather) */
+PetscErrorCode MSimSelfContactGetPairs(MSimImplicitTerm self_contact, PetscReal t, Vec X, std::vector<MSimSelfContactPair> &pairs);

@@ -41,6 +41,7 @@ PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm);
+PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm);
 
 PetscErrorCode MSimImplicitRegisterAll(void)
@@ -59,6 +60,7 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   PetscCall(MSimImplicitTermRegister("obstacles", MSimImplicitTermCreate_Obstacles));
   PetscCall(MSimImplicitTermRegister("friction", MSimImplicitTermCreate_Friction));
   PetscCall(MSimImplicitTermRegister("self_contact", MSimImplicitTermCreate_SelfContact));
+  PetscCall(MSimImplicitTermRegister("self_friction", MSimImplicitTermCreate_SelfFriction)); /* after self_contact: it reads its pairs */
   PetscCall(MSimImplicitTermRegister("volume", MSimImplicitTermCreate_Volume));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -363,3 +363,29 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
   term->ops.view     = View_Self;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+PetscErrorCode MSimSelfContactGetPairs(MSimImplicitTerm term, PetscReal t, Vec X, std::vector<MSimSelfContactPair> &pairs)
+{
+  SelfData       *sd  = (SelfData *)term->data;
+  const PetscReal dh2 = sd->surf->dhat * sd->surf->dhat;
+
+  PetscFunctionBeginUser;
+  pairs.clear();
+  PetscCall(MSimSelfSurfaceGather(sd->surf, t, X, NULL, 0, sd->x, NULL));
+  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
+    MSimSelfContactPair p;
+    PetscReal           b, db, d2b, r[3] = {0, 0, 0};
+    const PetscReal     s = PairDistance2(sd->x, ee, v, p.w);
+    if (s >= dh2 || s <= 0) return;
+    MSimBarrier(s, dh2, &b, &db, &d2b);
+    const PetscReal d = std::sqrt(s);
+    for (int k = 0; k < 4; k++) {
+      p.gnum[k] = sd->surf->gnum[v[k]];
+      for (int c = 0; c < 3; c++) r[c] += p.w[k] * sd->x[3 * v[k] + c];
+    }
+    for (int c = 0; c < 3; c++) p.n[c] = r[c] / d;
+    p.force = 2 * sd->C * PetscAbsReal(db) * d;
+    pairs.push_back(p);
+  }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

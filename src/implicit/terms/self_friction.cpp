@@ -1,0 +1,272 @@
+/* Coulomb friction between surfaces in self-contact (-msim_self_contact with -msim_friction mu > 0):
+   IPC's lagged, smoothed dissipative potential (Li et al. 2020, sec. 5) on the self-contact term's
+   point-triangle and edge-edge pairs. At the step's start x_n each pair within dhat gives, held
+   fixed over the step (lagged): the closest points' weights w_k (r = sum_k w_k x_k joins them),
+   the unit normal n = r / |r|, P = I - n n^T, and the normal force lambda = |dE/dd| / (beta h^2)
+   of the barrier there (E = C b(d^2), so lambda = 2 C |b'(d^2)| d / (beta h^2)). Over the step the
+   pair's relative tangential displacement is u = P sum_k w_k (x_k - x_k^n) (the closest points'
+   relative slip; a fixed vertex moves v_fix (tx - t)), and
+     D = beta h^2 mu lambda f0(|u|),  f0' = f1,  f1(y) = 2 y/eps - y^2/eps^2 (y < eps), 1 beyond,
+   eps = eps_v h (-msim_friction_eps), as the obstacles' friction (terms/friction.cpp) does.
+   Gradient g_k = beta h^2 mu lambda f1(y)/y w_k u. Hessian block (k, l) = beta h^2 mu lambda
+   w_k w_l M, M = f1(y)/y P + (f1'(y) y - f1(y))/y^3 u u^T: M's eigenvalues are f1'(y) >= 0 along
+   u, f1(y)/y > 0 across it in the tangent plane, 0 along n, and w w^T is PSD, so the 12 x 12
+   block (w w^T) kron M is PSD as it is (no projection). Lagging makes D smooth in x within the
+   step (its Hessian exact), the approximation IPC makes; the lag is redone when the step changes
+   (its start time or beta h^2: every step, a retry with a smaller h). The pairs' free vertices are read from X - x_n by a scatter
+   of this term's own, made at each lag (the self-contact surface's local numbering may be
+   re-planned within a step), and the gradient goes back by its reverse (ADD_VALUES). PD: the
+   gradient at the current iterate in the right-hand side, as the barrier's. */
+#include <msim/implicit.h>
+#include <msim/contact.h>
+#include <msim/self_contact.h>
+#include <msim/private/systemimpl.h>
+#include <msim/private/implicitimpl.h>
+#include <msim/private/contactimpl.h>
+#include <algorithm>
+#include <cmath>
+
+/* IPC's f1(y) / y: 2/eps - y/eps^2 below eps, 1/y beyond */
+static inline PetscReal F1OverY(PetscReal y, PetscReal eps)
+{
+  return y < eps ? 2 / eps - y / (eps * eps) : 1 / y;
+}
+
+typedef struct {
+  PetscReal                        mu, eps_v;
+  MSimImplicitTerm                 self;  /* the self-contact term whose pairs these are */
+  /* the lag: the step it belongs to, and per pair its free vertices' slots in dl (-1: fixed) */
+  PetscReal                        t, h2;
+  PetscBool                        lagged;
+  std::vector<MSimSelfContactPair> pairs;
+  std::vector<PetscInt>            slot;   /* 4 per pair */
+  std::vector<PetscInt>            gfree;  /* the slots' global free numbers, sorted */
+  VecScatter                       scatter; /* state Vec -> dl */
+  Vec                              dl, D;  /* the slots' displacements; X - x_n */
+  std::vector<PetscReal>           d, g;
+} FrictionData;
+
+static PetscErrorCode Lag(MSimImplicitTerm term, FrictionData *fd)
+{
+  MSimImplicit imp = term->imp;
+  IS           is;
+
+  PetscFunctionBeginUser;
+  if (fd->lagged && imp->step.t == fd->t && imp->step.h2 == fd->h2) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSelfContactGetPairs(fd->self, imp->step.t, imp->Xn, fd->pairs));
+  fd->gfree.clear();
+  for (const MSimSelfContactPair &p : fd->pairs)
+    for (int k = 0; k < 4; k++)
+      if (p.gnum[k] >= 0) fd->gfree.push_back(p.gnum[k]);
+  std::sort(fd->gfree.begin(), fd->gfree.end());
+  fd->gfree.erase(std::unique(fd->gfree.begin(), fd->gfree.end()), fd->gfree.end());
+  fd->slot.resize(4 * fd->pairs.size());
+  for (size_t q = 0; q < fd->pairs.size(); q++)
+    for (int k = 0; k < 4; k++) {
+      const PetscInt gn = fd->pairs[q].gnum[k];
+      fd->slot[4 * q + k] = gn < 0 ? -1 : (PetscInt)(std::lower_bound(fd->gfree.begin(), fd->gfree.end(), gn) - fd->gfree.begin());
+    }
+  PetscCall(VecScatterDestroy(&fd->scatter));
+  PetscCall(VecDestroy(&fd->dl));
+  PetscCall(VecCreateSeq(PETSC_COMM_SELF, 3 * (PetscInt)fd->gfree.size(), &fd->dl));
+  PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, (PetscInt)fd->gfree.size(), fd->gfree.data(), PETSC_COPY_VALUES, &is));
+  PetscCall(VecScatterCreate(imp->Xn, is, fd->dl, NULL, &fd->scatter));
+  PetscCall(ISDestroy(&is));
+  if (!fd->D) PetscCall(VecDuplicate(imp->Xn, &fd->D));
+  fd->t        = imp->step.t;
+  fd->h2       = imp->step.h2;
+  fd->lagged   = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* f(q, lambda, P, u, y) for every lagged pair q of this rank, at X: lambda its lagged normal force
+   (N), P its lagged tangent projector, u its slip P sum_k w_k (x_k - x_k^n), y = |u| */
+template <class F>
+static PetscErrorCode ForEachSliding(MSimImplicitTerm term, FrictionData *fd, Vec X, F &&f)
+{
+  MSimImplicit       imp = term->imp;
+  const PetscReal   *vf  = imp->sys->fix_velocity, dt = imp->step.tx - imp->step.t;
+  const PetscScalar *da;
+
+  PetscFunctionBeginUser;
+  PetscCall(Lag(term, fd));
+  PetscCall(VecWAXPY(fd->D, -1.0, imp->Xn, X));
+  PetscCall(VecScatterBegin(fd->scatter, fd->D, fd->dl, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecScatterEnd(fd->scatter, fd->D, fd->dl, INSERT_VALUES, SCATTER_FORWARD));
+  PetscCall(VecGetArrayRead(fd->dl, &da));
+  for (size_t q = 0; q < fd->pairs.size(); q++) {
+    const MSimSelfContactPair &p = fd->pairs[q];
+    PetscReal                  rel[3] = {0, 0, 0}, P[9], u[3], y = 0;
+    for (int k = 0; k < 4; k++) {
+      const PetscInt s = fd->slot[4 * q + k];
+      for (int c = 0; c < 3; c++) rel[c] += p.w[k] * (s >= 0 ? PetscRealPart(da[3 * s + c]) : vf[c] * dt);
+    }
+    for (int a = 0; a < 3; a++)
+      for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - p.n[a] * p.n[c];
+    for (int a = 0; a < 3; a++) {
+      u[a] = 0;
+      for (int c = 0; c < 3; c++) u[a] += P[3 * a + c] * rel[c];
+      y += u[a] * u[a];
+    }
+    f(q, p.force / fd->h2, P, u, std::sqrt(y));
+  }
+  PetscCall(VecRestoreArrayRead(fd->dl, &da));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  FrictionData   *fd = (FrictionData *)term->data;
+  const PetscReal w = term->imp->step.h2 * fd->mu, eps = fd->eps_v * term->imp->step.h;
+
+  PetscFunctionBeginUser;
+  PetscCall(ForEachSliding(term, fd, X, [&](size_t, PetscReal lambda, const PetscReal *, const PetscReal *, PetscReal y) {
+    const PetscReal f0 = y < eps ? -y * y * y / (3 * eps * eps) + y * y / eps + eps / 3 : y;
+    *e += w * lambda * f0;
+  }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Energy_SelfFriction(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  PetscReal local = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(LocalEnergy(term, X, &local));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, term->imp->sys->comm));
+  *e += local;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* G += sign h2 mu lambda f1(y)/y w_k u, sent to the vertices' owners */
+static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal sign)
+{
+  FrictionData   *fd = (FrictionData *)term->data;
+  const PetscReal w = term->imp->step.h2 * fd->mu, eps = fd->eps_v * term->imp->step.h;
+  PetscScalar    *ga;
+
+  PetscFunctionBeginUser;
+  PetscCall(Lag(term, fd));
+  fd->g.assign(3 * fd->gfree.size(), 0);
+  PetscCall(ForEachSliding(term, fd, X, [&](size_t q, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
+    const PetscReal a = sign * w * lambda * F1OverY(y, eps);
+    for (int k = 0; k < 4; k++) {
+      const PetscInt s = fd->slot[4 * q + k];
+      if (s >= 0)
+        for (int c = 0; c < 3; c++) fd->g[3 * s + c] += a * fd->pairs[q].w[k] * u[c];
+    }
+  }));
+  PetscCall(VecGetArray(fd->dl, &ga));
+  for (size_t k = 0; k < fd->g.size(); k++) ga[k] = fd->g[k];
+  PetscCall(VecRestoreArray(fd->dl, &ga));
+  PetscCall(VecScatterBegin(fd->scatter, fd->dl, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(fd->scatter, fd->dl, G, ADD_VALUES, SCATTER_REVERSE));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Gradient_SelfFriction(MSimImplicitTerm term, Vec X, Vec G)
+{
+  PetscFunctionBeginUser;
+  PetscCall(AddGradient(term, X, G, 1.0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBool, Mat J)
+{
+  FrictionData    *fd = (FrictionData *)term->data;
+  const PetscReal  w = term->imp->step.h2 * fd->mu, eps = fd->eps_v * term->imp->step.h;
+  PetscErrorCode   ierr = PETSC_SUCCESS;
+  PetscObjectState before, after;
+
+  PetscFunctionBeginUser;
+  PetscCall(MatGetNonzeroState(J, &before));
+  PetscCall(MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  PetscCall(ForEachSliding(term, fd, X, [&](size_t q, PetscReal lambda, const PetscReal *P, const PetscReal *u, PetscReal y) {
+    const MSimSelfContactPair &p = fd->pairs[q];
+    PetscInt                   idx[12];
+    PetscScalar                H[144];
+    PetscReal                  M[9];
+    /* f1(y)/y and (f1'(y) y - f1(y)) / y^3 */
+    const PetscReal a = F1OverY(y, eps);
+    const PetscReal c = y < eps ? -1 / (eps * eps * PetscMax(y, PETSC_SMALL * eps)) : -1 / (y * y * y);
+    if (ierr) return;
+    for (int r = 0; r < 3; r++)
+      for (int s = 0; s < 3; s++) M[3 * r + s] = w * lambda * (a * P[3 * r + s] + c * u[r] * u[s]);
+    for (int k = 0; k < 4; k++)
+      for (int r = 0; r < 3; r++) idx[3 * k + r] = p.gnum[k] >= 0 ? 3 * p.gnum[k] + r : -1;
+    for (int i = 0; i < 12; i++)
+      for (int j = 0; j < 12; j++) H[12 * i + j] = p.w[i / 3] * p.w[j / 3] * M[3 * (i % 3) + j % 3];
+    ierr = MatSetValues(J, 12, idx, 12, idx, H, ADD_VALUES);
+  }));
+  PetscCall(ierr);
+  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatGetNonzeroState(J, &after));
+  /* a lagged pair may join vertices no barrier block joins now: as terms/self_contact.cpp does */
+  if (after != before) PetscCall(PetscObjectCompose((PetscObject)J, "MSimAssemblyMap", NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDRHS_SelfFriction(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
+{
+  PetscFunctionBeginUser;
+  PetscCall(AddGradient(term, X, rhs, -1.0));
+  if (e) PetscCall(LocalEnergy(term, X, e));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode View_SelfFriction(MSimImplicitTerm term, PetscViewer viewer)
+{
+  FrictionData *fd = (FrictionData *)term->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscViewerASCIIPrintf(viewer, "self-friction: mu %g between the surface's pairs in self-contact, normal forces and tangents lagged at each step's start, smoothing eps_v %g m/s\n", (double)fd->mu, (double)fd->eps_v));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_SelfFriction(MSimImplicitTerm term)
+{
+  FrictionData *fd = (FrictionData *)term->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecScatterDestroy(&fd->scatter));
+  PetscCall(VecDestroy(&fd->dl));
+  PetscCall(VecDestroy(&fd->D));
+  delete fd;
+  term->data = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
+{
+  MSimImplicit   imp  = term->imp;
+  MSimImplicitTerm self = NULL;
+  PetscContainer container;
+  MSimContact    ct = NULL;
+
+  PetscFunctionBeginUser;
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    PetscBool same;
+    PetscCall(PetscStrcmp(imp->terms[k]->type, "self_contact", &same));
+    if (same && imp->terms[k]->data) self = imp->terms[k];
+  }
+  if (!self) PetscFunctionReturn(PETSC_SUCCESS); /* no self-contact (or it comes later in -msim_implicit_terms): no op */
+  /* -msim_friction and -msim_friction_eps are the contact object's options, read (and kept) even
+     where there is no obstacle, when MSimContactGet returns NULL */
+  PetscCall(MSimContactGet(imp->sys, &ct));
+  PetscCall(PetscObjectQuery((PetscObject)imp->sys->X0, "MSimContact", (PetscObject *)&container));
+  if (container) PetscCall(PetscContainerGetPointer(container, (void **)&ct));
+  if (!ct || ct->mu == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  FrictionData *fd = new FrictionData();
+  fd->mu           = ct->mu;
+  fd->eps_v        = ct->eps_v;
+  fd->self         = self;
+  term->data       = fd;
+  term->ops.destroy  = Destroy_SelfFriction;
+  term->ops.energy   = Energy_SelfFriction;
+  term->ops.gradient = Gradient_SelfFriction;
+  term->ops.hessian  = Hessian_SelfFriction;
+  term->ops.pd_rhs   = PDRHS_SelfFriction;
+  term->ops.view     = View_SelfFriction;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
