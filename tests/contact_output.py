@@ -6,6 +6,10 @@
   frame every vertex's contact force is its own weight m_v g along +z (flat, its springs pull only
   in the plane), so the frame's forces sum to m g (within 1e-3), for implicit Euler's barrier
   (Newton and PD) in both series formats and for symplectic Euler's penalty;
+- the same cloth under gravity tilted by theta = 0.3 (an incline) with friction mu = 0.6 > tan theta:
+  it sticks, so the obstacle carries the whole weight, normal force m g cos theta plus friction
+  m g sin theta up the slope: each vertex's force is -m_v g_vec and the frame's sum -m g_vec
+  (within 1e-3), which the normal force alone misses by 4.5% in z and m g cos sin theta in x;
 - in every frame written, the frame's forces sum to the monitor's columns of the same step (to
   roundoff: the same function on the same state), and contact_n counts the vertices whose force
   is non-zero;
@@ -54,8 +58,12 @@ def main():
              ("implicit Euler, Newton, the plane as VI bounds (-msim_contact_bounds)", ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_contact_bounds"], "vtu"),
              ("symplectic Euler, penalty, HDF5", ["-msim_integrator", "symplectic_euler", "-msim_dt", "0.0005", "-msim_steps", "10000", "-msim_contact_stiffness", "2000",
                                                   "-msim_output_every", "2500", "-msim_output_format", "hdf5"], "hdf5"))
+    tilt = 0.3
+    incline = ("implicit Euler, Newton, at rest by friction on an incline (mu 0.6 > tan 0.3), vtu",
+               ["-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "150", "-msim_friction", "0.6", "-msim_gravity", f"{G * np.sin(tilt)},0,{-G * np.cos(tilt)}"], "vtu")
     for np_ in mt.ranks():
-        for label, args, fmt in cases:
+        for label, args, fmt in cases + (incline,):
+            gvec = np.array([G * np.sin(tilt), 0, -G * np.cos(tilt)]) if "-msim_gravity" in args else np.array([0, 0, -G])
             out, csv = os.path.join(tmp, f"{len(os.listdir(tmp))}"), os.path.join(tmp, f"mon_{len(os.listdir(tmp))}.csv")
             r = mt.run(exe, rest + args + ["-msim_output", out, "-msim_monitor_csv", csv], np_)
             if not check(r.returncode == 0, f"np {np_}: {label}: runs ({r.stderr.strip()[-300:]})"):
@@ -73,10 +81,11 @@ def main():
             check(worst <= 1e-9 * MASS * G and counts, f"np {np_}: {label}: every frame's forces sum to the monitor's columns of its step (worst {worst:.2g} N) and contact_n counts the vertices pushed")
             check(not frames[0][1].any(), f"np {np_}: {label}: frame 0 (above the plane) has no contact force")
             f = frames[-1][1]
-            total, mv = f.sum(axis=0), MASS / (N * N) * G
-            check(abs(total[2] - MASS * G) <= 1e-3 * MASS * G and np.abs(total[:2]).max() <= 1e-6 * MASS * G,
-                  f"np {np_}: {label}: at rest the frame's forces sum to m g = {MASS * G:.4f} N along +z (got {total}, rel. error {abs(total[2] - MASS * G) / (MASS * G):.2g})")
-            check(np.abs(f[:, 2] - mv).max() <= 1e-3 * mv, f"np {np_}: {label}: each vertex carries its own weight m_v g = {mv:.5f} N (worst {np.abs(f[:, 2] - mv).max():.2g} N off)")
+            total, mv, want = f.sum(axis=0), MASS / (N * N) * G, -MASS * gvec
+            check(np.abs(total - want).max() <= 1e-3 * MASS * G and (gvec[0] != 0 or np.abs(total[:2]).max() <= 1e-6 * MASS * G),
+                  f"np {np_}: {label}: at rest the frame's forces sum to -m g_vec = {want} N (got {total}, rel. error {np.abs(total - want).max() / (MASS * G):.2g})")
+            worst_v = np.abs(f + MASS / (N * N) * gvec).max()
+            check(worst_v <= 1e-3 * mv, f"np {np_}: {label}: each vertex carries its own weight -m_v g_vec, |m_v g| = {mv:.5f} N (worst {worst_v:.2g} N off)")
             if "-msim_contact_bounds" in args:  # the bound's reaction at zero gap
                 z = vtu.read_vtu(vtu.read_pvd(os.path.join(out, "series.pvd"))[-1][1])["points"][:, 2]
                 check(np.abs(z + 0.05).max() == 0, f"np {np_}: {label}: every vertex rests exactly on the bound z = -0.05 (gap {np.abs(z + 0.05).max():.2g})")

@@ -62,15 +62,10 @@ PetscReal MSimObstacleSafeStep(const MSimObstacle *o, PetscReal t, const PetscRe
    first two derivatives. */
 void MSimBarrier(PetscReal d, PetscReal dhat, PetscReal *b, PetscReal *db, PetscReal *d2b);
 /* F += the explicit penalty force kc max(0, -d) n per free owned vertex and obstacle at time t
-   (nothing without obstacles); records the totals for the monitor. */
+   (nothing without obstacles). */
 PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Vec F);
 /* K += kc n n^T on every free owned vertex for every obstacle (n its normal at X, at time t): the
    penalty's stiffness as if each vertex were pressed into each obstacle, an upper bound of every
    contact state's (Weyl: adding PSD blocks only raises eigenvalues), which the SLEPc stability guard
    adds to (K, M), as the Gershgorin guard adds kc to every row. Nothing without obstacles. */
 PetscErrorCode MSimContactAddPenaltyStiffness(MSimSystem sys, PetscReal t, Vec X, Mat K);
-/* The totals over ranks of the last system made with obstacles: contact force (3, N) and
-   vertices in contact (implicit: within dhat; explicit: inside) at the last force or gradient
-   evaluation, which the integrators make at the step's result; zeros without obstacles.
-   Collective. */
-PetscErrorCode MSimContactTotals(MPI_Comm comm, PetscReal force[3], PetscInt *ncontact);

@@ -5,9 +5,9 @@
 #pragma once
 #include <msim/system.h>
 
-/* Which force the run's integrator applies: the implicit schemes' barrier (kappa m |b'(d)| n, minus
-   the barrier energy's gradient divided by the step's weight beta h^2: a force in N, zero beyond
-   dhat), or for every other integrator (explicit ones and PETSc's TS) the penalty kc max(0, -d) n.
+/* Which force the run's integrator applies: the implicit schemes' contact (kappa m |e'(d)| n, minus
+   the contact energy's gradient divided by the step's weight beta h^2: a force in N, zero beyond
+   dhat; plus friction's force when -msim_friction is set), or for every other integrator (explicit ones and PETSc's TS) the penalty kc max(0, -d) n.
    Called once by the time loop with the integrator's type, before the first frame. */
 PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[]);
 /* F (a free-vertex Vec, or NULL) = the obstacles' force on each owned free vertex at X and time t

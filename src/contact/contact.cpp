@@ -28,14 +28,9 @@
 #include <string>
 #include <vector>
 
-/* the contact object with obstacles of the system made last: the monitor's columns read it (the
-   monitor knows no system) */
-static MSimContact active = NULL;
-
 static PetscErrorCode ContactDestroy(void *ctx)
 {
   MSimContact ct = (MSimContact)ctx;
-  if (active == ct) active = NULL;
   for (MSimObstacle &o : ct->obs)
     if (o.mesh) MSimMeshObstacleDestroy(&o.mesh);
   delete ct;
@@ -322,7 +317,9 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->eps_v = 1e-3 * PetscMax(sys->diameter, PETSC_SMALL);
   ct->thickness = 0;
   ct->moving    = PETSC_FALSE;
-  ct->pd_weight = PETSC_TRUE;
+  ct->pd_weight  = PETSC_TRUE;
+  ct->fr_xn      = NULL;
+  ct->fr_t = ct->fr_tx = ct->fr_h = 0;
   ct->psd_curvature = PETSC_TRUE;
   PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
   PetscCall(PetscContainerSetPointer(container, ct));
@@ -387,7 +384,6 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   /* -msim_scene_view is the scene's option; the system carries it here */
   if (sys->scene_view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;
-  active   = ct;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -400,24 +396,11 @@ PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Ve
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
-  ct->force[0] = ct->force[1] = ct->force[2] = 0;
-  ct->ncontact                                = 0;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArray(F, &f));
-  for (PetscInt v = 0; v < sys->nown; v++) {
-    PetscBool touch = PETSC_FALSE;
-    for (const MSimObstacle &o : ct->obs) {
-      PetscReal       n[3];
-      const PetscReal d = MSimObstacleDistanceAt(&o, t, x + 3 * v, n, NULL);
-      if (d >= 0) continue;
-      touch = PETSC_TRUE;
-      for (int c = 0; c < 3; c++) {
-        f[3 * v + c] += -ct->kc * d * n[c];
-        ct->force[c] += -ct->kc * d * n[c];
-      }
-    }
-    ct->ncontact += touch;
-  }
+  MSimContactForEachNear(ct, sys->nown, x, t, 0.0, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+    for (int c = 0; c < 3; c++) f[3 * v + c] += -ct->kc * d * n[c];
+  });
   PetscCall(VecRestoreArray(F, &f));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -450,17 +433,14 @@ PetscErrorCode MSimContactAddPenaltyStiffness(MSimSystem sys, PetscReal t, Vec X
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimContactTotals(MPI_Comm comm, PetscReal force[3], PetscInt *ncontact)
+PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *ct)
 {
-  PetscReal buf[4] = {0, 0, 0, 0};
-
   PetscFunctionBeginUser;
-  if (active) {
-    for (int c = 0; c < 3; c++) buf[c] = active->force[c];
-    buf[3] = (PetscReal)active->ncontact;
+  PetscCall(MSimContactGet(sys, ct));
+  if (*ct && (*ct)->kappa == 0) {
+    PetscReal b, db, d2b;
+    MSimBarrier(0.5 * (*ct)->dhat, (*ct)->dhat, &b, &db, &d2b);
+    (*ct)->kappa = 1.0 / (h2 * d2b);
   }
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, buf, 4, MPIU_REAL, MPIU_SUM, comm));
-  for (int c = 0; c < 3; c++) force[c] = buf[c];
-  *ncontact = (PetscInt)(buf[3] + 0.5);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,6 +1,9 @@
 /* The obstacles' force per vertex at a state (msim/contact_force.h), for the frames and the
-   monitor. The barrier's force is what obstacles.cpp's gradient adds, divided by the step's weight
-   beta h^2: -kappa m b'(d) n (b' <= 0, so it pushes out along n); the penalty's is what
+   monitor. The implicit contact's is what obstacles.cpp's and friction.cpp's gradients add,
+   divided by the step's weight beta h^2: the barrier's normal force -kappa m b'(d) n (b' <= 0, so it
+   pushes out along n) plus friction's -mu lambda f1(y)/y u,
+   the slip u measured from the x_n of the step that friction's term last evaluated (the state
+   passed is that step's result); the penalty's is what
    MSimContactAddPenaltyForce adds. Computed here from msim/contact.h's geometry rather than read
    back from the solver, whose last evaluation is at its last iterate or line-search trial, not
    the step's result. Which of the two applies is kept on the system's X0 (a composed container,
@@ -11,6 +14,7 @@
 #include <msim/implicit.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
+#include <vector>
 
 static const char barrier_key[] = "MSimContactForceBarrier";
 
@@ -56,33 +60,43 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
   if (ct) {
     PetscCall(PetscObjectQuery((PetscObject)sys->X0, barrier_key, &mark));
     const PetscBool barrier = (PetscBool)(mark != NULL);
+    std::vector<char> touch(sys->nown, 0);
     PetscCall(VecGetArrayRead(X, &x));
     PetscCall(VecGetArrayRead(sys->mass, &m));
     if (F) PetscCall(VecGetArray(F, &f));
-    for (PetscInt v = 0; v < sys->nown; v++) {
-      PetscBool touch = PETSC_FALSE;
-      for (const MSimObstacle &o : ct->obs) {
-        PetscReal       n[3], s = 0;
-        const PetscReal d = MSimObstacleDistanceAt(&o, t, x + 3 * v, n, NULL); /* moving obstacles where they are at t */
-        if (barrier) {
-          PetscReal b, db, d2b;
-          if (d >= ct->dhat) continue;
-          touch = PETSC_TRUE;
-          /* the clamp obstacles.cpp's gradient uses (a feasible state never reaches it) */
-          MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
-          s = -ct->kappa * PetscRealPart(m[3 * v]) * db;
-        } else {
-          if (d >= 0) continue;
-          touch = PETSC_TRUE;
-          s = -ct->kc * d;
-        }
-        for (int c = 0; c < 3; c++) {
-          if (f) f[3 * v + c] += s * n[c];
-          sum[c] += s * n[c];
-        }
+    const auto add = [&](PetscInt v, const PetscReal *s, char mark) {
+      for (int c = 0; c < 3; c++) {
+        if (f) f[3 * v + c] += s[c];
+        sum[c] += s[c];
       }
-      sum[3] += touch;
-    }
+      touch[v] = (char)(touch[v] | mark);
+    };
+    if (barrier) {
+      /* the barrier's normal force, the same clamp as obstacles.cpp's gradient */
+      MSimContactForEachNear(ct, sys->nown, x, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+        PetscReal e, de, d2e, s[3];
+        MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &e, &de, &d2e);
+        for (int c = 0; c < 3; c++) s[c] = -ct->kappa * PetscRealPart(m[3 * v]) * de * n[c];
+        add(v, s, 1);
+      });
+      /* and friction's, -mu lambda f1(y)/y u, at this state against the step's x_n that its term
+         left (friction.cpp; none before the first step) */
+      if (ct->mu > 0 && ct->fr_xn) {
+        const PetscScalar *xn;
+        const PetscReal    eps = ct->eps_v * ct->fr_h;
+        PetscCall(VecGetArrayRead(ct->fr_xn, &xn));
+        MSimContactForEachSliding(ct, sys->nown, x, xn, m, ct->fr_t, ct->fr_tx, [&](PetscInt v, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
+          const PetscReal a = -ct->mu * lambda * MSimFrictionF1OverY(y, eps), s[3] = {a * u[0], a * u[1], a * u[2]};
+          add(v, s, 0); /* counted where its normal force is */
+        });
+        PetscCall(VecRestoreArrayRead(ct->fr_xn, &xn));
+      }
+    } else
+      MSimContactForEachNear(ct, sys->nown, x, t, 0.0, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+        const PetscReal s[3] = {-ct->kc * d * n[0], -ct->kc * d * n[1], -ct->kc * d * n[2]};
+        add(v, s, 1);
+      });
+    for (char c : touch) sum[3] += c;
     if (F) PetscCall(VecRestoreArray(F, &f));
     PetscCall(VecRestoreArrayRead(sys->mass, &m));
     PetscCall(VecRestoreArrayRead(X, &x));

@@ -1,8 +1,10 @@
 /* The contact object's body, for the contact code and the terms and forces that use it (PETSc's
    include/petsc/private pattern); msim/contact.h holds the handle, the obstacles and the
-   functions. */
+   functions. Also the per-vertex loops that the implicit terms (obstacles, friction) and the
+   output's contact force share, so that the force written is the one the solver applied. */
 #pragma once
 #include <msim/contact.h>
+#include <cmath>
 #include <vector>
 
 struct _n_MSimContact {
@@ -17,7 +19,66 @@ struct _n_MSimContact {
   PetscBool                 moving;    /* some obstacle has a velocity */
   PetscBool                 pd_weight; /* PD: the barrier's stiffness in the matrix (else the rhs only) */
   PetscBool                 psd_curvature; /* PSD Hessian: keep the barrier's curvature term, clamped */
-  /* this rank's totals at the last force or gradient evaluation: the monitor's columns */
-  PetscReal                 force[3];
-  PetscInt                  ncontact;
+  /* friction's last step (set by its term at every evaluation, non-owning): x_n, the step's start
+     and unknown's times and h, so that the output's force at the step's result includes friction */
+  Vec                       fr_xn;
+  PetscReal                 fr_t, fr_tx, fr_h;
 };
+
+/* kappa's default once h is known (h2 = beta h^2): the barrier as stiff as the mass at dhat/2 */
+PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *ct);
+
+/* f(v, o, d, n, H) for every owned vertex v (x: its coordinates, 3 per vertex) and obstacle o
+   (where it is at time t) with d < reach; H only when hessian */
+template <class F>
+inline void MSimContactForEachNear(const _n_MSimContact *ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscReal reach, PetscBool hessian, F &&f)
+{
+  for (PetscInt v = 0; v < nown; v++)
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal       n[3], H[9];
+      const PetscReal d = MSimObstacleDistanceAt(&o, t, x + 3 * v, n, hessian ? H : NULL);
+      if (d < reach) f(v, o, d, n, H);
+    }
+}
+
+/* IPC's lagged friction (src/implicit/terms/friction.cpp): f(v, lambda, P, u, y) for every owned
+   vertex within dhat of an obstacle at x_n (obstacle at t), lambda = kappa m |b'(d)| the barrier's
+   normal force there, P = I - n n^T, u = P (x - x_n - v_o (tx - t)) its slip relative to the
+   obstacle, y = |u| */
+template <class F>
+inline void MSimContactForEachSliding(const _n_MSimContact *ct, PetscInt nown, const PetscScalar *x, const PetscScalar *xn, const PetscScalar *m, PetscReal t, PetscReal tx, F &&f)
+{
+  MSimContactForEachNear(ct, nown, xn, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
+    PetscReal e, de, d2e, P[9], u[3], y = 0;
+    if (d <= 0) return;
+    MSimBarrier(d, ct->dhat, &e, &de, &d2e);
+    const PetscReal lambda = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de);
+    for (int a = 0; a < 3; a++)
+      for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - n[a] * n[c];
+    for (int a = 0; a < 3; a++) {
+      u[a] = 0;
+      for (int c = 0; c < 3; c++) u[a] += P[3 * a + c] * PetscRealPart(x[3 * v + c] - xn[3 * v + c] - o.v[c] * (tx - t));
+      y += u[a] * u[a];
+    }
+    f(v, lambda, P, u, std::sqrt(y));
+  });
+}
+
+/* G += what f(g) adds through G's array (the contact terms' gradients and PD right-hand sides) */
+template <class F>
+inline PetscErrorCode MSimContactAddToVec(Vec G, F &&f)
+{
+  PetscScalar *g;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetArray(G, &g));
+  PetscCall(f(g));
+  PetscCall(VecRestoreArray(G, &g));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* friction's smoothing f1(y)/y (IPC's f1: 2y/eps - y^2/eps^2 below eps, 1 beyond) */
+inline PetscReal MSimFrictionF1OverY(PetscReal y, PetscReal eps)
+{
+  return y < eps ? 2 / eps - y / (eps * eps) : 1 / y;
+}

@@ -7,7 +7,9 @@
    slower than eps_v is held by a stiff spring-like force. Gradient beta h^2 mu lambda f1(y)/y u;
    the Hessian beta h^2 mu lambda [f1(y)/y P + (f1'(y) y - f1(y))/y^3 u u^T] is PSD as it is (in
    the tangent plane its eigenvalues are f1'(y) >= 0 along u and f1(y)/y across), so no
-   projection. Everything lagged is recomputed from x_n per call: no state, no step hook. PD: its
+   projection. Everything lagged is recomputed from x_n per call (no state; it leaves x_n and the
+   step's times on the contact object so that the output's force at the step's result includes
+   friction, src/contact/contact_force.cpp). PD: its
    gradient at the current iterate in the right-hand side, as the barrier's. A moving obstacle
    (-msim_contact_velocity) drags: the slip u is the displacement relative to it, P (x - x_n -
    v_o (tx - t)). */
@@ -18,7 +20,9 @@
 #include <msim/private/contactimpl.h>
 #include <cmath>
 
-/* f(v, lambda, P (3 x 3), u, y) for every owned vertex and obstacle in contact at x_n */
+/* f(v, lambda, P (3 x 3), u, y) for every owned vertex and obstacle in contact at x_n
+   (msim/private/contactimpl.h's loop, which the output's contact force shares); leaves the step's
+   x_n and times on the contact object for that output */
 template <class F>
 static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec X, F &&f)
 {
@@ -27,26 +31,14 @@ static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec 
   const PetscScalar *x, *xn, *m;
 
   PetscFunctionBeginUser;
+  ct->fr_xn = imp->Xn;
+  ct->fr_t  = imp->step.t;
+  ct->fr_tx = imp->step.tx;
+  ct->fr_h  = imp->step.h;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Xn, &xn));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt v = 0; v < sys->nown; v++)
-    for (const MSimObstacle &o : ct->obs) {
-      PetscReal       n[3], P[9], u[3], b, db, d2b, y = 0;
-      const PetscReal d  = MSimObstacleDistanceAt(&o, imp->step.t, xn + 3 * v, n, NULL); /* x_n with the obstacle at t */
-      const PetscReal dt = imp->step.tx - imp->step.t;
-      if (d >= ct->dhat || d <= 0) continue;
-      MSimBarrier(d, ct->dhat, &b, &db, &d2b);
-      const PetscReal lambda = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(db);
-      for (int a = 0; a < 3; a++)
-        for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - n[a] * n[c];
-      for (int a = 0; a < 3; a++) {
-        u[a] = 0;
-        for (int c = 0; c < 3; c++) u[a] += P[3 * a + c] * (x[3 * v + c] - xn[3 * v + c] - o.v[c] * dt); /* slip relative to the obstacle */
-        y += u[a] * u[a];
-      }
-      f(v, lambda, P, u, std::sqrt(y));
-    }
+  MSimContactForEachSliding(ct, sys->nown, x, xn, m, imp->step.t, imp->step.tx, f);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Xn, &xn));
   PetscCall(VecRestoreArrayRead(X, &x));
@@ -56,12 +48,7 @@ static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec 
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimContactGet(term->imp->sys, ct));
-  if (*ct && (*ct)->kappa == 0) { /* the barrier term sets it; friction alone uses the same rule */
-    PetscReal b, db, d2b;
-    MSimBarrier(0.5 * (*ct)->dhat, (*ct)->dhat, &b, &db, &d2b);
-    (*ct)->kappa = 1.0 / (term->imp->step.h2 * d2b);
-  }
+  PetscCall(MSimContactGetForStep(term->imp->sys, term->imp->step.h2, ct)); /* the barrier term sets kappa; friction alone uses the same rule */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -90,23 +77,17 @@ static PetscErrorCode Energy_Friction(MSimImplicitTerm term, Vec X, PetscReal *e
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* G += sign h2 mu lambda f1(y)/y u; the friction force joins the recorded contact force */
+/* G += sign h2 mu lambda f1(y)/y u */
 static PetscErrorCode AddGradient(MSimImplicitTerm term, MSimContact ct, Vec X, Vec G, PetscReal sign)
 {
   const PetscReal w = term->imp->step.h2 * ct->mu, eps = ct->eps_v * term->imp->step.h;
-  PetscScalar    *g;
 
-  PetscFunctionBeginUser;
-  PetscCall(VecGetArray(G, &g));
-  PetscCall(ForEachSliding(term, ct, X, [&](PetscInt v, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
-    const PetscReal f1y = y < eps ? 2 / eps - y / (eps * eps) : 1 / y; /* f1(y) / y */
-    for (int c = 0; c < 3; c++) {
-      g[3 * v + c] += sign * w * lambda * f1y * u[c];
-      ct->force[c] -= ct->mu * lambda * f1y * u[c];
-    }
-  }));
-  PetscCall(VecRestoreArray(G, &g));
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimContactAddToVec(G, [&](PetscScalar *g) {
+    return ForEachSliding(term, ct, X, [&](PetscInt v, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
+      const PetscReal f1y = MSimFrictionF1OverY(y, eps);
+      for (int c = 0; c < 3; c++) g[3 * v + c] += sign * w * lambda * f1y * u[c];
+    });
+  });
 }
 
 static PetscErrorCode Gradient_Friction(MSimImplicitTerm term, Vec X, Vec G)
@@ -132,7 +113,7 @@ static PetscErrorCode Hessian_Friction(MSimImplicitTerm term, Vec X, PetscBool p
     PetscScalar blk[9];
     PetscInt    idx[3];
     /* f1(y)/y and (f1'(y) y - f1(y)) / y^3 */
-    const PetscReal a = y < eps ? 2 / eps - y / (eps * eps) : 1 / y;
+    const PetscReal a = MSimFrictionF1OverY(y, eps);
     const PetscReal c = y < eps ? -1 / (eps * eps * PetscMax(y, PETSC_SMALL * eps)) : -1 / (y * y * y);
     for (int r = 0; r < 3; r++) {
       idx[r] = 3 * (sys->rstart + v) + r;
@@ -167,6 +148,17 @@ static PetscErrorCode View_Friction(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* the output's force must not read this problem's x_n once the problem is gone */
+static PetscErrorCode Destroy_Friction(MSimImplicitTerm term)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(term->imp->sys, &ct));
+  if (ct && ct->fr_xn == term->imp->Xn) ct->fr_xn = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
 {
   MSimContact ct;
@@ -179,5 +171,6 @@ PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
   term->ops.hessian  = Hessian_Friction;
   term->ops.pd_rhs   = PDRHS_Friction;
   term->ops.view     = View_Friction;
+  term->ops.destroy  = Destroy_Friction;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -14,7 +14,8 @@
    set of such vertices changes (A is then refactored, and only then), and the right-hand side
    w_v x_v minus the barrier's gradient, so each global step is X - A^-1 g(X); the step is then
    shortened by max_step where it would cross an obstacle (pd_steps.cpp).
-   The contact force, -kappa m b'(d) n, is recorded at every gradient for -msim_monitor_csv. */
+   The contact force, -kappa m b'(d) n, is computed for the frames and -msim_monitor_csv at each
+   step's result by src/contact/contact_force.cpp with the same loop and clamp. */
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <msim/errors.h>
@@ -24,21 +25,16 @@
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
 
-/* kappa's default at the first step: the barrier's stiffness at dhat/2 equals the mass's */
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
 {
   PetscFunctionBeginUser;
-  PetscCall(MSimContactGet(term->imp->sys, ct));
-  if (*ct && (*ct)->kappa == 0) {
-    PetscReal b, db, d2b;
-    MSimBarrier(0.5 * (*ct)->dhat, (*ct)->dhat, &b, &db, &d2b);
-    (*ct)->kappa = 1.0 / (term->imp->step.h2 * d2b);
-  }
+  PetscCall(MSimContactGetForStep(term->imp->sys, term->imp->step.h2, ct));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* f(v, d, n, H, m) for every owned vertex v and obstacle within dhat (d may be <= 0), the
-   obstacles where they are when the scheme's unknown is (step.tx: moving obstacles) */
+   obstacles where they are when the scheme's unknown is (step.tx: moving obstacles); the loop is
+   msim/private/contactimpl.h's, which the output's contact force shares */
 template <class F>
 static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, PetscBool hessian, F &&f)
 {
@@ -48,12 +44,7 @@ static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, 
   PetscFunctionBeginUser;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  for (PetscInt v = 0; v < sys->nown; v++)
-    for (const MSimObstacle &o : ct->obs) {
-      PetscReal       n[3], H[9];
-      const PetscReal d = MSimObstacleDistanceAt(&o, term->imp->step.tx, x + 3 * v, n, hessian ? H : NULL);
-      if (d < ct->dhat) f(v, d, n, H, PetscRealPart(m[3 * v]));
-    }
+  MSimContactForEachNear(ct, sys->nown, x, term->imp->step.tx, ct->dhat, hessian, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -90,29 +81,19 @@ static PetscErrorCode Energy_Obstacles(MSimImplicitTerm term, Vec X, PetscReal *
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* G (or a PD right-hand side, with sign -1) += sign h2 kappa m b'(d) n; records the contact force */
+/* G (or a PD right-hand side, with sign -1) += sign h2 kappa m b'(d) n (the output's contact
+   force, src/contact/contact_force.cpp, is this over h2, at the step's result) */
 static PetscErrorCode AddGradient(MSimImplicitTerm term, MSimContact ct, Vec X, Vec G, PetscReal sign)
 {
   const PetscReal w = term->imp->step.h2 * ct->kappa;
-  PetscScalar    *g;
-  PetscInt        last = -1;
 
-  PetscFunctionBeginUser;
-  ct->force[0] = ct->force[1] = ct->force[2] = 0;
-  ct->ncontact                                = 0;
-  PetscCall(VecGetArray(G, &g));
-  PetscCall(ForEachNear(term, ct, X, PETSC_FALSE, [&](PetscInt v, PetscReal d, const PetscReal *n, const PetscReal *, PetscReal m) {
-    PetscReal b, db, d2b;
-    MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
-    for (int c = 0; c < 3; c++) {
-      g[3 * v + c] += sign * w * m * db * n[c];
-      ct->force[c] -= ct->kappa * m * db * n[c];
-    }
-    if (v != last) ct->ncontact++;
-    last = v;
-  }));
-  PetscCall(VecRestoreArray(G, &g));
-  PetscFunctionReturn(PETSC_SUCCESS);
+  return MSimContactAddToVec(G, [&](PetscScalar *g) {
+    return ForEachNear(term, ct, X, PETSC_FALSE, [&](PetscInt v, PetscReal d, const PetscReal *n, const PetscReal *, PetscReal m) {
+      PetscReal b, db, d2b;
+      MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+      for (int c = 0; c < 3; c++) g[3 * v + c] += sign * w * m * db * n[c];
+    });
+  });
 }
 
 static PetscErrorCode Gradient_Obstacles(MSimImplicitTerm term, Vec X, Vec G)
@@ -167,9 +148,15 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
 
 /* PD's weights: w_v = beta h^2 kappa m_v sum_o b''(d_vo) on the diagonal of A for each vertex
    within dhat of an obstacle, taken when the set of such vertices changes (and only then, so the
-   factor is kept while the contact set is); zero elsewhere. */
+   factor is kept while the contact set is); zero elsewhere. Whether the set changed is decided over
+   all ranks (pd_steps.cpp reduces the flag), so every rank takes its new weights when A is
+   reassembled, not only the ranks whose own vertices changed: a rank that kept its old weights
+   while another's set changed gave A, and so a fixed-iteration PD step, that depended on the
+   partition (examples/bunny_drop.opts: 1 and 2 ranks 1.2 mm apart one step after landing). */
 typedef struct {
-  std::vector<PetscReal> w; /* per owned vertex */
+  std::vector<PetscReal> w;       /* per owned vertex: the weights in A */
+  std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
+  PetscBool              pending; /* next holds weights not yet taken */
 } PDWeights;
 
 static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBool *changed)
@@ -190,10 +177,9 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
   }));
   PetscBool same = (PetscBool)(pw->w.size() == w.size());
   for (size_t v = 0; same && v < w.size(); v++) same = (PetscBool)((w[v] > 0) == (pw->w[v] > 0));
-  if (!same) {
-    pw->w    = w;
-    *changed = PETSC_TRUE;
-  }
+  if (!same) *changed = PETSC_TRUE;
+  pw->next.swap(w);
+  pw->pending = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -203,6 +189,10 @@ static PetscErrorCode PDMatrix_Obstacles(MSimImplicitTerm term, Mat A)
   MSimSystem sys = term->imp->sys;
 
   PetscFunctionBeginUser;
+  if (pw->pending) { /* on every rank at once: A is assembled collectively */
+    pw->w.swap(pw->next);
+    pw->pending = PETSC_FALSE;
+  }
   for (size_t v = 0; v < pw->w.size(); v++)
     if (pw->w[v] > 0) PetscCall(MatSetValue(A, sys->rstart + (PetscInt)v, sys->rstart + (PetscInt)v, pw->w[v], ADD_VALUES));
   PetscFunctionReturn(PETSC_SUCCESS);
