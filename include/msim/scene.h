@@ -10,6 +10,7 @@
 #include <msim/options.h>
 #include <msim/mesh.h>
 #include <msim/exchange.h>
+#include <msim/self_contact_options.h>
 #include <vector>
 #include <string>
 
@@ -46,6 +47,9 @@ typedef struct _n_MSimSceneData {
      default: it costs more than the 20% per step on the bunny that would have made it the default
      (runs/self_contact/volume) */
   PetscBool              volume = PETSC_FALSE;
+  /* -msim_self_contact's block, read here once (a mesh keeps its cells for the surface when on);
+     the system carries it to the implicit term */
+  MSimSelfContactOptions self_contact;
   std::vector<PetscInt>  corners, edge; /* what -msim_fix corners|edge means (grids and chains) */
   std::string            name;         /* scene type, for messages */
   std::string            source;       /* where a mesh came from, for views */

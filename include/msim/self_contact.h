@@ -5,21 +5,13 @@
    src/implicit/terms/self_contact.cpp; the geometry is src/contact/self_*.cpp. */
 #pragma once
 #include <msim/system.h>
+#include <msim/self_contact_options.h>
 #include <vector>
 
-typedef struct {
-  PetscBool on;        /* -msim_self_contact */
-  PetscReal dhat;      /* -msim_self_contact_distance (0: a quarter of the shortest rest edge) */
-  PetscReal stiffness; /* -msim_self_contact_stiffness: multiplies the default barrier weight */
-  PetscReal ccd_s;     /* -msim_self_contact_ccd_fraction: ACCD keeps this fraction of the gap */
-  PetscBool halo;      /* -msim_self_contact_halo (testing: 0 leaves other ranks' elements out) */
-} MSimSelfContactOptions;
-
-/* Reads the options block "msim self-contact" (collective). */
-PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *o);
 /* Explicit integrators and PETSc's TS cannot keep a barrier's feasible set: with
-   -msim_self_contact they are refused in one line (called by MSimIntegratorSetUp). */
-PetscErrorCode MSimSelfContactCheckIntegrator(MPI_Comm comm, const char type[], PetscBool implicit);
+   -msim_self_contact (the system's options) they are refused in one line (called by
+   MSimIntegratorSetUp). */
+PetscErrorCode MSimSelfContactCheckIntegrator(MSimSystem sys, const char type[], PetscBool implicit);
 
 /* Closest points: squared distance d2 = |r|^2 with r = sum_k w[k] x_k over the pair's four
    points (point-triangle: p, a, b, c; edge-edge: a0, a1, b0, b1). The weights are those of the
@@ -91,45 +83,9 @@ void MSimBoxGrid::Query(const PetscReal *box, F &&f)
       }
 }
 
-/* The surface a rank sees: its own elements (every triangle with a vertex in its block of input
-   ids) and the halo (other ranks' triangles within the contact distance plus a motion margin of
-   its own), with their vertices' positions gathered from the natural-order Vec by one scatter.
-   Built by MSimSelfSurfaceCreate; re-planned (collective) when a vertex has moved more than half
-   the margin since the last plan. */
+/* The surface a rank sees (its elements and the halo from other ranks) is private:
+   msim/private/selfcontactimpl.h. */
 typedef struct _n_MSimSelfSurface *MSimSelfSurface;
-struct _n_MSimSelfSurface {
-  MSimSystem             sys;
-  PetscInt               N;            /* cloth grid side (the one surface wired today) */
-  PetscInt               dstart, dcount; /* this rank's block of input ids */
-  PetscBool              halo;
-  PetscReal              dhat, margin0, margin;
-  std::vector<PetscInt>  own_tris;     /* triangle ids of the rank's own elements */
-  /* the current plan */
-  std::vector<PetscInt>  vid;          /* local vertices: input ids (sorted) */
-  std::vector<PetscInt>  gnum;         /* their global free numbers (-1: fixed) */
-  std::vector<PetscInt>  tri;          /* local triangles: 3 local vertices each */
-  std::vector<PetscInt>  edge;         /* local edges: 2 local vertices each (unique) */
-  std::vector<PetscReal> xplan;        /* positions at the plan */
-  VecScatter             scatter;      /* natural -> local vertices (plans) */
-  VecScatter             xscatter;     /* state Vec -> the local free vertices (every query) */
-  std::vector<PetscInt>  fixed;        /* local vertices that are fixed ... */
-  std::vector<PetscReal> fixed_b0;     /* ... and their positions at t = 0 (b(t) = b0 + t v) */
-  Vec                    xl, gl;       /* local positions (3 each), local gradient */
-  Vec                    gnumnat;      /* natural-order global free numbers (as reals) */
-  PetscInt               nplans;
-  PetscInt               nhalo;        /* triangles from other ranks in the plan */
-};
-
-PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOptions *o, MSimSelfSurface *s);
-PetscErrorCode MSimSelfSurfaceDestroy(MSimSelfSurface *s);
-/* The positions of the local vertices at X (time t: the handles' b(t)) into x (3 per local
-   vertex), and, when Y is not NULL, those of -Y into u (the line search's motion X - a Y is x + a
-   u); re-plans first when any vertex (also at x + a u) would be further than margin/2 from its
-   planned position. Collective. */
-PetscErrorCode MSimSelfSurfaceGather(MSimSelfSurface s, PetscReal t, Vec X, Vec Y, PetscReal a, std::vector<PetscReal> &x, std::vector<PetscReal> *u);
-/* G += the local gradient g (3 per local vertex), contributions to other ranks' vertices sent to
-   them (ADD_VALUES). Collective. */
-PetscErrorCode MSimSelfSurfaceAddGradient(MSimSelfSurface s, const std::vector<PetscReal> &g, Vec G);
 
 extern PetscLogEvent MSIM_SelfBroad, MSIM_SelfHalo, MSIM_SelfNarrow, MSIM_SelfCCD;
 PetscErrorCode MSimSelfContactLogRegister(void);

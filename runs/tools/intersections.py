@@ -16,6 +16,18 @@ def cloth_triangles(n):
     return np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
 
 
+def surface_triangles(cells):
+    """The surface of a mesh's cells (an (m, 3) or (m, 4) integer array): its triangles, or a tet
+    mesh's boundary faces, those that belong to exactly one tet (msim's self-contact surface)."""
+    cells = np.asarray(cells, dtype=np.int64)
+    if cells.shape[1] == 3:
+        return cells
+    faces = np.concatenate([cells[:, [1, 2, 3]], cells[:, [0, 2, 3]], cells[:, [0, 1, 3]], cells[:, [0, 1, 2]]])
+    key = np.sort(faces, axis=1)
+    _, first, count = np.unique(key, axis=0, return_index=True, return_counts=True)
+    return faces[first[count == 1]]
+
+
 def candidate_pairs(x, tris):
     lo, hi = x[tris].min(axis=1), x[tris].max(axis=1)
     edge = np.linalg.norm(x[tris[:, 1]] - x[tris[:, 0]], axis=1).mean()
@@ -77,4 +89,7 @@ if __name__ == "__main__":
     assert intersecting_pairs(x, np.array([[0, 1, 2], [3, 4, 5]])) == 1
     x[3:, 0] += 5
     assert intersecting_pairs(x, np.array([[0, 1, 2], [3, 4, 5]])) == 0
+    # two tets sharing a face: 6 boundary faces of the 8, the shared one left out
+    s = surface_triangles([[0, 1, 2, 3], [1, 2, 3, 4]])
+    assert len(s) == 6 and not any(sorted(f) == [1, 2, 3] for f in s.tolist())
     print("ok")

@@ -1,7 +1,9 @@
-/* Self-contact's options (one block, read by the implicit term and by the integrators' check) and
-   the refusal of the integrators that cannot keep its guarantee. */
+/* Self-contact's options (one block, read once by the scene; the system carries them to the
+   implicit term and the integrators' check) and the refusal of the integrators that cannot keep
+   its guarantee. */
 #include <msim/self_contact.h>
 #include <msim/options.h>
+#include <msim/private/systemimpl.h>
 
 PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *o)
 {
@@ -12,7 +14,7 @@ PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *
   o->ccd_s     = 0.1;
   o->halo      = PETSC_TRUE;
   PetscOptionsBegin(comm, NULL, "msim self-contact", NULL);
-  PetscCall(PetscOptionsBool("-msim_self_contact", "Self-contact: IPC distance barriers between the surface's vertex-disjoint point-triangle and edge-edge pairs, with a CCD-filtered line search (implicit integrators)", NULL, o->on, &o->on, NULL));
+  PetscCall(PetscOptionsBool("-msim_self_contact", "Self-contact: IPC distance barriers between the surface's vertex-disjoint point-triangle and edge-edge pairs (cloth, a surface mesh's triangles, a tet mesh's boundary faces), with a CCD-filtered line search (implicit integrators)", NULL, o->on, &o->on, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_distance", "Self-contact: distance dhat below which the barrier acts, m (0: a quarter of the shortest rest edge)", NULL, o->dhat, &o->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_stiffness", "Self-contact: factor on the barrier's weight (1: a pair's stiffness at dhat/2 equals a mean vertex's mass term)", NULL, o->stiffness, &o->stiffness, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_ccd_fraction", "Self-contact: additive CCD stops a step where a pair's gap falls to this fraction of its start (0 < s < 1)", NULL, o->ccd_s, &o->ccd_s, NULL));
@@ -24,13 +26,10 @@ PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSelfContactCheckIntegrator(MPI_Comm comm, const char type[], PetscBool implicit)
+PetscErrorCode MSimSelfContactCheckIntegrator(MSimSystem sys, const char type[], PetscBool implicit)
 {
-  MSimSelfContactOptions o;
-
   PetscFunctionBeginUser;
   if (implicit) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MSimSelfContactGetOptions(comm, &o));
-  PetscCheck(!o.on, comm, PETSC_ERR_SUP, "-msim_self_contact with -msim_integrator %s is not supported: an explicit step has no line search to keep the surface from passing through itself; use an implicit integrator (implicit_euler or bdf2)", type);
+  PetscCheck(!sys->self_contact.on, sys->comm, PETSC_ERR_SUP, "-msim_self_contact with -msim_integrator %s is not supported: an explicit step has no line search to keep the surface from passing through itself; use an implicit integrator (implicit_euler or bdf2)", type);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -10,7 +10,7 @@
    within dhat of it, was within dhat + margin at the plan, so in its halo. The plan is redone
    when a vertex (at an iterate or along a line search's motion) gets further than margin / 2
    from its planned position: two elements then moved together by at most the margin. */
-#include <msim/self_contact.h>
+#include <msim/private/selfcontactimpl.h>
 #include <msim/errors.h>
 #include <msim/private/systemimpl.h>
 #include <cmath>
@@ -31,19 +31,77 @@ PetscErrorCode MSimSelfContactLogRegister(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static MSimSelfTri Sorted(PetscInt a, PetscInt b, PetscInt c)
+{
+  MSimSelfTri v = {a, b, c};
+  std::sort(v.begin(), v.end());
+  return v;
+}
+
 /* the cloth grid's triangles: cell (i, j) is split along its (i,j)-(i+1,j+1) diagonal, which is a
    shear spring (src/scene/cloth.cpp numbers vertex (i, j) j N + i) */
-static void TriVerts(PetscInt N, PetscInt t, PetscInt v[3])
+static MSimSelfTri ClothTri(PetscInt N, PetscInt t)
 {
   const PetscInt cell = t / 2, i = cell % (N - 1), j = cell / (N - 1);
   const PetscInt a = j * N + i, b = a + 1, c = a + N + 1, d = a + N;
-  v[0] = a;
-  v[1] = t % 2 ? c : b;
-  v[2] = t % 2 ? d : c;
+  return t % 2 ? Sorted(a, c, d) : Sorted(a, b, c);
 }
 
-/* A plan from the given triangle ids: local vertices, triangles, edges, the scatter, positions */
-static PetscErrorCode BuildLocal(MSimSelfSurface s, PetscReal t, std::vector<PetscInt> &tris)
+PetscErrorCode MSimSelfSurfaceTriangles(MPI_Comm comm, const MSimSceneData &S, std::vector<PetscInt> &tris)
+{
+  std::vector<MSimSelfTri> faces, recv;
+  std::vector<PetscMPIInt> dest;
+
+  PetscFunctionBeginUser;
+  tris.clear();
+  PetscCheck(S.cell_size == 3 || S.cell_size == 4, comm, PETSC_ERR_PLIB, "self-contact's surface needs triangles or tets (cells of %d vertices)", S.cell_size);
+  const size_t nc = S.cells.size() / S.cell_size;
+  PetscCheck(S.ncell == 0 || nc > 0 || S.cells_not_stored == 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "the scene did not keep its cells for self-contact");
+  if (S.cell_size == 3) {
+    for (size_t c = 0; c < nc; c++) faces.push_back(Sorted(S.cells[3 * c], S.cells[3 * c + 1], S.cells[3 * c + 2]));
+  } else {
+    /* every tet's four faces to the directory rank of their least vertex, where a face two tets
+       share arrives twice and a boundary face once */
+    static const int F[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+    std::vector<MSimSelfTri> all;
+    for (size_t c = 0; c < nc; c++)
+      for (int f = 0; f < 4; f++) {
+        const PetscInt *v = &S.cells[4 * c];
+        all.push_back(Sorted(v[F[f][0]], v[F[f][1]], v[F[f][2]]));
+        dest.push_back(S.dir.Owner(all.back()[0]));
+      }
+    PetscCall(MSimExchange(comm, dest, std::move(all), recv));
+    std::sort(recv.begin(), recv.end());
+    for (size_t k = 0; k < recv.size();) {
+      size_t e = k;
+      while (e < recv.size() && recv[e] == recv[k]) e++;
+      if (e - k == 1) faces.push_back(recv[k]);
+      k = e;
+    }
+    recv.clear();
+  }
+  /* each triangle to the directory ranks of its vertices */
+  std::vector<MSimSelfTri> send;
+  dest.clear();
+  for (const MSimSelfTri &f : faces) {
+    PetscMPIInt last = -1;
+    for (int q = 0; q < 3; q++) {
+      const PetscMPIInt r = S.dir.Owner(f[q]);
+      if (r == last) continue; /* ascending ids: equal owners are adjacent */
+      send.push_back(f);
+      dest.push_back(r);
+      last = r;
+    }
+  }
+  PetscCall(MSimExchange(comm, dest, std::move(send), recv));
+  std::sort(recv.begin(), recv.end());
+  recv.erase(std::unique(recv.begin(), recv.end()), recv.end());
+  for (const MSimSelfTri &f : recv) tris.insert(tris.end(), f.begin(), f.end());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* A plan from the given triangles: local vertices, triangles, edges, the scatter, positions */
+static PetscErrorCode BuildLocal(MSimSelfSurface s, PetscReal t, std::vector<MSimSelfTri> &tris)
 {
   MSimSystem            sys = s->sys;
   IS                    is;
@@ -53,18 +111,13 @@ static PetscErrorCode BuildLocal(MSimSelfSurface s, PetscReal t, std::vector<Pet
   std::sort(tris.begin(), tris.end());
   tris.erase(std::unique(tris.begin(), tris.end()), tris.end());
   s->vid.clear();
-  for (PetscInt t : tris) {
-    PetscInt v[3];
-    TriVerts(s->N, t, v);
-    s->vid.insert(s->vid.end(), v, v + 3);
-  }
+  for (const MSimSelfTri &v : tris) s->vid.insert(s->vid.end(), v.begin(), v.end());
   std::sort(s->vid.begin(), s->vid.end());
   s->vid.erase(std::unique(s->vid.begin(), s->vid.end()), s->vid.end());
   auto local = [&](PetscInt id) { return (PetscInt)(std::lower_bound(s->vid.begin(), s->vid.end(), id) - s->vid.begin()); };
   s->tri.resize(3 * tris.size());
   for (size_t k = 0; k < tris.size(); k++) {
-    PetscInt v[3];
-    TriVerts(s->N, tris[k], v);
+    const MSimSelfTri &v = tris[k];
     for (int c = 0; c < 3; c++) s->tri[3 * k + c] = local(v[c]);
     for (int c = 0; c < 3; c++) {
       const PetscInt p = s->tri[3 * k + c], q = s->tri[3 * k + (c + 1) % 3];
@@ -139,9 +192,8 @@ static PetscErrorCode Replan(MSimSelfSurface s, PetscReal t)
   MSimSystem               sys = s->sys;
   std::vector<PetscReal>   boxes(6 * sys->size), x;
   PetscReal                box[6] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL};
-  std::vector<PetscInt>    tris = s->own_tris, recv;
+  std::vector<MSimSelfTri> tris = s->own_tris, recv, send;
   std::vector<PetscMPIInt> dest;
-  std::vector<PetscInt>    send;
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_SelfHalo, 0, 0, 0, 0));
@@ -157,8 +209,7 @@ static PetscErrorCode Replan(MSimSelfSurface s, PetscReal t)
   /* each own triangle's box, and the rank's */
   std::vector<PetscReal> tbox(6 * s->own_tris.size());
   for (size_t k = 0; k < s->own_tris.size(); k++) {
-    PetscInt v[3];
-    TriVerts(s->N, s->own_tris[k], v);
+    const MSimSelfTri &v = s->own_tris[k];
     for (int c = 0; c < 3; c++) {
       tbox[6 * k + c]     = PetscMin(pos(v[0])[c], PetscMin(pos(v[1])[c], pos(v[2])[c]));
       tbox[6 * k + 3 + c] = PetscMax(pos(v[0])[c], PetscMax(pos(v[1])[c], pos(v[2])[c]));
@@ -183,7 +234,7 @@ static PetscErrorCode Replan(MSimSelfSurface s, PetscReal t)
   }
   PetscCall(MSimExchange(sys->comm, dest, send, recv));
   s->nhalo = 0;
-  for (PetscInt t : recv)
+  for (const MSimSelfTri &t : recv)
     if (!std::binary_search(s->own_tris.begin(), s->own_tris.end(), t)) s->nhalo++;
   tris.insert(tris.end(), recv.begin(), recv.end());
   PetscCall(BuildLocal(s, t, tris));
@@ -200,23 +251,26 @@ PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOption
   PetscFunctionBeginUser;
   PetscCall(MSimSelfContactLogRegister());
   s->sys = sys;
-  PetscCheck(sys->scene_name == "cloth", sys->comm, PETSC_ERR_SUP, "-msim_self_contact: only the cloth scene's surface is wired (its grid triangles); scene '%s' has none yet", sys->scene_name.c_str());
-  s->N = (PetscInt)std::llround(std::sqrt((double)sys->nv));
-  PetscCheck(s->N * s->N == sys->nv && s->N >= 2, sys->comm, PETSC_ERR_PLIB, "cloth of %" PetscInt_FMT " vertices is not a square grid", sys->nv);
   s->halo   = o->halo;
   s->dstart = sys->dir.Start(sys->rank);
   s->dcount = sys->dir.Count(sys->rank);
-  for (PetscInt v = s->dstart; v < s->dstart + s->dcount; v++) {
-    const PetscInt i = v % s->N, j = v / s->N;
-    for (PetscInt cj = j - 1; cj <= j; cj++)
-      for (PetscInt ci = i - 1; ci <= i; ci++) {
-        if (ci < 0 || cj < 0 || ci >= s->N - 1 || cj >= s->N - 1) continue;
-        for (PetscInt h = 0; h < 2; h++) {
-          PetscInt t = 2 * (cj * (s->N - 1) + ci) + h, w[3];
-          TriVerts(s->N, t, w);
-          if (w[0] == v || w[1] == v || w[2] == v) s->own_tris.push_back(t);
+  if (sys->scene_name == "cloth") { /* the grid's triangles around the block's vertices */
+    const PetscInt N = (PetscInt)std::llround(std::sqrt((double)sys->nv));
+    PetscCheck(N * N == sys->nv && N >= 2, sys->comm, PETSC_ERR_PLIB, "cloth of %" PetscInt_FMT " vertices is not a square grid", sys->nv);
+    for (PetscInt v = s->dstart; v < s->dstart + s->dcount; v++) {
+      const PetscInt i = v % N, j = v / N;
+      for (PetscInt cj = j - 1; cj <= j; cj++)
+        for (PetscInt ci = i - 1; ci <= i; ci++) {
+          if (ci < 0 || cj < 0 || ci >= N - 1 || cj >= N - 1) continue;
+          for (PetscInt h = 0; h < 2; h++) {
+            const MSimSelfTri w = ClothTri(N, 2 * (cj * (N - 1) + ci) + h);
+            if (w[0] == v || w[1] == v || w[2] == v) s->own_tris.push_back(w);
+          }
         }
-      }
+    }
+  } else { /* a mesh's surface, which the system kept (MSimSelfSurfaceTriangles) */
+    PetscCheck(sys->cell_size == 3 || sys->cell_size == 4, sys->comm, PETSC_ERR_SUP, "-msim_self_contact needs a surface: cloth, a triangle mesh or a tet mesh (scene '%s' has none)", sys->scene_name.c_str());
+    for (size_t k = 0; k < sys->self_tris.size(); k += 3) s->own_tris.push_back({sys->self_tris[k], sys->self_tris[k + 1], sys->self_tris[k + 2]});
   }
   std::sort(s->own_tris.begin(), s->own_tris.end());
   s->own_tris.erase(std::unique(s->own_tris.begin(), s->own_tris.end()), s->own_tris.end());
@@ -234,7 +288,7 @@ PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOption
   /* the first plan: the own triangles at the start state, whose shortest edge sets dhat's default */
   PetscCall(MSimSystemNaturalPositions(sys, 0, sys->X0));
   {
-    std::vector<PetscInt> tris = s->own_tris;
+    std::vector<MSimSelfTri> tris = s->own_tris;
     PetscCall(BuildLocal(s, 0, tris));
   }
   s->dhat = o->dhat;

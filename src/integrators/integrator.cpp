@@ -120,7 +120,7 @@ PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ)
   if (!integ->help_listing) { /* self-contact needs an implicit scheme's feasible line search */
     PetscBool implicit;
     PetscCall(MSimImplicitSchemeIsRegistered(integ->type, &implicit));
-    PetscCall(MSimSelfContactCheckIntegrator(integ->comm, integ->type, implicit));
+    PetscCall(MSimSelfContactCheckIntegrator(integ->sys, integ->type, implicit));
   }
   if (integ->ops.setup) PetscCall((*integ->ops.setup)(integ));
   integ->setupcalled = PETSC_TRUE;

@@ -119,6 +119,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
   PetscCall(MSimOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
   PetscOptionsEnd();
+  PetscCall(MSimSelfContactGetOptions(comm, &S.self_contact));
   PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
   PetscCheck(!young_set || (S.young > 0 && !PetscIsInfOrNanReal(S.young)), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)S.young);
   PetscCheck(S.stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)S.stiffness);
@@ -130,7 +131,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
 
   PetscCall(MSimScenes.Find(comm, "-msim_scene", type, &gen));
   S.name         = type;
-  S.cells_wanted = (PetscBool)(drawn || refine > 0 || keep_cells || S.volume);
+  S.cells_wanted = (PetscBool)(drawn || refine > 0 || keep_cells || S.volume || S.self_contact.on);
   /* the Read stage holds reading a file or generating the scene's blocks */
   PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall((*gen)(comm, &S));

@@ -60,6 +60,10 @@ PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
   PetscCall(MatXAIJSetPreallocation(*A, 3, dnz.data(), onz.data(), NULL, NULL));
   PetscCall(MatSetOption(*A, MAT_SYMMETRIC, PETSC_TRUE));
   PetscCall(MatSetOption(*A, MAT_SYMMETRY_ETERNAL, PETSC_TRUE));
+  /* self-contact's blocks join surface vertices the springs do not, as pairs come within the
+     contact distance: their entries are allocated when they first appear (the assembly map below
+     follows the pattern's changes) */
+  if (sys->self_contact.on) PetscCall(MatSetOption(*A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -69,8 +73,10 @@ PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
    (i,j), (j,i) as present; for each, the offsets of its three rows' first entries in the diagonal
    part (owned columns) or the off-diagonal part of the owned rows, or -1 for rows another rank
    owns (those keep MatSetValuesBlocked and travel in PETSc's stash). Built after the first
-   assembly; hangs on the Mat. */
+   assembly; hangs on the Mat, and is rebuilt after an assembly once the Mat's nonzero pattern has
+   changed (entries another term added, e.g. self-contact's blocks, move the value arrays). */
 typedef struct {
+  PetscObjectState      state; /* the Mat's nonzero state the offsets belong to */
   std::vector<PetscInt> off;  /* 3 per block */
   std::vector<char>     part; /* per block: 0 diagonal part, 1 off-diagonal part */
   std::vector<PetscInt> diag; /* 3 nown: the diagonal entries of the owned rows */
@@ -178,6 +184,14 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoeffici
   PetscCall(PetscLogEventBegin(MSIM_Jacobian, c->X, A, 0, 0));
   PetscCall(PetscObjectQuery((PetscObject)A, "MSimAssemblyMap", (PetscObject *)&container));
   if (container) PetscCall(PetscContainerGetPointer(container, (void **)&map));
+  if (map) {
+    PetscObjectState state;
+    PetscCall(MatGetNonzeroState(A, &state));
+    if (state != map->state) { /* the pattern grew since the map was made: assemble by search, then re-map */
+      PetscCall(PetscObjectCompose((PetscObject)A, "MSimAssemblyMap", NULL));
+      map = NULL;
+    }
+  }
   PetscCall(MatZeroEntries(A));
   if (map) {
     PetscCall(AssemblyParts(A, &Ad, &Ao, &garray));
@@ -241,6 +255,7 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoeffici
     PetscCall(AssemblyParts(A, &Ad, &Ao, &garray));
     if (Ad) {
       PetscCall(AssemblyMapBuild(sys, A, &map));
+      PetscCall(MatGetNonzeroState(A, &map->state));
       PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
       PetscCall(PetscContainerSetPointer(container, map));
       PetscCall(PetscContainerSetUserDestroy(container, AssemblyMapDestroy));

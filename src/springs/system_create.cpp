@@ -8,6 +8,7 @@
 #include <msim/volume.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/sceneimpl.h>
+#include <msim/private/selfcontactimpl.h>
 #include <algorithm>
 #include <memory>
 
@@ -110,6 +111,8 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     sys->out_cell_V0.resize(ntet);
     for (size_t c = 0; c < ntet; c++) sys->out_cell_V0[c] = MSimTetVolume(&x[12 * c], &x[12 * c + 3], &x[12 * c + 6], &x[12 * c + 9]);
   }
+  sys->self_contact = S.self_contact;
+  if (S.self_contact.on && S.cell_size) PetscCall(MSimSelfSurfaceTriangles(comm, S, sys->self_tris));
   PetscCall(MSimSystemDistribute(comm, S, partitioner, morton, L));
   PetscCall(PetscLogStagePush(MSIM_StageSetup));
   sys->nfree          = L.nfree;

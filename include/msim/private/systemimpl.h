@@ -61,6 +61,9 @@ struct _n_MSimSystem {
   PetscInt    nspring_global;       /* springs with a free end */
   MSimSprings springs;              /* owned springs */
   MSimTets    tets;                 /* the volume term's tets (none: ntet 0) */
+  MSimSelfContactOptions self_contact; /* the scene's -msim_self_contact block */
+  std::vector<PetscInt>  self_tris;    /* a mesh's surface triangles around this rank's block of
+                                          input ids, 3 input ids each (self-contact on) */
   std::vector<PetscInt>   local_to_global; /* global block of each owned/ghost slot */
   std::vector<PetscReal>  b0;       /* 3 nfix: the local fixed slots' positions at t = 0 */
   PetscReal   fix_velocity[3];

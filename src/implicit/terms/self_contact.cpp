@@ -18,11 +18,13 @@
    max_step: additive CCD over the pairs whose boxes swept along the step overlap, reduced over
    ranks, so no step (nor PD's global step, nor the first iterate: MSimImplicitGuess) can carry an
    element through another. PD: the barrier's force in the right-hand side, as the obstacles'.
-   The Hessian's blocks join vertices the springs do not: they are added with new nonzeros
-   allowed, and the system's assembly map (fast path) is dropped when the pattern grows. */
+   The Hessian's blocks join vertices the springs do not: the system's matrix takes new entries
+   when self-contact is on (MSimSystemCreateMatrix), and its assembly map follows the pattern.
+   The surface: a cloth's grid triangles, a surface mesh's triangles, a tet mesh's boundary faces
+   (src/contact/self_surface.cpp). */
 #include <msim/implicit.h>
 #include <msim/contact.h>
-#include <msim/self_contact.h>
+#include <msim/private/selfcontactimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <cmath>
@@ -245,12 +247,9 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool, Mat 
   MSimSelfSurface  s   = sd->surf;
   const PetscReal  dh2 = s->dhat * s->dhat;
   PetscErrorCode   ierr = PETSC_SUCCESS;
-  PetscObjectState before, after;
 
   PetscFunctionBeginUser;
   PetscCall(MSimSelfSurfaceGather(s, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
-  PetscCall(MatGetNonzeroState(J, &before));
-  PetscCall(MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
   PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
   PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
     PetscReal   w[4], b, db, d2b, r[3] = {0, 0, 0};
@@ -273,9 +272,6 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool, Mat 
   PetscCall(ierr);
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatGetNonzeroState(J, &after));
-  /* new entries moved the value arrays the system's fast assembly writes into: it re-maps them */
-  if (after != before) PetscCall(PetscObjectCompose((PetscObject)J, "MSimAssemblyMap", NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -335,11 +331,10 @@ static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
 
 PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
 {
-  MSimSystem             sys = term->imp->sys;
-  MSimSelfContactOptions o;
+  MSimSystem                   sys = term->imp->sys;
+  const MSimSelfContactOptions o   = sys->self_contact; /* the scene read them */
 
   PetscFunctionBeginUser;
-  PetscCall(MSimSelfContactGetOptions(sys->comm, &o));
   if (!o.on) PetscFunctionReturn(PETSC_SUCCESS); /* off: no op, nothing per iteration */
   PetscCheck(!term->imp->scheme->no_barrier, sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with -msim_self_contact is not supported (%s): use implicit_euler or bdf2", term->imp->scheme->type, term->imp->scheme->no_barrier);
   SelfData *sd = new SelfData();
