@@ -6,7 +6,8 @@
      a MATNEST of four blocks over the index sets of x and v. Its default preconditioner is exact:
      eliminating v' leaves (a^2 M + a C + K) dx = r_v + (a M + C) r_x, one sparse solve on the
      positions with the KSP of prefix ts_schur_ (MUMPS Cholesky, LDL^T, by default);
-   - second order (TSALPHA2), x and v apart: F(t, x, v, a) = M a - f(t, x, v),
+   - second order (TSALPHA2), x and v apart: F(t, x, v, a) = M a - f(t, x, v) (2 M a - f in PETSc's
+     start-up solves, whose initial acceleration is otherwise twice too large: ts_forms.cpp),
        J = shiftA M + shiftV C + K, assembled into the system's matrix.
    K is the springs' exact Hessian; C is spring damping along the current axes plus air drag. The
    damping force's change with the axis direction is left out of K (it vanishes with the relative
