@@ -55,6 +55,17 @@ def monitor_steady(path):
     return (float(rows[-1]["wall_s"]) - float(rows[0]["wall_s"])) / (len(rows) - 1), len(rows) - 1
 
 
+def monitor_its(path):
+    """(steps made, Newton iterations, linear iterations, vertices in contact at the end) from the
+    monitor CSV; a fresh run's first row is its initial state (step 0), a restarted run's its first step"""
+    try:
+        rows = [r for r in csv.DictReader(open(path)) if int(r["step"]) > 0]
+    except (OSError, KeyError, ValueError):
+        return 0, 0, 0, 0
+    return (len(rows), sum(int(r["nonlinear_its"]) for r in rows), sum(int(r["linear_its"]) for r in rows),
+            int(rows[-1]["contact_n"]) if rows else 0)
+
+
 def read_runs(out):
     rows = []
     for r in csv.DictReader(open(os.path.join(out, "runs.csv"))):
@@ -62,16 +73,19 @@ def read_runs(out):
             continue
         d = os.path.join(out, r["case"], f"{r['variant']}_np{r['ranks']}" + (f"_rep{r['rep']}" if int(r["rep"]) > 1 else ""))
         log = open(os.path.join(d, "log_view.txt")).read() if os.path.exists(os.path.join(d, "log_view.txt")) else ""
-        steps = int(r["steps"] or 0)
-        stepping = float(r["stepping_s"] or 0)
+        # from the files themselves (runs.csv's copies were made with awk on the machine)
+        stage = re.search(r"^\s*\d+:\s+Stepping:\s+(\S+)", log, re.M)
+        stepping = float(stage.group(1)) if stage else 0.0
+        setup = sum(float(m.group(1)) for m in re.finditer(r"^\s*\d+:\s+(?:Read|Partition|Distribution|Refinement|Setup):\s+(\S+)", log, re.M))
+        its = monitor_its(os.path.join(d, "monitor.csv"))
+        steps = its[0] if its[0] else int(re.search(r"-msim_steps (\d+)", r["cmd"]).group(1))
         if not log or steps == 0 or stepping == 0:
             continue
         springs = re.search(r"(\d+) springs", open(os.path.join(d, "stdout.txt")).read())
         steady, nsteady = monitor_steady(os.path.join(d, "monitor.csv"))
         row = dict(case=r["case"], variant=r["variant"], ranks=int(r["ranks"]), rep=int(r["rep"]), steps=steps,
-                   setup_s=float(r["setup_s"] or 0), step_s=stepping / steps, steady_step_s=steady if steady else "",
-                   nonlinear_its=int(r["nonlinear_its"] or 0), linear_its=int(r["linear_its"] or 0),
-                   contact_n_last=int(r["contact_n_last"] or 0), wall_s=float(r["wall_s"] or 0))
+                   setup_s=setup, step_s=stepping / steps, steady_step_s=steady if steady else "",
+                   nonlinear_its=its[1], linear_its=its[2], contact_n_last=its[3], wall_s=float(r["wall_s"] or 0))
         for name in EVENTS:
             row[f"{name}_s_per_step"] = event(log, name, "Stepping")[1] / steps
         row["springs"] = int(springs.group(1)) if springs else ""
