@@ -367,7 +367,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal, set (and A refactored) when that set changes; 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
-  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
   PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing: tangential speed (m/s) below which friction acts as static (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
   PetscOptionsEnd();
   PetscCheck(ct->dhat > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be > 0 (got %g)", (double)ct->dhat);
