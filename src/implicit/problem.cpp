@@ -120,6 +120,8 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
     PetscCall(VecCopy(imp->Xn, A));
     for (PetscInt k = 0; k < imp->nterms; k++)
       if (imp->terms[k]->ops.feasible_start) PetscCall(imp->terms[k]->ops.feasible_start(imp->terms[k], A));
+    for (PetscInt k = 0; k < imp->nterms; k++) /* each vertex back on its own first (obstacles) */
+      if (imp->terms[k]->ops.clamp) PetscCall(imp->terms[k]->ops.clamp(imp->terms[k], A, X));
     PetscCall(VecWAXPY(D, -1.0, X, A)); /* X = A - D */
     PetscCall(MSimImplicitMaxStep(imp, A, D, &alpha));
     if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, A));

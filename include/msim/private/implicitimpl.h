@@ -82,6 +82,11 @@ typedef struct {
   /* the largest alpha in (0, *alpha] for which X - alpha Y stays where the term is defined
      (contact barriers: the line search starts there); lowers *alpha where it must, else leaves it */
   PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha);
+  /* optional, with max_step: where the term's feasible set is per vertex (obstacles), moves back
+     each vertex of X whose own segment from the feasible A would leave it (its own safe step), so
+     that one vertex near an obstacle does not shorten every vertex's move (the first iterate;
+     PD's global steps) */
+  PetscErrorCode (*clamp)(MSimImplicitTerm, Vec A, Vec X);
   /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
      back towards A instead of x_n) */

@@ -9,11 +9,16 @@
    only as far as the vertex's inertia m I covers it (Hessian_Obstacles; -msim_contact_psd_curvature).
    max_step: the largest alpha for which no owned vertex meets an obstacle (where it is at step.tx)
    along X - alpha Y (exact ray tests times 0.8, IPC's CCD filter; conservative advancement for
-   meshes), reduced over ranks; a feasible start never gives 0. PD (-msim_contact_pd_weight): each
-   vertex within dhat gets w_v = beta h^2 kappa m b''(d) on the PD matrix's diagonal, set when the
-   set of such vertices changes (A is then refactored, and only then), and the right-hand side
-   w_v x_v minus the barrier's gradient, so each global step is X - A^-1 g(X); the step is then
-   shortened by max_step where it would cross an obstacle (pd_steps.cpp).
+   meshes), reduced over ranks; a feasible start never gives 0. clamp: the same test per vertex
+   without the reduction, so that the first iterate is cut vertex by vertex (a common alpha froze
+   the whole cloth when one vertex reached the ball). PD (-msim_contact_pd_weight): each vertex
+   within dhat gets w_v = beta h^2 kappa m b''(d) on the PD matrix's diagonal, computed at the
+   first local step of each time step and taken when the set of such vertices changed (A is then
+   refactored, and only then), and the right-hand side w_v x_v minus the barrier's gradient, so
+   each global step is X - A^-1 g(X); the step is then shortened by max_step where it would cross
+   an obstacle and halved until Phi does not rise (pd_steps.cpp). A constant factor (contact in
+   the right-hand side only, -msim_contact_pd_weight 0, or as a projection in the local step) was
+   measured against this in runs/contact/README.md: none both converges and keeps the cloth out.
    The contact force, -kappa m b'(d) n, is computed for the frames and -msim_monitor_csv at each
    step's result by src/contact/contact_force.cpp with the same loop and clamp. */
 #include <msim/implicit.h>
@@ -147,7 +152,8 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
 }
 
 /* PD's weights: w_v = beta h^2 kappa m_v sum_o b''(d_vo) on the diagonal of A for each vertex
-   within dhat of an obstacle, taken when the set of such vertices changes (and only then, so the
+   within dhat of an obstacle at the first local step of a time step, taken when the set of such
+   vertices changed (and only then, so the
    factor is kept while the contact set is); zero elsewhere. Whether the set changed is decided over
    all ranks (pd_steps.cpp reduces the flag), so every rank takes its new weights when A is
    reassembled, not only the ranks whose own vertices changed: a rank that kept its old weights
@@ -157,6 +163,7 @@ typedef struct {
   std::vector<PetscReal> w;       /* per owned vertex: the weights in A */
   std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
   PetscBool              pending; /* next holds weights not yet taken */
+  PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
 } PDWeights;
 
 static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBool *changed)
@@ -168,6 +175,12 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct || !ct->pd_weight) PetscFunctionReturn(PETSC_SUCCESS);
+  /* once per time step, at its first local step (the same on every rank): the weights only speed
+     the iteration up (the right-hand side makes each global step X - A^-1 g(X) whatever they
+     are), and a refactorization costs about 5 PD iterations of the 101 x 101 cloth in CPU time
+     (runs/contact/README.md) */
+  if (pw->t == term->imp->step.t) PetscFunctionReturn(PETSC_SUCCESS);
+  pw->t = term->imp->step.t;
   std::vector<PetscReal> w(sys->nown, 0.0);
   const PetscReal        h2k = term->imp->step.h2 * ct->kappa;
   PetscCall(ForEachNear(term, ct, X, PETSC_FALSE, [&](PetscInt v, PetscReal d, const PetscReal *, const PetscReal *, PetscReal m) {
@@ -259,6 +272,36 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Each vertex of X whose segment from the feasible A meets an obstacle stops at its own safe step
+   (0.8 of the hit time, IPC's filter; conservative advancement on meshes); the others keep their
+   move. No reduction: max_step's common alpha, the smallest over all vertices, would instead stop
+   the whole cloth when one vertex nears the ball (at the first iterate it froze the 101 x 101
+   cloth in the air for PD and Newton-CG alike: runs/contact/README.md). */
+static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
+{
+  MSimSystem         sys = term->imp->sys;
+  MSimContact        ct;
+  const PetscScalar *a;
+  PetscScalar       *x;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(A, &a));
+  PetscCall(VecGetArray(X, &x));
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    const PetscReal u[3] = {PetscRealPart(x[3 * v] - a[3 * v]), PetscRealPart(x[3 * v + 1] - a[3 * v + 1]), PetscRealPart(x[3 * v + 2] - a[3 * v + 2])};
+    PetscReal       s    = 1;
+    if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
+    for (const MSimObstacle &o : ct->obs) s = PetscMin(s, MSimObstacleSafeStep(&o, term->imp->step.tx, a + 3 * v, u, s));
+    if (s < 1)
+      for (int c = 0; c < 3; c++) x[3 * v + c] = a[3 * v + c] + s * u[c];
+  }
+  PetscCall(VecRestoreArray(X, &x));
+  PetscCall(VecRestoreArrayRead(A, &a));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* Moving obstacles: x_n is outside them at t, but one may have moved onto it by tx. A vertex an
    obstacle approached to within dhat is carried with it over [t, tx] (a rigid translation keeps
    its distance d(x_n, t) > 0), so the first iterate can be pulled back towards a feasible point. A
@@ -326,6 +369,7 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
     term->ops.pd_matrix   = PDMatrix_Obstacles;
   }
   term->ops.max_step = MaxStep_Obstacles;
+  term->ops.clamp    = Clamp_Obstacles;
   if (ct->moving) term->ops.feasible_start = FeasibleStart_Obstacles;
   term->ops.view     = View_Obstacles;
   PetscFunctionReturn(PETSC_SUCCESS);
