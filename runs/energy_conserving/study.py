@@ -4,7 +4,12 @@ item 2): the undamped chain at 10 x its explicit limit for 10^4 steps, and an un
 cloth at h = 1/30 s for 600 steps, each scheme solved by Newton to |r| < 1e-13 with a direct
 factorization. Writes energy.csv (every step of the cloth, every 10th of the chain), summary.csv
 and energy.png here; with "sweep", midpoint, Newmark and the discrete gradient on the chain at 0.5 ... 30 x
-the explicit limit (sweep.csv). Usage: /usr/bin/python3 runs/energy_conserving/study.py [path/to/msim [sweep]]."""
+the explicit limit (sweep.csv); with "cloth31 [steps]", the discrete gradient on the 31 x 31 cloth of
+runs/speed_accuracy's energy chart (msim's default cloth: two corners held, gravity, no damping or
+drag) at h = 1/30 s, with msim's default solver for it and with MUMPS LU to |r| < 1e-12
+(cloth31.csv, every step's energy, Newton iterations and |r|; cloth31.png; "cloth31 plot" redraws it
+from the CSV).
+Usage: /usr/bin/python3 runs/energy_conserving/study.py [path/to/msim [sweep | cloth31 [steps]]]."""
 import math
 import os
 import subprocess
@@ -70,7 +75,61 @@ def sweep(tmp):
     mr.write_csv(os.path.join(HERE, "sweep.csv"), rows)
 
 
+def cloth31(tmp, steps):
+    """the 31 x 31 cloth at h = 1/30 s: msim's default Newton for the discrete gradient (GMRES with
+    ILU, -snes_max_it 50, relative tolerance 1e-8) and Newton with MUMPS LU to |r| < 1e-12 and
+    -snes_max_it 2000 (both with msim's l2 line search)"""
+    variants = {"default": [],
+                "LU": ["-ksp_type", "preonly", "-pc_type", "lu", "-pc_factor_mat_solver_type", "mumps", "-snes_rtol", "0", "-snes_atol", "1e-12", "-snes_stol", "0", "-snes_max_it", "2000"]}
+    rows = []
+    for name, opts in variants.items():
+        csv = os.path.join(tmp, f"cloth31_{name}.csv")
+        cmd = [MSIM, "-msim_cloth_n", "31", "-msim_integrator", "discrete_gradient", "-msim_dt", repr(1 / 30), "-msim_steps", str(steps), "-msim_monitor_csv", csv] + opts
+        before = os.times()
+        r = subprocess.run(cmd, capture_output=True, text=True, env=mr.ENV)
+        user = os.times().children_user - before.children_user
+        mon = list(__import__("csv").DictReader(open(csv))) if os.path.exists(csv) else []
+        e0 = float(mon[0]["total"])
+        for x in mon:
+            rows.append({"solver": name, "step": int(x["step"]), "t": float(x["t"]), "total": float(x["total"]), "E_minus_E0": float(x["total"]) - e0,
+                         "kinetic": float(x["kinetic"]), "newton_its": int(x["nonlinear_its"]), "linear_its": int(x["linear_its"]), "residual": float(x["residual"])})
+        its = [int(x["nonlinear_its"]) for x in mon[1:]]
+        dev = max(abs(float(x["total"]) - e0) for x in mon)
+        print(f"cloth31 {name}: {len(mon) - 1}/{steps} steps, max |E - E0| {dev:.3e} J, largest kinetic {max(float(x['kinetic']) for x in mon):.3f} J, "
+              f"Newton {np.mean(its):.0f}/step (max {max(its)}), user {user:.1f} s, exit {r.returncode}; {' '.join(os.path.relpath(c) if c == MSIM else c for c in cmd)}", flush=True)
+    mr.write_csv(os.path.join(HERE, "cloth31.csv"), rows)
+    plot_cloth31(rows)
+
+
+def plot_cloth31(rows):
+    fig, axes = plt.subplots(1, 2, figsize=(13, 4.6))
+    for name, style in (("default", "tab:red"), ("LU", "tab:green")):
+        sel = [r for r in rows if r["solver"] == name]
+        t = np.array([float(r["t"]) for r in sel])
+        label = "msim's default (GMRES + ILU, max 50 its)" if name == "default" else "MUMPS LU, |r| < 1e-12, max 2000 its"
+        axes[0].plot(t, [abs(float(r["E_minus_E0"])) for r in sel], color=style, label=label)
+        axes[1].plot(t[1:], [int(r["newton_its"]) for r in sel][1:], color=style, label=label)
+    axes[0].set_yscale("log")
+    axes[0].set_ylabel("|E(t) - E(0)| (J)")
+    axes[1].set_yscale("log")
+    axes[1].set_ylabel("Newton iterations in the step")
+    for ax in axes:
+        ax.set_xlabel("t (s)")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=8)
+    fig.suptitle("discrete_gradient, undamped 31 x 31 cloth, h = 1/30 s", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(os.path.join(HERE, "cloth31.png"), dpi=110)
+
+
 def main():
+    if len(sys.argv) > 3 and sys.argv[2] == "cloth31" and sys.argv[3] == "plot":
+        plot_cloth31(list(__import__("csv").DictReader(open(os.path.join(HERE, "cloth31.csv")))))
+        return
+    if len(sys.argv) > 2 and sys.argv[2] == "cloth31":
+        with tempfile.TemporaryDirectory() as tmp:
+            cloth31(tmp, int(sys.argv[3]) if len(sys.argv) > 3 else 60)
+        return
     if len(sys.argv) > 2 and sys.argv[2] == "sweep":
         with tempfile.TemporaryDirectory() as tmp:
             sweep(tmp)
