@@ -155,7 +155,7 @@ fi
 FOLD_RUN="$FOLD -msim_steps $((FOLD_FROM + CLOTH_STEPS))"
 [ "$FOLD_FROM" -gt 0 ] && FOLD_RUN="$FOLD_RUN -msim_restart $CKPT"
 
-# one rank count of every case; REV=1 runs the pair in the opposite order
+# one rank count of every case; a repetition (rep 2) runs each pair in the opposite order
 round() {
   local p=$1 rep=$2 only=${3:-}
   if has box; then
