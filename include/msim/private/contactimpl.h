@@ -82,3 +82,16 @@ inline PetscReal MSimFrictionF1OverY(PetscReal y, PetscReal eps)
 {
   return y < eps ? 2 / eps - y / (eps * eps) : 1 / y;
 }
+
+/* f0 with f0' = f1: -y^3/(3 eps^2) + y^2/eps + eps/3 below eps, y beyond (C^2 at eps) */
+inline PetscReal MSimFrictionF0(PetscReal y, PetscReal eps)
+{
+  return y < eps ? -y * y * y / (3 * eps * eps) + y * y / eps + eps / 3 : y;
+}
+
+/* the friction Hessian's coefficient of u u^T, (f1'(y) y - f1(y)) / y^3 (its coefficient of the
+   tangent projector is f1(y)/y) */
+inline PetscReal MSimFrictionHessianUU(PetscReal y, PetscReal eps)
+{
+  return y < eps ? -1 / (eps * eps * PetscMax(y, PETSC_SMALL * eps)) : -1 / (y * y * y);
+}

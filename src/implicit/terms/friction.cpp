@@ -58,8 +58,7 @@ static PetscErrorCode LocalEnergy(MSimImplicitTerm term, MSimContact ct, Vec X, 
 
   PetscFunctionBeginUser;
   PetscCall(ForEachSliding(term, ct, X, [&](PetscInt, PetscReal lambda, const PetscReal *, const PetscReal *, PetscReal y) {
-    const PetscReal f0 = y < eps ? -y * y * y / (3 * eps * eps) + y * y / eps + eps / 3 : y;
-    *e += w * lambda * f0;
+    *e += w * lambda * MSimFrictionF0(y, eps);
   }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -114,7 +113,7 @@ static PetscErrorCode Hessian_Friction(MSimImplicitTerm term, Vec X, PetscBool p
     PetscInt    idx[3];
     /* f1(y)/y and (f1'(y) y - f1(y)) / y^3 */
     const PetscReal a = MSimFrictionF1OverY(y, eps);
-    const PetscReal c = y < eps ? -1 / (eps * eps * PetscMax(y, PETSC_SMALL * eps)) : -1 / (y * y * y);
+    const PetscReal c = MSimFrictionHessianUU(y, eps);
     for (int r = 0; r < 3; r++) {
       idx[r] = 3 * (sys->rstart + v) + r;
       for (int s = 0; s < 3; s++) blk[3 * r + s] = w * lambda * (a * P[3 * r + s] + c * u[r] * u[s]);

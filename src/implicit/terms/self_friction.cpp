@@ -26,12 +26,6 @@
 #include <algorithm>
 #include <cmath>
 
-/* IPC's f1(y) / y: 2/eps - y/eps^2 below eps, 1/y beyond */
-static inline PetscReal F1OverY(PetscReal y, PetscReal eps)
-{
-  return y < eps ? 2 / eps - y / (eps * eps) : 1 / y;
-}
-
 typedef struct {
   PetscReal                        mu, eps_v;
   MSimImplicitTerm                 self;  /* the self-contact term whose pairs these are */
@@ -121,8 +115,7 @@ static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
 
   PetscFunctionBeginUser;
   PetscCall(ForEachSliding(term, fd, X, [&](size_t, PetscReal lambda, const PetscReal *, const PetscReal *, PetscReal y) {
-    const PetscReal f0 = y < eps ? -y * y * y / (3 * eps * eps) + y * y / eps + eps / 3 : y;
-    *e += w * lambda * f0;
+    *e += w * lambda * MSimFrictionF0(y, eps);
   }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -149,7 +142,7 @@ static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal
   PetscCall(Lag(term, fd));
   fd->g.assign(3 * fd->gfree.size(), 0);
   PetscCall(ForEachSliding(term, fd, X, [&](size_t q, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
-    const PetscReal a = sign * w * lambda * F1OverY(y, eps);
+    const PetscReal a = sign * w * lambda * MSimFrictionF1OverY(y, eps);
     for (int k = 0; k < 4; k++) {
       const PetscInt s = fd->slot[4 * q + k];
       if (s >= 0)
@@ -186,9 +179,7 @@ static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBo
     PetscInt                   idx[12];
     PetscScalar                H[144];
     PetscReal                  M[9];
-    /* f1(y)/y and (f1'(y) y - f1(y)) / y^3 */
-    const PetscReal a = F1OverY(y, eps);
-    const PetscReal c = y < eps ? -1 / (eps * eps * PetscMax(y, PETSC_SMALL * eps)) : -1 / (y * y * y);
+    const PetscReal a = MSimFrictionF1OverY(y, eps), c = MSimFrictionHessianUU(y, eps);
     if (ierr) return;
     for (int r = 0; r < 3; r++)
       for (int s = 0; s < 3; s++) M[3 * r + s] = w * lambda * (a * P[3 * r + s] + c * u[r] * u[s]);
