@@ -100,6 +100,7 @@ PetscReal MSimAdditiveCCD(const PetscReal x0[12], const PetscReal u0[12], PetscB
   for (int k = 0; k < 12; k++) x[k] = x0[k];
   PetscReal d = PairDistance(x, ee), t = 0, tl = (1 - s) * d / lp;
   const PetscReal g = s * d;
+  if (tl > 1) return 1; /* the whole motion stays within the first advance (most pairs) */
   for (int it = 0; it < 2000; it++) {
     for (int k = 0; k < 12; k++) x[k] += tl * u[k];
     d = PairDistance(x, ee);

@@ -41,6 +41,15 @@ typedef struct {
   std::vector<PetscReal> xlist;
   PetscReal              margin;
   PetscInt               nbuild, nreuse;
+  /* the wide list: pairs within dhat + wmargin at xwide, from a grid; the near list above is remade
+     from it by one pass of distances (no grid) while the vertices stay within (wmargin - margin) / 2
+     of xwide. wmargin adapts to the motion: doubled when a wide list served fewer than 3 near
+     lists, shrunk when it served more than 24 (correctness never depends on it, only the cost) */
+  std::vector<PetscInt>  wide;
+  std::vector<PetscReal> xwide;
+  PetscReal              wmargin;
+  PetscInt               wplan, wuses, nwide;
+  std::vector<PetscInt>  pt, ee;       /* the broad phase's output (kept: no allocation per query) */
   PetscInt               plan;         /* the halo plan the list's local numbers belong to */
   PetscInt               npairs;        /* pairs within dhat at the last gradient (this rank) */
   PetscReal              dmin;          /* the smallest distance among them */
@@ -85,7 +94,9 @@ static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, 
 
   PetscFunctionBeginUser;
   PetscCall(PetscLogEventBegin(MSIM_SelfBroad, 0, 0, 0, 0));
-  std::vector<PetscInt> pt, ee;
+  std::vector<PetscInt> &pt = sd->pt, &ee = sd->ee;
+  pt.clear();
+  ee.clear();
   build(s->tri, 3, nt, sd->tgrid);
   for (PetscInt v = 0; v < nv; v++) {
     PetscReal b[6] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL};
@@ -122,44 +133,112 @@ static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* How far the vertices moved from xref (to x, and to x + a u when u is given), less the motion they
+   share: with d_k a vertex's displacement and c the midrange of all d_k, returns max_k |d_k - c|.
+   Two vertices came closer by at most |d_i - d_j| <= 2 max_k |d_k - c|, so a Verlet list stays
+   valid while this is under half its margin, and a cloth's fall or a body's drift (the larger
+   part of a step's motion) costs no rebuild. Along the motion the shared part c(t) interpolates
+   the two ends' midranges, so |d_k(t) - c(t)| is convex in t and its two ends bound it. */
+static PetscReal Reach(const std::vector<PetscReal> &xref, const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a)
+{
+  PetscReal far = 0;
+  for (int end = 0; end < (u ? 2 : 1); end++) {
+    PetscReal lo[3] = {PETSC_MAX_REAL, PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[3] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL, -PETSC_MAX_REAL}, c[3];
+    for (size_t k = 0; k < x.size(); k += 3)
+      for (int q = 0; q < 3; q++) {
+        const PetscReal d = x[k + q] - xref[k + q] + (end ? a * (*u)[k + q] : 0.0);
+        lo[q]             = PetscMin(lo[q], d);
+        hi[q]             = PetscMax(hi[q], d);
+      }
+    for (int q = 0; q < 3; q++) c[q] = 0.5 * (lo[q] + hi[q]);
+    for (size_t k = 0; k < x.size(); k += 3) {
+      PetscReal e = 0;
+      for (int q = 0; q < 3; q++) {
+        const PetscReal d = x[k + q] - xref[k + q] + (end ? a * (*u)[k + q] : 0.0) - c[q];
+        e += d * d;
+      }
+      far = PetscMax(far, e);
+    }
+  }
+  return std::sqrt(far);
+}
+
+static PetscReal PairDistance2(const std::vector<PetscReal> &x, PetscBool ee, const PetscInt *v, PetscReal w[4]);
+
+/* A pair's two sides (point | triangle, edge | edge), boxed over x and, with u, over x + a u: true
+   when the boxes are further apart than r along an axis (then the pair is further apart than r
+   wherever its points go along the motion). A few comparisons against a closest-point solve or
+   an additive CCD: it lets the wide list serve the CCD and remake the near list cheaply. */
+static inline bool PairApart(const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a, PetscBool ee, const PetscInt *v, PetscReal r)
+{
+  const int split = ee ? 2 : 1;
+  for (int c = 0; c < 3; c++) {
+    PetscReal lo[2] = {PETSC_MAX_REAL, PETSC_MAX_REAL}, hi[2] = {-PETSC_MAX_REAL, -PETSC_MAX_REAL};
+    for (int k = 0; k < 4; k++) {
+      const int       side = k >= split;
+      const PetscReal p = x[3 * v[k] + c], q = u ? p + a * (*u)[3 * v[k] + c] : p;
+      lo[side]          = PetscMin(lo[side], PetscMin(p, q));
+      hi[side]          = PetscMax(hi[side], PetscMax(p, q));
+    }
+    if (lo[0] > hi[1] + r || lo[1] > hi[0] + r) return true;
+  }
+  return false;
+}
+
 /* f(ee, v[4]) for each pair this rank computes that may be within dhat at x (u NULL) or meet
-   along x + t a u, t in [0, 1]: from the candidate list where every vertex stays within margin / 2
-   of where the list was made, else from a new list (static queries) or a swept broad phase (a
-   motion that leaves the list's reach) */
+   along x + t a u, t in [0, 1] (static queries get only the pairs whose boxes are within dhat:
+   every caller skips the others). Two Verlet lists: the near one (margin dhat) while the vertices
+   stay within margin / 2 of where it was made (Reach); else the wide one, which covers a motion
+   within wmargin / 2 (CCD) or remakes the near one by one pass of distances; else a new wide list
+   from the grid (static queries) or a swept broad phase (a motion that leaves the wide list's
+   reach) */
 template <class F>
 static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x, const std::vector<PetscReal> *u, PetscReal a, F &&f)
 {
-  PetscReal far = -1;
+  const PetscReal dhat = sd->surf->dhat;
 
   PetscFunctionBeginUser;
-  if (sd->plan == sd->surf->nplans && sd->xlist.size() == x.size()) {
-    far = 0;
-    for (size_t k = 0; k < x.size(); k += 3) {
-      PetscReal d0 = 0, d1 = 0;
-      for (int c = 0; c < 3; c++) {
-        const PetscReal e = x[k + c] - sd->xlist[k + c], m = u ? a * (*u)[k + c] : 0.0;
-        d0 += e * e;
-        d1 += (e + m) * (e + m);
-      }
-      far = PetscMax(far, PetscMax(d0, d1));
-    }
-    far = std::sqrt(far);
+  if (sd->plan == sd->surf->nplans && sd->xlist.size() == x.size() && Reach(sd->xlist, x, u, a) <= 0.5 * sd->margin) {
+    sd->nreuse++;
+    for (size_t k = 0; k < sd->cand.size(); k += 5)
+      if (u || !PairApart(x, NULL, 0, (PetscBool)sd->cand[k], &sd->cand[k + 1], dhat)) f((PetscBool)sd->cand[k], &sd->cand[k + 1]);
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
-  if (far < 0 || far > 0.5 * sd->margin) {
-    if (u) { /* a long motion: this query's swept boxes, not cached */
-      PetscCall(BroadPhase(sd, x, u, a, 0.0, f));
-      PetscFunctionReturn(PETSC_SUCCESS);
-    }
-    sd->cand.clear();
-    PetscCall(BroadPhase(sd, x, NULL, 0, sd->surf->dhat + sd->margin, [&](PetscBool ee, const PetscInt *v) {
-      sd->cand.push_back(ee);
-      sd->cand.insert(sd->cand.end(), v, v + 4);
+  const bool      wide_ok = sd->wplan == sd->surf->nplans && sd->xwide.size() == x.size();
+  const PetscReal wfar    = wide_ok ? Reach(sd->xwide, x, u, a) : PETSC_MAX_REAL;
+  if (u) {
+    if (wfar <= 0.5 * sd->wmargin) {
+      for (size_t k = 0; k < sd->wide.size(); k += 5)
+        if (!PairApart(x, u, a, (PetscBool)sd->wide[k], &sd->wide[k + 1], 0.0)) f((PetscBool)sd->wide[k], &sd->wide[k + 1]);
+    } else PetscCall(BroadPhase(sd, x, u, a, 0.0, f)); /* a long motion: this query's swept boxes, not cached */
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  if (wfar > 0.5 * (sd->wmargin - sd->margin)) {
+    if (wide_ok && sd->wuses < 3) sd->wmargin = PetscMin(2 * sd->wmargin, 8 * dhat);
+    else if (wide_ok && sd->wuses > 24) sd->wmargin = PetscMax(0.75 * sd->wmargin, 3 * sd->margin);
+    sd->wide.clear();
+    PetscCall(BroadPhase(sd, x, NULL, 0, dhat + sd->wmargin, [&](PetscBool ee, const PetscInt *v) {
+      sd->wide.push_back(ee);
+      sd->wide.insert(sd->wide.end(), v, v + 4);
     }));
-    sd->xlist = x;
-    sd->plan  = sd->surf->nplans;
-    sd->nbuild++;
-  } else sd->nreuse++;
-  for (size_t k = 0; k < sd->cand.size(); k += 5) f((PetscBool)sd->cand[k], &sd->cand[k + 1]);
+    sd->xwide = x;
+    sd->wplan = sd->surf->nplans;
+    sd->wuses = 0;
+    sd->nwide++;
+  }
+  /* the near list from the wide one: the pairs within dhat + margin at x */
+  const PetscReal r2 = (dhat + sd->margin) * (dhat + sd->margin);
+  sd->cand.clear();
+  for (size_t k = 0; k < sd->wide.size(); k += 5) {
+    PetscReal w[4];
+    if (!PairApart(x, NULL, 0, (PetscBool)sd->wide[k], &sd->wide[k + 1], dhat + sd->margin) && PairDistance2(x, (PetscBool)sd->wide[k], &sd->wide[k + 1], w) < r2) sd->cand.insert(sd->cand.end(), &sd->wide[k], &sd->wide[k + 5]);
+  }
+  sd->xlist = x;
+  sd->plan  = sd->surf->nplans;
+  sd->wuses++;
+  sd->nbuild++;
+  for (size_t k = 0; k < sd->cand.size(); k += 5)
+    if (!PairApart(x, NULL, 0, (PetscBool)sd->cand[k], &sd->cand[k + 1], dhat)) f((PetscBool)sd->cand[k], &sd->cand[k + 1]);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -291,15 +370,44 @@ static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscRea
   PetscFunctionBeginUser;
   PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, Y, a, sd->x, &sd->u));
   PetscCall(PetscLogEventBegin(MSIM_SelfCCD, 0, 0, 0, 0));
-  PetscCall(ForEachPair(sd, sd->x, &sd->u, a, [&](PetscBool ee, const PetscInt *v) {
-    PetscReal xp[12], up[12];
-    for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) {
-        xp[3 * k + c] = sd->x[3 * v[k] + c];
-        up[3 * k + c] = a * sd->u[3 * v[k] + c];
-      }
-    t = PetscMin(t, MSimAdditiveCCD(xp, up, ee, sd->opt.ccd_s));
-  }));
+  auto ccd = [&](PetscReal am, PetscReal &tm) {
+    return [&, am](PetscBool ee, const PetscInt *v) {
+      PetscReal xp[12], up[12];
+      for (int k = 0; k < 4; k++)
+        for (int c = 0; c < 3; c++) {
+          xp[3 * k + c] = sd->x[3 * v[k] + c];
+          up[3 * k + c] = am * sd->u[3 * v[k] + c];
+        }
+      tm = PetscMin(tm, MSimAdditiveCCD(xp, up, ee, sd->opt.ccd_s));
+    };
+  };
+  /* A long step (PD's global step ignores the barrier; Newton's first trial) leaves the lists'
+     reach, and a swept broad phase over the whole motion is then the costliest query. First the
+     part a0 of the motion that keeps the vertices within margin / 2 of a list (Reach): no pair
+     outside it can touch before a0, so when one of its pairs stops the motion within a0 that is a
+     safe step (conservative like any ACCD answer; PD's lagged barrier proposes huge
+     steps that a close pair cuts to almost nothing). Otherwise the whole motion. */
+  auto part = [&](const std::vector<PetscInt> &list, const std::vector<PetscReal> &xref, PetscReal margin, PetscInt plan, PetscReal &tm) {
+    PetscReal am = 0;
+    tm           = 1;
+    if (plan != sd->surf->nplans || xref.size() != sd->x.size()) return am;
+    const PetscReal r0 = Reach(xref, sd->x, NULL, 0), ru = Reach(sd->x, sd->x, &sd->u, a);
+    if (r0 > 0.5 * margin) return am;
+    /* Reach grows by at most the motion's own spread times the step: a first guess, halved until
+       it checks */
+    am = ru > 0 ? PetscMin(a, a * (0.5 * margin - r0) / ru) : a;
+    for (int it = 0; it < 8 && Reach(xref, sd->x, &sd->u, am) > 0.5 * margin; it++) am *= 0.5;
+    if (Reach(xref, sd->x, &sd->u, am) > 0.5 * margin) return (am = 0);
+    auto f = ccd(am, tm);
+    for (size_t k = 0; k < list.size(); k += 5)
+      if (!PairApart(sd->x, &sd->u, am, (PetscBool)list[k], &list[k + 1], 0.0)) f((PetscBool)list[k], &list[k + 1]);
+    return am;
+  };
+  /* the near list first (a close pair cuts most long steps), then the wide one */
+  PetscReal t0, a0 = part(sd->cand, sd->xlist, sd->margin, sd->plan, t0);
+  if (!(a0 > 0 && (t0 < 1 || a0 == a))) a0 = part(sd->wide, sd->xwide, sd->wmargin, sd->wplan, t0);
+  if (a0 > 0 && (t0 < 1 || a0 == a)) t = a0 * t0 / a;
+  else PetscCall(ForEachPair(sd, sd->x, &sd->u, a, ccd(a, t)));
   PetscCall(PetscLogEventEnd(MSIM_SelfCCD, 0, 0, 0, 0));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &t, 1, MPIU_REAL, MPIU_MIN, term->imp->sys->comm));
   *alpha = a * t;
@@ -314,7 +422,7 @@ static PetscErrorCode View_Self(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &tris, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact: IPC barrier on point-triangle and edge-edge pairs, dhat %g m, weight C %g, additive CCD (gap fraction %g); own triangles %" PetscInt_FMT " (summed over ranks), halo triangles %" PetscInt_FMT ", plans on rank 0 %" PetscInt_FMT ", candidate lists built %" PetscInt_FMT " and reused %" PetscInt_FMT " times on rank 0\n", (double)sd->surf->dhat, (double)sd->C, (double)sd->opt.ccd_s, tris, halo, plans, sd->nbuild, sd->nreuse));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact: IPC barrier on point-triangle and edge-edge pairs, dhat %g m, weight C %g, additive CCD (gap fraction %g); own triangles %" PetscInt_FMT " (summed over ranks), halo triangles %" PetscInt_FMT ", plans on rank 0 %" PetscInt_FMT ", near candidate lists made %" PetscInt_FMT " and reused %" PetscInt_FMT " times, wide lists (grid) %" PetscInt_FMT " (margin now %g m) on rank 0\n", (double)sd->surf->dhat, (double)sd->C, (double)sd->opt.ccd_s, tris, halo, plans, sd->nbuild, sd->nreuse, sd->nwide, (double)sd->wmargin));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -349,7 +457,8 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
     sd->C = o.stiffness * mbar / (4 * s0 * d2b + 2 * db);
   }
   /* the candidate list's margin: pairs within 2 dhat, reused while no vertex moved dhat / 2 */
-  sd->margin = sd->surf->dhat;
+  sd->margin  = sd->surf->dhat;
+  sd->wmargin = 4 * sd->margin;
   term->ops.energy   = Energy_Self;
   term->ops.gradient = Gradient_Self;
   term->ops.hessian  = Hessian_Self;
