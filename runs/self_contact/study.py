@@ -7,8 +7,13 @@
   with self-contact, for Newton-CG and PD (50 iterations), N x N cloths, 1 and 2 ranks, with the
   gradient evaluations (MSimResidual) and the self-contact events' share of -log_view's time;
 - self_contact.png: both.
-Usage: study.py path/to/msim [--sizes 21,31,41] [--ranks 1,2] [--append: add these sizes and ranks to
-cost.csv, no frames] | --plot"""
+  cpu_per_step divides by the steps msim completed (-log_view's MSimStep count: PD without
+  self-contact diverges once the cloth has passed through itself, from 51 x 51 on); floor_per_step
+  estimates the least a step's broad and narrow phase can cost (one grid build and one pass of
+  distances over the candidates: MSimSelfBroad's and MSimSelfNarrow's time per call, scaled from
+  -log_view's wall time to CPU time by the run's CPU / SNESSolve ratio).
+Usage: study.py path/to/msim [--sizes 21,31,41] [--ranks 1,2] [--solvers newton_cg,pd] [--append: add
+these sizes and ranks to cost.csv, no frames] | --plot"""
 import os
 import re
 import resource
@@ -25,7 +30,12 @@ import vtu  # noqa: E402
 
 
 def fold(n, steps=35):
-    return ["-msim_cloth_n", str(n), "-msim_fix", "none", "-msim_gravity", "0,-9.81,0", "-msim_perturb", "0.01",
+    # the out-of-plane perturbation a fifth of an edge (1 cm at 21 x 21, as examples/cloth_fold.opts):
+    # a fixed 1 cm on finer cloths puts non-adjacent elements within dhat (a quarter of an edge) from
+    # the start, and Newton then crawls under the barrier from step 1 (51 x 51: |g| 1.00 -> 0.97 in
+    # 11 iterations, before and after this session's change)
+    perturb = 0.2 / (n - 1)
+    return ["-msim_cloth_n", str(n), "-msim_fix", "none", "-msim_gravity", "0,-9.81,0", "-msim_perturb", f"{perturb:g}",
             "-msim_integrator", "implicit_euler", "-msim_dt", "0.02", "-msim_steps", str(steps),
             "-msim_contact_plane", "0,1,0,-0.01", "-msim_friction", "0.5"]
 
@@ -57,6 +67,9 @@ def main():
         sizes = [int(v) for v in sys.argv[sys.argv.index("--sizes") + 1].split(",")]
     if "--ranks" in sys.argv:
         ranks = [int(v) for v in sys.argv[sys.argv.index("--ranks") + 1].split(",")]
+    solvers = list(SOLVERS)
+    if "--solvers" in sys.argv:
+        solvers = sys.argv[sys.argv.index("--solvers") + 1].split(",")
     tmp = tempfile.mkdtemp(prefix="msim_self_contact_study_")
     # 1. intersections per frame
     counts = {}
@@ -75,7 +88,8 @@ def main():
     rows = []
     for n in sizes:
         for np_ in ranks:
-            for sname, sargs in SOLVERS.items():
+            for sname in solvers:
+                sargs = SOLVERS[sname]
                 for on in (0, 1):
                     steps = 35
                     # several ranks: ICC on the Jacobi blocks, with and without (the default ILU(0) met a
@@ -85,9 +99,14 @@ def main():
                     ok = r.returncode == 0
                     total = log_time(r.stdout, "SNESSolve")
                     self_t = sum(log_time(r.stdout, e) for e in ("MSimSelfNarrow", "MSimSelfCCD", "MSimSelfHalo"))
+                    done = log_count(r.stdout, "MSimStep") or steps
+                    scale = cpu / total if total > 0 else 0.0  # -log_view's wall seconds -> CPU seconds
+                    per_call = lambda e: log_time(r.stdout, e) / max(log_count(r.stdout, e), 1) * scale  # noqa: E731
                     row = dict(n=n, vertices=n * n, triangles=2 * (n - 1) ** 2, ranks=np_, solver=sname, self_contact=on, ok=int(ok),
-                               cpu_per_step=cpu / steps, gradients=log_count(r.stdout, "MSimResidual"),
-                               self_share=self_t / total if total > 0 else 0.0)
+                               cpu_per_step=cpu / done, gradients=log_count(r.stdout, "MSimResidual"),
+                               self_share=self_t / total if total > 0 else 0.0, steps=done,
+                               grid_builds=log_count(r.stdout, "MSimSelfBroad"),
+                               floor_per_step=(per_call("MSimSelfBroad") + per_call("MSimSelfNarrow")) if on else 0.0)
                     rows.append(row)
                     print(row, flush=True)
     keys = list(rows[0].keys())
@@ -99,7 +118,7 @@ def main():
     with open(os.path.join(HERE, "cost.csv"), "w") as f:
         f.write(",".join(keys) + "\n")
         for row in rows:
-            f.write(",".join(f"{row[k]:.5g}" if isinstance(row[k], float) else str(row[k]) for k in keys) + "\n")
+            f.write(",".join(f"{row.get(k, '')}" if not isinstance(row.get(k), float) else f"{row[k]:.5g}" for k in keys) + "\n")
     plot()
 
 
