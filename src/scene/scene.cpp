@@ -93,6 +93,9 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   sc->fix_velocity[0] = sc->fix_velocity[1] = sc->fix_velocity[2] = 0.0;
   sc->prestretch = 1.0;
   sc->perturb    = 0.0;
+  /* self-contact is physics added to the scene, like -msim_volume, not what the scene is: read
+     before the identity's watch, so a checkpoint may be restarted with it turned on or off */
+  PetscCall(MSimSelfContactGetOptions(comm, &S.self_contact));
   PetscOptionsBegin(comm, NULL, "msim scene", NULL);
   /* whether output will draw the cells: -msim_output and -msim_spectrum_modes are read by their
      owners, the output series and the spectrum, in their own blocks once the system exists, after
@@ -119,7 +122,6 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(MSimOptionsReal("-msim_perturb", "Displace free vertices initially by up to this much (m), pseudo-random by vertex id", NULL, sc->perturb, &sc->perturb, NULL));
   PetscCall(MSimOptionsInt("-msim_refine", "Refine a tet scene r times, each tet into 8 (on the distributed mesh)", NULL, refine, &refine, &refine_set));
   PetscOptionsEnd();
-  PetscCall(MSimSelfContactGetOptions(comm, &S.self_contact));
   PetscCheck(refine >= 0 && refine <= 10, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_refine must be in [0, 10] (got %" PetscInt_FMT ")", refine);
   PetscCheck(!young_set || (S.young > 0 && !PetscIsInfOrNanReal(S.young)), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_young must be > 0 Pa (got %g)", (double)S.young);
   PetscCheck(S.stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_stiffness must be > 0 N/m (got %g)", (double)S.stiffness);
