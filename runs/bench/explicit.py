@@ -26,7 +26,8 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
-from msimrun import ENV, MSIM, ROOT, event  # noqa: E402
+from msimrun import ENV, MSIM, ROOT, event, write_csv  # noqa: E402
+from plots import pyplot, save, style  # noqa: E402
 
 
 def springs(n):
@@ -46,33 +47,21 @@ def plot(rows):
     """explicit.png from the rows (those of explicit.csv)"""
     ranks = sorted({r["ranks"] for r in rows})
     bw = {np: [r["triad_gb_s"] for r in rows if r["ranks"] == np] for np in ranks}
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fig, ax = plt.subplots(1, 2, figsize=(11, 4))
     for np in ranks:
         sel = [r for r in rows if r["ranks"] == np]
         ax[0].plot([r["springs"] for r in sel], [r["force_ns_per_spring"] for r in sel], "o-", label=f"force, {np} rank(s)")
         ax[0].plot([r["springs"] for r in sel], [r["step_ns_per_spring"] for r in sel], "s--", label=f"whole step, {np} rank(s)")
         ax[1].plot([r["springs"] for r in sel], [r["max_rss_mb_total"] for r in sel], "o-", label=f"{np} rank(s), all ranks")
-    for np, style in zip(ranks, ("k", "0.5")):
+    for np, colour in zip(ranks, ("k", "0.5")):
         sel = [r for r in rows if r["ranks"] == np]
-        ax[0].plot([r["springs"] for r in sel], [2 * r["traffic_ns_per_spring"] for r in sel], ":", color=style, lw=1.0,
+        ax[0].plot([r["springs"] for r in sel], [2 * r["traffic_ns_per_spring"] for r in sel], ":", color=colour, lw=1.0,
                    label=f"target: 2x its bytes at {min(bw[np]):.0f}-{max(bw[np]):.0f} GB/s ({np} rank(s) at once)")
-    ax[0].set_xscale("log")
-    ax[0].set_xlabel("springs")
-    ax[0].set_ylabel("wall ns per spring")
-    ax[0].set_title("Explicit step cost (symplectic Euler, cloth N x N)")
     ax[0].set_ylim(0, None)
-    ax[0].legend(fontsize=7, loc="lower left", ncol=2)
-    ax[1].set_xscale("log")
-    ax[1].set_yscale("log")
-    ax[1].set_xlabel("springs")
-    ax[1].set_ylabel("max resident memory (MB)")
-    ax[1].set_title("Memory")
-    ax[1].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "explicit.png"), dpi=110)
+    style(ax[0], "springs", "wall ns per spring", "Explicit step cost (symplectic Euler, cloth N x N)", xlog=True, grid=False, legend=dict(fontsize=7, loc="lower left", ncol=2))
+    style(ax[1], "springs", "max resident memory (MB)", "Memory", xlog=True, ylog=True, grid=False, legend=dict(fontsize=8))
+    save(fig, os.path.join(HERE, "explicit.png"), dpi=110)
 
 
 def main():
@@ -117,10 +106,7 @@ def main():
                              max_rss_mb_total=round(rss_total / 2**20, 1), max_rss_mb_per_rank=round(rss_max / 2**20, 1),
                              bytes_per_spring_rss=round(rss_total / ns, 1)))
             print(rows[-1])
-    with open(os.path.join(HERE, "explicit.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(os.path.join(HERE, "explicit.csv"), rows)
     plot(rows)
 
 

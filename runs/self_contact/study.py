@@ -25,6 +25,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tools"))
 sys.path.insert(0, os.path.join(HERE, "..", "..", "tests"))
 import intersections  # noqa: E402
+from plots import pyplot, save, style  # noqa: E402
 import msimtest as mt  # noqa: E402
 import vtu  # noqa: E402
 
@@ -124,9 +125,7 @@ def main():
 
 def plot():
     import csv
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     fr = list(csv.DictReader(open(os.path.join(HERE, "frames.csv"))))
     path = os.path.join(HERE, "cost.csv")
     cost = list(csv.DictReader(open(path))) if os.path.exists(path) else []
@@ -134,10 +133,7 @@ def plot():
     t = [float(r["t"]) for r in fr]
     ax[0].plot(t, [int(r["pairs_without"]) for r in fr], "o-", label="without")
     ax[0].plot(t, [int(r["pairs_with"]) for r in fr], "s-", label="-msim_self_contact")
-    ax[0].set_xlabel("t (s)")
-    ax[0].set_ylabel("intersecting triangle pairs")
-    ax[0].set_title("21 x 21 cloth crumpling on a plane (Newton)")
-    ax[0].legend()
+    style(ax[0], "t (s)", "intersecting triangle pairs", "21 x 21 cloth crumpling on a plane (Newton)", grid=False, legend={})
     for solver in SOLVERS:
         for np_ in sorted({int(r["ranks"]) for r in cost}):
             pts = []
@@ -149,13 +145,8 @@ def plot():
             if pts:
                 ax[1].plot(*zip(*sorted(pts)), "o-", label=f"{solver}, {np_} rank(s)")
     ax[1].axhline(3, color="gray", ls="--", label="target 3x")
-    ax[1].set_xscale("log")
-    ax[1].set_xlabel("surface triangles")
-    ax[1].set_ylabel("CPU per step, with / without")
-    ax[1].set_title("cost of self-contact")
-    ax[1].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(os.path.join(HERE, "self_contact.png"), dpi=90)
+    style(ax[1], "surface triangles", "CPU per step, with / without", "cost of self-contact", xlog=True, grid=False, legend=dict(fontsize=8))
+    save(fig, os.path.join(HERE, "self_contact.png"))
 
 
 if __name__ == "__main__":

@@ -23,7 +23,6 @@ Usage: /usr/bin/python3 runs/speed_accuracy/schemes.py [work|energy|plot|all] [-
   [--scenes cloth,rope,solid] [--cloth-n 101] [--rope-n 1000] [--beam 24,6,6] [--energy-cloth-n 31]
   [--repeats 2] [--newton exact|cg] [--schemes implicit_euler,bdf2,...,ts]. Sizes are arguments: a bigger machine runs the same script at the benchmark sizes.
   Rows of the scenes and schemes run replace theirs in schemes.csv; the others stay."""
-import argparse
 import csv
 import math
 import os
@@ -36,7 +35,8 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
-from msimrun import ENV, MSIM, ROOT, event  # noqa: E402
+from msimrun import ENV, ROOT, study_parser, event, write_csv  # noqa: E402
+from plots import SCHEME_COLORS as COLORS, energy_drift, pyplot, save, style  # noqa: E402
 from vtu import read_vtu  # noqa: E402
 
 TMP = "/tmp/msim_schemes"
@@ -235,14 +235,7 @@ def merge(path, rows, scenes):
     if os.path.exists(path):
         with open(path) as f:
             kept = [r for r in csv.DictReader(f) if r["scene"] not in scenes or (r["scheme"].split()[0] not in WANT)]
-    allrows = kept + rows
-    fields = []
-    for r in allrows:
-        fields += [k for k in r if k not in fields]
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=fields)
-        w.writeheader()
-        w.writerows(allrows)
+    write_csv(path, kept + rows)
 
 
 def omega_max(msim, base):
@@ -275,14 +268,9 @@ def energy(a, msim):
                       f"E {mon[0]['total'] if mon else '-'} -> {mon[-1]['total'] if mon else '-'} {note}", flush=True)
     path = os.path.join(HERE, "energy_schemes.csv")
     kept = [r for r in csv.DictReader(open(path)) if r["scheme"].split()[0] not in WANT] if os.path.exists(path) else []
-    with open(path, "w", newline="") as f:  # the schemes run replace their rows; the others stay
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(kept + rows)
+    write_csv(path, kept + rows)  # the schemes run replace their rows; the others stay
 
 
-COLORS = {"implicit_euler": "k", "bdf2": "tab:blue", "implicit_midpoint": "tab:red", "newmark": "tab:orange",
-          "discrete_gradient": "tab:green", "ts alpha2": "tab:purple"}
 MARKERS = {"Newton": "o", "Newton-CG |dx|<1e-4": "o", "Newton LU |dx|<1e-4": "o", "PD-10": "s", "PD-20": "D", "PD+Anderson-10": "^", "L-BFGS-10": "v", "alpha2 r=1": "P", "alpha2 r=0.5": "X"}
 
 
@@ -326,18 +314,13 @@ def targets(rows):
 
 
 def plot(a):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     path = os.path.join(HERE, "schemes.csv")
     if os.path.exists(path):
         rows = list(csv.DictReader(open(path)))
         tg = targets(rows)
         if tg:
-            with open(os.path.join(HERE, "schemes_targets.csv"), "w", newline="") as f:
-                w = csv.DictWriter(f, fieldnames=list(tg[0]))
-                w.writeheader()
-                w.writerows(tg)
+            write_csv(os.path.join(HERE, "schemes_targets.csv"), tg)
         panels = []
         for sc in dict.fromkeys(r["scene"] for r in rows):
             ts = sorted({float(r["T"]) for r in rows if r["scene"] == sc})
@@ -361,13 +344,9 @@ def plot(a):
                         ms=5, lw=1 if len(pts) > 1 else 0, ls="-" if len(pts) > 1 else "", label=f"{scheme}, {solver}")
             if budget:
                 ax.axvline(budget[0], color="gray", ls=":", lw=1)
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            ax.set_xlabel("CPU user seconds per simulated second, setup excluded (1 rank)")
-            ax.set_ylabel("largest vertex distance from RK4 (m)")
             size = sel[0]["size"] if sel else ""
-            ax.set_title(f"{scene} ({size.replace('-msim_', '')[:60]}), T = {T:g} s\nlines join one solver's h = 1/30 s, 1/60 ...; dotted: PD-10 implicit Euler's cost", fontsize=8)
-            ax.grid(True, alpha=0.3)
+            style(ax, "CPU user seconds per simulated second, setup excluded (1 rank)", "largest vertex distance from RK4 (m)",
+                  f"{scene} ({size.replace('-msim_', '')[:60]}), T = {T:g} s\nlines join one solver's h = 1/30 s, 1/60 ...; dotted: PD-10 implicit Euler's cost", 8, xlog=True, ylog=True)
         handles = {}
         for ax in axes.flat:
             for hd, lb in zip(*ax.get_legend_handles_labels()):
@@ -391,24 +370,16 @@ def plot(a):
                     if (solver_kind == "Newton") != (solver in ("Newton", "alpha2 r=1", "alpha2 r=0.5")):
                         continue
                     rs = [r for r in sel if r["scheme"] == scheme and r["solver"] == solver]
-                    e0 = float(rs[0]["total"])
-                    ax.plot([float(r["t"]) for r in rs], [float(r["total"]) - e0 for r in rs], color=COLORS.get(scheme, "gray"),
-                            ls="--" if "0.5" in solver else (":" if "r=1" in solver else "-"), lw=2 if "r=1" in solver else 1.2, label=f"{scheme} {solver}" + (" (stopped)" if rs[-1]["stopped"] else ""))
-                ax.set_title(f"{scene}, h = {hname} ({float(sel[0]['h']):.3g} s, h omega_max = {sel[0]['h_omega_max']}): "
-                             f"{'Newton to convergence, TS alpha2 (r = 1 dotted: on midpoint)' if solver_kind == 'Newton' else 'PD, 10 iterations'}", fontsize=8)
-                ax.set_xlabel("t (s)")
-                ax.set_ylabel("E(t) - E(0) (J)")
+                    energy_drift(ax, rs, color=COLORS.get(scheme, "gray"),
+                                 ls="--" if "0.5" in solver else (":" if "r=1" in solver else "-"), lw=2 if "r=1" in solver else 1.2, label=f"{scheme} {solver}" + (" (stopped)" if rs[-1]["stopped"] else ""))
                 ax.set_yscale("symlog", linthresh=1e-3)
-                ax.grid(True, alpha=0.3)
-                ax.legend(fontsize=6)
-        fig.tight_layout()
-        fig.savefig(os.path.join(HERE, "energy_schemes.png"), dpi=90)
+                style(ax, "t (s)", "E(t) - E(0) (J)", f"{scene}, h = {hname} ({float(sel[0]['h']):.3g} s, h omega_max = {sel[0]['h_omega_max']}): "
+                      f"{'Newton to convergence, TS alpha2 (r = 1 dotted: on midpoint)' if solver_kind == 'Newton' else 'PD, 10 iterations'}", 8, legend=dict(fontsize=6))
+        save(fig, os.path.join(HERE, "energy_schemes.png"))
 
 
 def main():
-    p = argparse.ArgumentParser()
-    p.add_argument("part", nargs="?", default="all", choices=("work", "energy", "plot", "all"))
-    p.add_argument("--msim", default=MSIM)
+    p = study_parser(("work", "energy", "plot", "all"))
     p.add_argument("--scenes", default="cloth,rope,solid")
     p.add_argument("--cloth-n", type=int, default=101)
     p.add_argument("--rope-n", type=int, default=1000)

@@ -35,7 +35,7 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
-from msimrun import ENV, MSIM, ROOT, event  # noqa: E402
+from msimrun import ENV, MSIM, ROOT, event, write_csv  # noqa: E402
 
 TMP = "/tmp/msim_speed_accuracy"
 H = "0.0333333333333333"
@@ -200,7 +200,7 @@ def median_steps():
                     row[f"ms_to_{tag}{suffix}"] = round(hit[1] * 1e3, 1) if hit[1] is not None else ""
             rows.append(row)
             print(row, flush=True)
-    write(os.path.join(HERE, "median_steps.csv"), rows)
+    write_csv(os.path.join(HERE, "median_steps.csv"), rows)
     summary = []
     for name, _ in MEDIAN_METHODS:
         sel = [r for r in rows if r["method"] == name]
@@ -213,7 +213,7 @@ def median_steps():
             out[f"steps_not_reaching_{tag}"] = sum(1 for t in times if t == math.inf)
         summary.append(out)
         print(out, flush=True)
-    write(os.path.join(HERE, "median_summary.csv"), summary)
+    write_csv(os.path.join(HERE, "median_summary.csv"), summary)
 
 
 INITIAL_HESSIANS = [
@@ -246,17 +246,7 @@ def merge(path, rows, scenes):
     if os.path.exists(path):
         with open(path) as f:
             kept = [r for r in csv.DictReader(f) if r["scene"] not in scenes]
-    write(path, kept + rows)
-
-
-def write(path, rows):
-    fields = []
-    for r in rows:
-        fields += [k for k in r if k not in fields]
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=fields)
-        w.writeheader()
-        w.writerows(rows)
+    write_csv(path, kept + rows)
 
 
 def final_state(path):

@@ -18,7 +18,6 @@ schemes_theory.csv: each scheme's amplification per step on a linear oscillator 
 Usage: /usr/bin/python3 runs/stability/schemes.py [long|sweep|plot|all] [--msim PATH] [--cloth-n 31]
   [--steps 150] [--ratios 0.5,1,3,10,30,100,1000] [--schemes implicit_euler,bdf2,...,ts] (the rows of
   the schemes run replace theirs in the CSVs; the others stay)"""
-import argparse
 import csv
 import os
 import re
@@ -27,7 +26,8 @@ import sys
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(os.path.dirname(HERE), "tools"))
-from msimrun import ENV, MSIM, ROOT  # noqa: E402
+from msimrun import ENV, ROOT, study_parser, write_csv  # noqa: E402
+from plots import SCHEME_COLORS as COLORS, energy_drift, pyplot, save, style  # noqa: E402
 
 TMP = "/tmp/msim_stability_schemes"
 H30 = 1 / 30
@@ -145,20 +145,11 @@ def write(path, rows):
     """rows replace those of the schemes run (--schemes); the others' rows stay"""
     if os.path.exists(path) and "scheme" in rows[0]:
         rows = [r for r in csv.DictReader(open(path)) if r["scheme"].split()[0] not in WANT] + rows
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0]))
-        w.writeheader()
-        w.writerows(rows)
-
-
-COLORS = {"implicit_euler": "k", "bdf2": "tab:blue", "implicit_midpoint": "tab:red", "newmark": "tab:orange",
-          "discrete_gradient": "tab:green", "ts alpha2 r=1": "tab:purple", "ts alpha2 r=0.5": "tab:pink"}
+    write_csv(path, rows)
 
 
 def plot():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = pyplot()
     path = os.path.join(HERE, "schemes_long.csv")
     if os.path.exists(path):
         rows = list(csv.DictReader(open(path)))
@@ -170,29 +161,20 @@ def plot():
                 z = amplification(scheme, x, 0.5 if "0.5" in scheme else 1.0)
                 theory.append(dict(scheme=scheme, h_omega=f"{x:.4g}", amplification_per_step=f"{z:.4g}",
                                    energy_left_after_1_s_at_h_1_30=f"{z ** (2 * 30):.3g}"))
-        with open(os.path.join(HERE, "schemes_theory.csv"), "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=list(theory[0]))
-            w.writeheader()
-            w.writerows(theory)
+        write_csv(os.path.join(HERE, "schemes_theory.csv"), theory)
         fig, axes = plt.subplots(1, 2, figsize=(13, 4.5))
         for ax, kind in zip(axes, ("Newton", "PD-10")):
             for key in dict.fromkeys((r["scheme"], r["solver"]) for r in rows):
                 if (kind == "Newton") != key[1].startswith("Newton"):
                     continue
                 rs = [r for r in rows if (r["scheme"], r["solver"]) == key]
-                e0 = float(rs[0]["total"])
                 stop = f" ({rs[-1]['stopped'][:40]})" if rs[-1]["stopped"] else ""
-                ax.plot([float(r["t"]) for r in rs], [float(r["total"]) - e0 for r in rs], color=COLORS.get(key[0], "gray"), label=f"{key[0]}{stop}")
+                energy_drift(ax, rs, color=COLORS.get(key[0], "gray"), label=f"{key[0]}{stop}")
                 if stop:
-                    ax.plot([float(rs[-1]["t"])], [float(rs[-1]["total"]) - e0], "x", color=COLORS.get(key[0], "gray"), ms=9)
+                    ax.plot([float(rs[-1]["t"])], [float(rs[-1]["total"]) - float(rs[0]["total"])], "x", color=COLORS.get(key[0], "gray"), ms=9)
             ax.set_yscale("symlog", linthresh=1e-2)
-            ax.set_xlabel("t (s)")
-            ax.set_ylabel("E(t) - E(0) (J)")
-            ax.set_title(f"{rows[0]['scene']}, h = 1/30 s (h omega_max = {rows[0]['h_omega_max']}): {kind}", fontsize=9)
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(os.path.join(HERE, "schemes_long.png"), dpi=90)
+            style(ax, "t (s)", "E(t) - E(0) (J)", f"{rows[0]['scene']}, h = 1/30 s (h omega_max = {rows[0]['h_omega_max']}): {kind}", 9, legend=dict(fontsize=7))
+        save(fig, os.path.join(HERE, "schemes_long.png"))
     path = os.path.join(HERE, "schemes_sweep.csv")
     if os.path.exists(path):
         rows = list(csv.DictReader(open(path)))
@@ -210,21 +192,13 @@ def plot():
                 bad = [(xx, r) for xx, r in zip(x, rs) if r["stopped"]]
                 for xx, r in bad:
                     ax.plot([xx], [1.0 if sname == "chain" else 1e-6], "x", color=COLORS.get(scheme, "gray"), ms=10)
-            ax.set_xscale("log")
-            ax.set_yscale("log")
-            ax.set_xlabel("h omega_max (2 = symplectic Euler's limit); x: run stopped")
-            ax.set_ylabel("E(2 s) / E(0)" if sname == "chain" else "|E(2 s) - E(0)| (J)")
-            ax.set_title(f"{sname}: Newton to convergence, 2 s", fontsize=9)
-            ax.grid(True, alpha=0.3)
-            ax.legend(fontsize=7)
-        fig.tight_layout()
-        fig.savefig(os.path.join(HERE, "schemes_sweep.png"), dpi=90)
+            style(ax, "h omega_max (2 = symplectic Euler's limit); x: run stopped", "E(2 s) / E(0)" if sname == "chain" else "|E(2 s) - E(0)| (J)",
+                  f"{sname}: Newton to convergence, 2 s", 9, xlog=True, ylog=True, legend=dict(fontsize=7))
+        save(fig, os.path.join(HERE, "schemes_sweep.png"))
 
 
 def main():
-    p = argparse.ArgumentParser()
-    p.add_argument("part", nargs="?", default="all", choices=("long", "sweep", "plot", "all"))
-    p.add_argument("--msim", default=MSIM)
+    p = study_parser(("long", "sweep", "plot", "all"))
     p.add_argument("--cloth-n", type=int, default=31)
     p.add_argument("--steps", type=int, default=150)
     p.add_argument("--ratios", default="0.5,1,3,10,30,100,1000")

@@ -1,6 +1,7 @@
 """What the studies under runs/ share: where msim is, the environment its runs need (Open MPI as
 root and oversubscribed, single-threaded BLAS so rank counts mean cores), the benchmark cloth, and
 PETSc -log_view events, a table of rows as CSV. Import with sys.path pointing at runs/tools."""
+import argparse
 import csv
 import os
 import re
@@ -23,8 +24,20 @@ def event(log, name, stage=None):
 
 
 def write_csv(path, rows):
-    """rows (dicts with the same keys, in column order) as a CSV file with a header line"""
+    """rows (dicts, in column order) as a CSV file with a header line: every key of any row, in the
+    order first seen (a row without one leaves its cell empty)"""
+    fields = []
+    for r in rows:
+        fields += [k for k in r if k not in fields]
     with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
         w.writerows(rows)
+
+
+def study_parser(parts):
+    """a study's command line: which part to run (parts, the last the default) and --msim"""
+    p = argparse.ArgumentParser()
+    p.add_argument("part", nargs="?", default=parts[-1], choices=parts)
+    p.add_argument("--msim", default=MSIM)
+    return p
