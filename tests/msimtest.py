@@ -78,6 +78,14 @@ def lines(text):
     return [l for l in text.splitlines() if l.strip()]
 
 
+def refusals(check, exe, base, cases, np):
+    """bad input: for each (label, args, words) of cases, msim with base + args exits non-zero with
+    one error line that holds every one of words"""
+    for label, args, words in cases:
+        err = lines((r := run(exe, list(base) + list(args), np)).stderr)
+        check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np}: {label}: one error line naming it ({err})")
+
+
 def view_ascii(path):
     """the ascii_matlab option of -msim_view_final, as a PetscViewer spec"""
     return f"ascii:{path}:ascii_matlab"
