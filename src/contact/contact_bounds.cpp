@@ -8,6 +8,7 @@
 #include <msim/options.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
+#include <msim/destroy.h>
 #include <petscsnes.h>
 #include <vector>
 
@@ -153,9 +154,7 @@ PetscErrorCode MSimContactBoundsDestroy(MSimContactBounds *b)
 {
   PetscFunctionBeginUser;
   if (!*b) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(VecDestroy(&(*b)->XL));
-  PetscCall(VecDestroy(&(*b)->XU));
-  PetscCall(VecDestroy(&(*b)->R));
+  PetscCall(MSimDestroy(&(*b)->XL, &(*b)->XU, &(*b)->R));
   delete *b;
   *b = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

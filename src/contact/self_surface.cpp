@@ -13,6 +13,7 @@
 #include <msim/private/selfcontactimpl.h>
 #include <msim/errors.h>
 #include <msim/private/systemimpl.h>
+#include <msim/destroy.h>
 #include <cmath>
 
 PetscLogEvent MSIM_SelfBroad = 0, MSIM_SelfHalo = 0, MSIM_SelfNarrow = 0, MSIM_SelfCCD = 0;
@@ -131,10 +132,7 @@ static PetscErrorCode BuildLocal(MSimSelfSurface s, PetscReal t, std::vector<MSi
     s->edge[2 * k]     = (PetscInt)(e[k] / (long long)s->vid.size());
     s->edge[2 * k + 1] = (PetscInt)(e[k] % (long long)s->vid.size());
   }
-  PetscCall(VecScatterDestroy(&s->scatter));
-  PetscCall(VecScatterDestroy(&s->xscatter));
-  PetscCall(VecDestroy(&s->xl));
-  PetscCall(VecDestroy(&s->gl));
+  PetscCall(MSimDestroy(&s->scatter, &s->xscatter, &s->xl, &s->gl));
   const PetscInt n = (PetscInt)s->vid.size();
   PetscCall(VecCreateSeq(PETSC_COMM_SELF, 3 * n, &s->xl));
   PetscCall(VecDuplicate(s->xl, &s->gl));
@@ -163,8 +161,7 @@ static PetscErrorCode BuildLocal(MSimSelfSurface s, PetscReal t, std::vector<MSi
     PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &isf));
     PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, (PetscInt)to.size(), to.data(), PETSC_COPY_VALUES, &ist));
     PetscCall(VecScatterCreate(sys->X0, isf, s->xl, ist, &s->xscatter));
-    PetscCall(ISDestroy(&isf));
-    PetscCall(ISDestroy(&ist));
+    PetscCall(MSimDestroy(&isf, &ist));
   }
   /* positions: sys->natural holds them (the caller's MSimSystemNaturalPositions at time t) */
   {
@@ -314,11 +311,7 @@ PetscErrorCode MSimSelfSurfaceDestroy(MSimSelfSurface *s)
 {
   PetscFunctionBeginUser;
   if (!*s) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(VecScatterDestroy(&(*s)->scatter));
-  PetscCall(VecScatterDestroy(&(*s)->xscatter));
-  PetscCall(VecDestroy(&(*s)->xl));
-  PetscCall(VecDestroy(&(*s)->gl));
-  PetscCall(VecDestroy(&(*s)->gnumnat));
+  PetscCall(MSimDestroy(&(*s)->scatter, &(*s)->xscatter, &(*s)->xl, &(*s)->gl, &(*s)->gnumnat));
   delete *s;
   *s = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -13,7 +13,7 @@ static PetscErrorCode PDAssemble(MSimImplicit imp)
   MSimSystem         sys = imp->sys;
   const PetscScalar *m;
   std::vector<PetscInt> dnz, onz;
-  PetscReal          diag = 0; /* the diagonal terms' weights */
+  PetscReal          diag; /* the diagonal terms' weights */
 
   PetscFunctionBeginUser;
   if (imp->A) PetscCall(MatZeroEntries(imp->A)); /* new weights (pd_reweight), same pattern */
@@ -23,14 +23,10 @@ static PetscErrorCode PDAssemble(MSimImplicit imp)
     PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
     PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
   }
+  PetscCall(MSimImplicitDiagonalWeight(imp, &diag));
   for (PetscInt k = 0; k < imp->nterms; k++) {
     MSimImplicitTerm term = imp->terms[k];
-    if (term->ops.diagonal) {
-      PetscReal w;
-      Vec       C;
-      PetscCall(term->ops.diagonal(term, &w, &C));
-      diag += w;
-    } else if (term->ops.pd_matrix) PetscCall(term->ops.pd_matrix(term, imp->A));
+    if (!term->ops.diagonal && term->ops.pd_matrix) PetscCall(term->ops.pd_matrix(term, imp->A));
   }
   PetscCall(VecGetArrayRead(sys->mass, &m));
   for (PetscInt i = 0; i < sys->nown; i++) PetscCall(MatSetValue(imp->A, sys->rstart + i, sys->rstart + i, m[3 * i] + diag, ADD_VALUES));

@@ -4,6 +4,7 @@
 #include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <msim/destroy.h>
 
 PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp)
 {
@@ -23,18 +24,10 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
   }
   if ((*imp)->scheme) {
     if ((*imp)->scheme->ops.destroy) PetscCall((*imp)->scheme->ops.destroy((*imp)->scheme));
+    for (PetscInt k = 0; k < (*imp)->scheme->nwork; k++) PetscCall(VecDestroy(&(*imp)->scheme->work[k]));
     delete (*imp)->scheme;
   }
-  PetscCall(VecDestroy(&(*imp)->Xn));
-  PetscCall(VecDestroy(&(*imp)->Y));
-  PetscCall(VecDestroy(&(*imp)->rhs));
-  PetscCall(MatDestroy(&(*imp)->A));
-  PetscCall(MatDestroy(&(*imp)->A3));
-  PetscCall(MatDestroy(&(*imp)->B));
-  PetscCall(MatDestroy(&(*imp)->Xd));
-  PetscCall(VecDestroy(&(*imp)->pdb));
-  PetscCall(VecDestroy(&(*imp)->pdx));
-  PetscCall(KSPDestroy(&(*imp)->pdksp));
+  PetscCall(MSimDestroy(&(*imp)->Xn, &(*imp)->Y, &(*imp)->rhs, &(*imp)->A, &(*imp)->A3, &(*imp)->B, &(*imp)->Xd, &(*imp)->pdb, &(*imp)->pdx, &(*imp)->pdksp));
   delete *imp;
   *imp = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -107,7 +100,7 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
   PetscBool feasible = PETSC_TRUE;
 
   PetscFunctionBeginUser;
-  PetscCall(imp->scheme->ops.guess(imp->scheme, imp, V, X));
+  PetscCall(VecAXPY(X, imp->scheme->guess * imp->h, V));
   /* a term with a feasible set (contact barriers) needs a first iterate inside it: the guess is
      pulled back towards x_n, which is feasible, as far as the terms' max_step says */
   for (PetscInt k = 0; k < imp->nterms; k++)
@@ -125,8 +118,7 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
     PetscCall(VecWAXPY(D, -1.0, X, A)); /* X = A - D */
     PetscCall(MSimImplicitMaxStep(imp, A, D, &alpha));
     if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, A));
-    PetscCall(VecDestroy(&A));
-    PetscCall(VecDestroy(&D));
+    PetscCall(MSimDestroy(&A, &D));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -155,6 +147,29 @@ PetscErrorCode MSimImplicitAddExternalAcceleration(MSimImplicit imp, PetscReal s
 
 /* The quadratic terms w/2 |x - c|^2 that ride on the inertia pass: the first one's (w, c) fused
    into that pass (w = 0 and c = y without one); *next is the index to continue from. */
+PetscErrorCode MSimImplicitSetReference(MSimImplicit imp, Vec xref, PetscReal tref, PetscReal tx)
+{
+  PetscFunctionBeginUser;
+  imp->step.xref = xref;
+  imp->step.tref = tref;
+  imp->step.tx   = tx;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w)
+{
+  PetscFunctionBeginUser;
+  *w = 0;
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    PetscReal wk;
+    Vec       C;
+    if (!imp->terms[k]->ops.diagonal) continue;
+    PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], &wk, &C));
+    *w += wk;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode FirstDiagonal(MSimImplicit imp, PetscReal *w, Vec *c, PetscInt *next)
 {
   PetscFunctionBeginUser;
@@ -287,14 +302,10 @@ PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal de
   const PetscBool        discrete = (PetscBool)(imp->scheme->no_objective != NULL);
 
   PetscFunctionBeginUser;
+  PetscCall(MSimImplicitDiagonalWeight(imp, &c.diagonal));
   for (PetscInt k = 0; k < imp->nterms; k++) {
     MSimImplicitTerm term = imp->terms[k];
-    if (term->ops.diagonal) {
-      PetscReal w;
-      Vec       C;
-      PetscCall(term->ops.diagonal(term, &w, &C));
-      c.diagonal += w;
-    } else if (term->ops.hessian_coefficients && !discrete) PetscCall(term->ops.hessian_coefficients(term, X, imp->psd, &c));
+    if (!term->ops.diagonal && term->ops.hessian_coefficients && !discrete) PetscCall(term->ops.hessian_coefficients(term, X, imp->psd, &c));
   }
   PetscCall(MSimSystemAssembleMatrix(imp->sys, &c, J));
   for (PetscInt k = 0; k < imp->nterms; k++) {

@@ -30,12 +30,26 @@ static PetscErrorCode MSimImplicitFinalizePackage(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* One line per scheme and per term: each is a file of schemes/ or terms/. */
-PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme);
-PetscErrorCode MSimImplicitSchemeCreate_BDF2(MSimImplicitScheme);
-PetscErrorCode MSimImplicitSchemeCreate_Midpoint(MSimImplicitScheme);
-PetscErrorCode MSimImplicitSchemeCreate_Newmark(MSimImplicitScheme);
-PetscErrorCode MSimImplicitSchemeCreate_DiscreteGradient(MSimImplicitScheme);
+/* A scheme from its type's table: constants copied, work vectors made like x */
+template <const MSimImplicitSchemeType *type>
+static PetscErrorCode MSimImplicitSchemeCreateFromType(MSimImplicitScheme scheme)
+{
+  PetscFunctionBeginUser;
+  PetscCheck(type->nwork <= MSIM_SCHEME_MAX_WORK && type->nhistory <= type->nwork, PETSC_COMM_SELF, PETSC_ERR_PLIB, "scheme %s: %d work vectors (at most %d), %d of them history", scheme->type, (int)type->nwork, MSIM_SCHEME_MAX_WORK, (int)type->nhistory);
+  scheme->beta           = type->beta;
+  scheme->gamma          = type->gamma;
+  scheme->guess          = type->guess;
+  scheme->no_barrier     = type->no_barrier;
+  scheme->no_objective   = type->no_objective;
+  scheme->ops.begin_step = type->begin_step;
+  scheme->ops.end_step   = type->end_step;
+  scheme->nhistory       = type->nhistory;
+  for (; scheme->nwork < type->nwork; scheme->nwork++) PetscCall(VecDuplicate(scheme->imp->sys->X0, &scheme->work[scheme->nwork]));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* One line per scheme and per term: each is a file of schemes/ (its table) or terms/. */
+extern const MSimImplicitSchemeType MSimImplicitSchemeEuler, MSimImplicitSchemeBDF2, MSimImplicitSchemeMidpoint, MSimImplicitSchemeNewmark, MSimImplicitSchemeDiscreteGradient;
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Drag(MSimImplicitTerm);
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm);
@@ -50,11 +64,11 @@ PetscErrorCode MSimImplicitRegisterAll(void)
   if (MSimImplicitRegistered) PetscFunctionReturn(PETSC_SUCCESS);
   MSimImplicitRegistered = PETSC_TRUE;
   PetscCall(PetscRegisterFinalize(MSimImplicitFinalizePackage));
-  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEEULER, MSimImplicitSchemeCreate_Euler));
-  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEBDF2, MSimImplicitSchemeCreate_BDF2));
-  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEMIDPOINT, MSimImplicitSchemeCreate_Midpoint));
-  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMENEWMARK, MSimImplicitSchemeCreate_Newmark));
-  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEDISCGRAD, MSimImplicitSchemeCreate_DiscreteGradient));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEEULER, MSimImplicitSchemeCreateFromType<&MSimImplicitSchemeEuler>));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEBDF2, MSimImplicitSchemeCreateFromType<&MSimImplicitSchemeBDF2>));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEMIDPOINT, MSimImplicitSchemeCreateFromType<&MSimImplicitSchemeMidpoint>));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMENEWMARK, MSimImplicitSchemeCreateFromType<&MSimImplicitSchemeNewmark>));
+  PetscCall(MSimImplicitSchemeRegister(MSIMSCHEMEDISCGRAD, MSimImplicitSchemeCreateFromType<&MSimImplicitSchemeDiscreteGradient>));
   PetscCall(MSimImplicitTermRegister(MSIMTERMSPRINGS, MSimImplicitTermCreate_Springs));
   PetscCall(MSimImplicitTermRegister(MSIMTERMDRAG, MSimImplicitTermCreate_Drag));
   PetscCall(MSimImplicitTermRegister("obstacles", MSimImplicitTermCreate_Obstacles));
@@ -132,6 +146,7 @@ PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[],
   PetscCall(PetscStrncpy((*imp)->scheme->type, scheme, sizeof((*imp)->scheme->type)));
   (*imp)->scheme->beta  = 1;
   (*imp)->scheme->gamma = 1;
+  (*imp)->scheme->guess = 1;
   (*imp)->scheme->imp   = *imp;
   PetscCall((*create)((*imp)->scheme));
   /* the terms: every registered one unless -msim_implicit_terms names them */

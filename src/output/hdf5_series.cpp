@@ -14,6 +14,7 @@
 #include "frame_fields.h"
 #include <msim/contact_force.h>
 #include <msim/private/systemimpl.h>
+#include <msim/destroy.h>
 #include <petscviewerhdf5.h>
 #include <algorithm>
 #include <cstdio>
@@ -112,10 +113,7 @@ PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char
 PetscErrorCode MSimHDF5SeriesDestroy(MSimHDF5Series *h)
 {
   PetscFunctionBeginUser;
-  PetscCall(VecScatterDestroy(&h->fetch));
-  PetscCall(VecDestroy(&h->xcell));
-  PetscCall(VecDestroy(&h->strain));
-  PetscCall(VecDestroy(&h->ratio));
+  PetscCall(MSimDestroy(&h->fetch, &h->xcell, &h->strain, &h->ratio));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

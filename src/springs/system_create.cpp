@@ -9,6 +9,7 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/sceneimpl.h>
 #include <msim/private/selfcontactimpl.h>
+#include <msim/destroy.h>
 #include <algorithm>
 #include <memory>
 
@@ -238,13 +239,11 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, sys->nown + sys->nghost, sys->local_to_global.data(), PETSC_COPY_VALUES, &from));
     PetscCall(ISCreateStride(PETSC_COMM_SELF, 3 * (sys->nown + sys->nghost), 0, 1, &to));
     PetscCall(VecScatterCreate(sys->X0, from, sys->xloc, to, &sys->g2l));
-    PetscCall(ISDestroy(&from));
-    PetscCall(ISDestroy(&to));
+    PetscCall(MSimDestroy(&from, &to));
     PetscCall(ISCreateBlock(PETSC_COMM_SELF, 3, sys->nghost, sys->local_to_global.data() + sys->nown, PETSC_COPY_VALUES, &from));
     PetscCall(ISCreateStride(PETSC_COMM_SELF, 3 * sys->nghost, 3 * sys->nown, 1, &to));
     PetscCall(VecScatterCreate(sys->X0, from, sys->xloc, to, &sys->ghosts));
-    PetscCall(ISDestroy(&from));
-    PetscCall(ISDestroy(&to));
+    PetscCall(MSimDestroy(&from, &to));
     if (sys->size > 1) {
       PetscCall(MSimGhostExchangeCreate(comm, 3, sys->nown, sys->nghost, sys->local_to_global.data() + sys->nown, L.ranges.data(), &sys->xghosts));
       /* an exchange has one operation in flight: the velocities need their own */
@@ -312,8 +311,7 @@ PetscErrorCode MSimSystemNaturalSetUp(MSimSystem sys)
   PetscCall(ISCreateBlock(sys->comm, 3, (PetscInt)from.size(), from.data(), PETSC_COPY_VALUES, &isf));
   PetscCall(ISCreateBlock(sys->comm, 3, (PetscInt)to.size(), to.data(), PETSC_COPY_VALUES, &ist));
   PetscCall(VecScatterCreate(sys->X0, isf, sys->natural, ist, &sys->to_natural));
-  PetscCall(ISDestroy(&isf));
-  PetscCall(ISDestroy(&ist));
+  PetscCall(MSimDestroy(&isf, &ist));
   std::vector<PetscInt>().swap(sys->nat_gnum);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -368,20 +366,9 @@ PetscErrorCode MSimSystemDestroy(MSimSystem *sys)
 {
   PetscFunctionBeginUser;
   if (!*sys) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(VecDestroy(&(*sys)->X0));
-  PetscCall(VecDestroy(&(*sys)->V0));
-  PetscCall(VecDestroy(&(*sys)->mass));
-  PetscCall(VecDestroy(&(*sys)->massinv));
-  PetscCall(VecDestroy(&(*sys)->xloc));
-  PetscCall(VecDestroy(&(*sys)->vloc));
-  PetscCall(VecDestroy(&(*sys)->floc));
-  PetscCall(VecDestroy(&(*sys)->tets.yloc));
-  PetscCall(VecDestroy(&(*sys)->natural));
-  PetscCall(VecScatterDestroy(&(*sys)->g2l));
-  PetscCall(VecScatterDestroy(&(*sys)->ghosts));
+  PetscCall(MSimDestroy(&(*sys)->X0, &(*sys)->V0, &(*sys)->mass, &(*sys)->massinv, &(*sys)->xloc, &(*sys)->vloc, &(*sys)->floc, &(*sys)->tets.yloc, &(*sys)->natural, &(*sys)->g2l, &(*sys)->ghosts, &(*sys)->to_natural));
   PetscCall(MSimGhostExchangeDestroy(&(*sys)->xghosts));
   PetscCall(MSimGhostExchangeDestroy(&(*sys)->vghosts));
-  PetscCall(VecScatterDestroy(&(*sys)->to_natural));
   delete *sys;
   *sys = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -5,6 +5,7 @@
 #include <msim/implicit.h>
 #include <msim/spectrum.h>
 #include <msim/init.h>
+#include <msim/destroy.h>
 #include <slepcsys.h>
 #include <cmath>
 #include <algorithm>
@@ -56,6 +57,41 @@ static inline PetscErrorCode TestSimCreate(const char *opts, TestSim *s)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* v uniform in [lo, hi], from a fresh generator at PETSc's default seed: the same draw every run */
+static inline PetscErrorCode SetRandom(Vec v, PetscReal lo, PetscReal hi)
+{
+  PetscRandom r;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscRandomCreate(PetscObjectComm((PetscObject)v), &r));
+  PetscCall(PetscRandomSetInterval(r, lo, hi));
+  PetscCall(VecSetRandom(v, r));
+  PetscCall(PetscRandomDestroy(&r));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* g . dX, g the problem's residual at X, and (Phi(X + eps dX) - Phi(X - eps dX)) / (2 eps): equal to
+   O(eps^2) where g is the gradient of Phi */
+static inline PetscErrorCode ObjectiveFDError(MSimImplicit imp, Vec X, Vec dX, PetscReal eps, PetscReal *gd, PetscReal *fd)
+{
+  Vec       Xe, G;
+  PetscReal pp, pm;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(X, &Xe));
+  PetscCall(VecDuplicate(X, &G));
+  PetscCall(VecWAXPY(Xe, eps, dX, X));
+  PetscCall(MSimImplicitObjective(imp, Xe, &pp));
+  PetscCall(VecWAXPY(Xe, -eps, dX, X));
+  PetscCall(MSimImplicitObjective(imp, Xe, &pm));
+  PetscCall(MSimImplicitResidual(imp, X, G));
+  PetscCall(VecDot(G, dX, gd));
+  *fd = (pp - pm) / (2 * eps);
+  PetscCall(VecDestroy(&Xe));
+  PetscCall(VecDestroy(&G));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* |J dX - (g(X + eps dX) - g(X - eps dX)) / (2 eps)| and |J dX|: J, assembled at X, against central
    differences of the problem's residual along dX (err / nrm is O(eps^2) for an exact Jacobian) */
 static inline PetscErrorCode JacobianFDError(MSimImplicit imp, Mat J, Vec X, Vec dX, PetscReal eps, PetscReal *err, PetscReal *nrm)
@@ -77,21 +113,27 @@ static inline PetscErrorCode JacobianFDError(MSimImplicit imp, Mat J, Vec X, Vec
   PetscCall(VecNorm(JdX, NORM_2, nrm));
   PetscCall(VecAXPY(Gp, -1.0, JdX));
   PetscCall(VecNorm(Gp, NORM_2, err));
-  PetscCall(VecDestroy(&JdX));
-  PetscCall(VecDestroy(&Gm));
-  PetscCall(VecDestroy(&Gp));
-  PetscCall(VecDestroy(&Xp));
+  PetscCall(MSimDestroy(&JdX, &Gm, &Gp, &Xp));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 static inline PetscErrorCode TestSimDestroy(TestSim *s)
 {
   PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&s->X));
-  PetscCall(VecDestroy(&s->V));
+  PetscCall(MSimDestroy(&s->X, &s->V));
   PetscCall(MSimIntegratorDestroy(&s->integ));
   PetscCall(MSimSystemDestroy(&s->sys));
   PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* so that a test's clean-up is one MSimDestroy(...) line (msim/destroy.h) */
+static inline PetscErrorCode MSimDestroyOne(TestSim *s)
+{
+  return TestSimDestroy(s);
+}
+static inline PetscErrorCode MSimDestroyOne(MSimImplicit *imp)
+{
+  return MSimImplicitDestroy(imp);
 }
 
 /* Run the test body; print the closing line; exit non-zero on any failure. */

@@ -11,18 +11,6 @@
 #include "harness.h"
 #include <cmath>
 
-static PetscErrorCode SetRandom(Vec v, PetscReal lo, PetscReal hi)
-{
-  PetscRandom r;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscRandomCreate(PetscObjectComm((PetscObject)v), &r));
-  PetscCall(PetscRandomSetInterval(r, lo, hi));
-  PetscCall(VecSetRandom(v, r));
-  PetscCall(PetscRandomDestroy(&r));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* x_{n+1} guess far from x_n: x_n + h v + a random displacement of up to 3 cm per component */
 static PetscErrorCode BeginFar(TestSim *s, MSimImplicit *imp, PetscReal h, Vec X1)
 {
@@ -74,8 +62,7 @@ static PetscErrorCode TestJacobianFD(void)
     PetscCall(MatNorm(S, NORM_FROBENIUS, &sn));
     NOTE("discrete gradient: |J - J^T|_F = %.3e, |J - diag J|_F = %.3e\n", (double)asym, (double)sn);
     CHECK(asym > 1e-3 * sn, "the discrete-gradient Jacobian is symmetric (|J - J^T| %g)", (double)asym);
-    PetscCall(MatDestroy(&S));
-    PetscCall(VecDestroy(&d));
+    PetscCall(MSimDestroy(&S, &d));
   }
   /* no Phi: an error, not a number */
   {
@@ -86,12 +73,7 @@ static PetscErrorCode TestJacobianFD(void)
     PetscCall(PetscPopErrorHandler());
     CHECK(ierr == PETSC_ERR_SUP, "MSimImplicitObjective with discrete_gradient returned %d, not PETSC_ERR_SUP", (int)ierr);
   }
-  PetscCall(MatDestroy(&Jt));
-  PetscCall(VecDestroy(&X1));
-  PetscCall(VecDestroy(&dX));
-  PetscCall(MatDestroy(&J));
-  PetscCall(MSimImplicitDestroy(&imp));
-  PetscCall(TestSimDestroy(&s));
+  PetscCall(MSimDestroy(&Jt, &X1, &dX, &J, &imp, &s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -133,11 +115,7 @@ static PetscErrorCode TestDiscreteGradientExact(void)
   PetscCall(MSimSystemSpringEnergy(s.sys, 0.1 + h, X1, &e1));
   NOTE("discrete gradient: gradbar . (x - x_n) = %.15e J, E(x) - E(x_n) = %.15e J (E(x_n) = %.6e J)\n", (double)dot, (double)(e1 - e0), (double)e0);
   CHECK(std::abs(dot - (e1 - e0)) <= 1e-11 * PetscMax(e0, e1), "gradbar . (x - x_n) %.15e differs from E(x) - E(x_n) %.15e", (double)dot, (double)(e1 - e0));
-  PetscCall(VecDestroy(&X1));
-  PetscCall(VecDestroy(&G));
-  PetscCall(VecDestroy(&D));
-  PetscCall(MSimImplicitDestroy(&imp));
-  PetscCall(TestSimDestroy(&s));
+  PetscCall(MSimDestroy(&X1, &G, &D, &imp, &s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

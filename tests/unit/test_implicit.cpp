@@ -19,19 +19,6 @@
 #include <cstdio>
 #include <vector>
 
-/* v uniform in [lo, hi], from a fresh generator at PETSc's default seed: the same draw every run */
-static PetscErrorCode SetRandom(Vec v, PetscReal lo, PetscReal hi)
-{
-  PetscRandom r;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscRandomCreate(PetscObjectComm((PetscObject)v), &r));
-  PetscCall(PetscRandomSetInterval(r, lo, hi));
-  PetscCall(VecSetRandom(v, r));
-  PetscCall(PetscRandomDestroy(&r));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* A moving state: 5 Newton steps from rest, then one step of the method under test. */
 static const char *kScene = "-msim_cloth_n 7 -msim_stiffness 1000 -msim_damping 0.5 -msim_drag 0.01 -msim_wind 1,0,0 -msim_dt 0.0333333333333 -msim_integrator implicit_euler";
 
@@ -122,9 +109,7 @@ static PetscErrorCode TestBaraffWitkin(void)
   PetscCall(VecNorm(b, NORM_2, &d));
   NOTE("Baraff-Witkin vs one Newton iteration: relative difference %.2e\n", (double)(d / n));
   CHECK(d <= 1e-12 * n, "ksponly differs from one Newton iteration by %g", (double)(d / n));
-  PetscCall(VecDestroy(&a));
-  PetscCall(VecDestroy(&b));
-  PetscCall(TestSimDestroy(&ref));
+  PetscCall(MSimDestroy(&a, &b, &ref));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -180,7 +165,7 @@ static PetscErrorCode TestJacobianFD(void)
   TestSim      s;
   MSimImplicit imp;
   Mat          J;
-  Vec          dX, Xp, Xm, Gm;
+  Vec          dX;
   PetscReal    eps = 1e-6, err, nrm;
 
   PetscFunctionBeginUser;
@@ -193,9 +178,6 @@ static PetscErrorCode TestJacobianFD(void)
   PetscCall(MSimSystemCreateMatrix(s.sys, &J));
   PetscCall(MSimImplicitJacobian(imp, s.X, J));
   PetscCall(VecDuplicate(s.X, &dX));
-  PetscCall(VecDuplicate(s.X, &Xp));
-  PetscCall(VecDuplicate(s.X, &Xm));
-  PetscCall(VecDuplicate(s.X, &Gm));
   PetscCall(SetRandom(dX, -1, 1));
   PetscCall(JacobianFDError(imp, J, s.X, dX, eps, &err, &nrm));
   NOTE("Jacobian vs finite differences of g: relative error %.2e\n", (double)(err / nrm));
@@ -213,23 +195,12 @@ static PetscErrorCode TestJacobianFD(void)
   }
   /* and g is the gradient of Phi: (Phi(x + e d) - Phi(x - e d)) / 2e = g . d */
   {
-    PetscReal pp, pm, gd;
-    PetscCall(VecWAXPY(Xp, eps, dX, s.X));
-    PetscCall(VecWAXPY(Xm, -eps, dX, s.X));
-    PetscCall(MSimImplicitObjective(imp, Xp, &pp));
-    PetscCall(MSimImplicitObjective(imp, Xm, &pm));
-    PetscCall(MSimImplicitResidual(imp, s.X, Gm));
-    PetscCall(VecDot(Gm, dX, &gd));
-    NOTE("g . d %.10e vs dPhi/de %.10e\n", (double)gd, (double)((pp - pm) / (2 * eps)));
-    CHECK(std::abs(gd - (pp - pm) / (2 * eps)) <= 1e-6 * std::abs(gd) + 1e-12, "g is not the gradient of Phi");
+    PetscReal gd, fd;
+    PetscCall(ObjectiveFDError(imp, s.X, dX, eps, &gd, &fd));
+    NOTE("g . d %.10e vs dPhi/de %.10e\n", (double)gd, (double)fd);
+    CHECK(std::abs(gd - fd) <= 1e-6 * std::abs(gd) + 1e-12, "g is not the gradient of Phi");
   }
-  PetscCall(VecDestroy(&dX));
-  PetscCall(VecDestroy(&Xp));
-  PetscCall(VecDestroy(&Xm));
-  PetscCall(VecDestroy(&Gm));
-  PetscCall(MatDestroy(&J));
-  PetscCall(MSimImplicitDestroy(&imp));
-  PetscCall(TestSimDestroy(&s));
+  PetscCall(MSimDestroy(&dX, &J, &imp, &s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -304,8 +275,7 @@ static PetscErrorCode TestLinearSolvers(void)
       PetscCall(VecNorm(X, NORM_2, &d));
       CHECK(d <= 1e-8 * n, "%s with %s differs from MUMPS by %g relative", snes, lin[k], (double)(d / n));
     }
-    PetscCall(VecDestroy(&X0));
-    PetscCall(VecDestroy(&X));
+    PetscCall(MSimDestroy(&X0, &X));
   }
   PetscCall(TestSimDestroy(&ref));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -505,16 +475,7 @@ static PetscErrorCode TestTermsSum(void)
     PetscCall(MSimImplicitMaxStep(all, X1, D, &alpha));
     CHECK(alpha == 1, "springs and drag limited the line search's step to %g", (double)alpha);
   }
-  PetscCall(MatDestroy(&Ja));
-  PetscCall(MatDestroy(&Js));
-  PetscCall(VecDestroy(&X1));
-  PetscCall(VecDestroy(&Ga));
-  PetscCall(VecDestroy(&Gs));
-  PetscCall(VecDestroy(&D));
-  PetscCall(VecDestroy(&Y));
-  PetscCall(MSimImplicitDestroy(&all));
-  PetscCall(MSimImplicitDestroy(&springs));
-  PetscCall(TestSimDestroy(&s));
+  PetscCall(MSimDestroy(&Ja, &Js, &X1, &Ga, &Gs, &D, &Y, &all, &springs, &s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -87,18 +87,10 @@ static PetscErrorCode CompareWithMUMPS(const char *scene, PetscInt64 *entries, P
       PetscCall(VecNorm(bs, NORM_2, &nrm));
       CHECK(d <= 1e-10 * nrm, "%s: msimllt PCMatApply column %" PetscInt_FMT " differs from MUMPS by %g relative", scene, q, (double)(d / nrm));
     }
-    PetscCall(MatDestroy(&B));
-    PetscCall(MatDestroy(&X));
+    PetscCall(MSimDestroy(&B, &X));
   }
   PetscCall(PetscRandomDestroy(&rnd));
-  PetscCall(VecDestroy(&b));
-  PetscCall(VecDestroy(&x));
-  PetscCall(VecDestroy(&xref));
-  PetscCall(VecDestroy(&bs));
-  PetscCall(VecDestroy(&xs));
-  PetscCall(KSPDestroy(&ref));
-  PetscCall(MSimImplicitDestroy(&imp));
-  PetscCall(TestSimDestroy(&s));
+  PetscCall(MSimDestroy(&b, &x, &xref, &bs, &xs, &ref, &imp, &s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

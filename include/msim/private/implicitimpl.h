@@ -19,25 +19,35 @@ typedef struct {
 } MSimImplicitStep;
 
 /* A time scheme: Phi's y and beta, the first iterate, and the velocity update. */
+typedef PetscErrorCode (*MSimImplicitSchemeBeginStep)(MSimImplicitScheme, MSimImplicit, PetscReal t, PetscReal h, Vec X, Vec V);
+typedef PetscErrorCode (*MSimImplicitSchemeEndStep)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
 typedef struct {
   /* from (X, V) at t: y, x_n and whatever history the scheme keeps; imp->step.xref, tref, tx */
-  PetscErrorCode (*begin_step)(MSimImplicitScheme, MSimImplicit, PetscReal t, PetscReal h, Vec X, Vec V);
-  /* X holds x_n on entry: the first iterate (Euler: x_n + h v_n) */
-  PetscErrorCode (*guess)(MSimImplicitScheme, MSimImplicit, Vec V, Vec X);
+  MSimImplicitSchemeBeginStep begin_step;
   /* X holds the minimizer on entry: x_{n+1} into X and v_{n+1} into V */
-  PetscErrorCode (*end_step)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
-  /* the vectors an exact restart needs besides x and v, the scheme's own (none for Euler; BDF2:
-     x_{n-1}, v_{n-1}; Newmark: a_n): a checkpoint writes them, a restart loads them in place */
-  PetscErrorCode (*get_history)(MSimImplicitScheme, PetscInt *n, Vec **history);
+  MSimImplicitSchemeEndStep end_step;
   PetscErrorCode (*view)(MSimImplicitScheme, PetscViewer);
-  PetscErrorCode (*destroy)(MSimImplicitScheme);
+  PetscErrorCode (*destroy)(MSimImplicitScheme); /* what the scheme keeps besides its work vectors */
 } MSimImplicitSchemeOps;
+
+/* A scheme type: one constant table at the end of its file in schemes/, registered by name in
+   registry.cpp, from which the problem makes the scheme (MSimImplicitCreateWithScheme). */
+typedef struct {
+  PetscReal                   beta, gamma, guess; /* the scheme's fields of the same names */
+  PetscInt                    nwork, nhistory;    /* how many work vectors, and of them history */
+  const char                 *no_barrier, *no_objective;
+  MSimImplicitSchemeBeginStep begin_step;
+  MSimImplicitSchemeEndStep   end_step;
+} MSimImplicitSchemeType;
+
+#define MSIM_SCHEME_MAX_WORK 8
 
 struct _n_MSimImplicitScheme {
   char                  type[64];
   MSimImplicit          imp;   /* the problem it belongs to (set before its create function) */
   PetscReal             beta;  /* h2 = beta h^2 */
   PetscReal             gamma; /* hd = gamma h (Euler 1; BDF2 2/3; midpoint and Newmark 1/2) */
+  PetscReal             guess; /* the first iterate x_n + guess h v_n (Euler 1, midpoint 1/2) */
   /* why a term that keeps the unknown feasible (a contact barrier) cannot guarantee x_{n+1}
      with this scheme, or NULL where it can; such terms refuse the scheme with this reason */
   const char           *no_barrier;
@@ -48,57 +58,65 @@ struct _n_MSimImplicitScheme {
      a term without a discrete gradient refuses the scheme with this reason */
   const char           *no_objective;
   MSimImplicitSchemeOps ops;
+  /* vectors shaped like x that the scheme keeps (made from its type's nwork, destroyed with it);
+     the first nhistory are what an exact restart needs besides x and v (none for Euler; BDF2:
+     x_{n-1}, v_{n-1}; Newmark: a_n): a checkpoint writes them, a restart loads them in place */
+  Vec                   work[MSIM_SCHEME_MAX_WORK];
+  PetscInt              nwork, nhistory;
   void                 *data;
-  /* get_history's vectors hold the previous step's history: set by end_step, and by a restart
+  /* the history vectors hold the previous step's history: set by end_step, and by a restart
      that loaded them; while false, begin_step starts the scheme up from (x_n, v_n) alone */
   PetscBool             history_valid;
 };
 
 /* An energy term. Every op is optional but energy and gradient; a term with a diagonal op is the
    quadratic w/2 |x - c|^2 and needs no other: the problem folds it into its inertia pass (one
-   loop over the dofs for energy, gradient, Hessian diagonal, PD matrix and right-hand side). */
+   loop over the dofs for energy, gradient, Hessian diagonal, PD matrix and right-hand side). Each
+   op is NULL unless the term's type sets it (one static table per type, with designated
+   initializers, copied into term->ops by its create function, which may then drop the ops its
+   options make unneeded). */
 typedef struct {
-  PetscErrorCode (*diagonal)(MSimImplicitTerm, PetscReal *w, Vec *c);
+  PetscErrorCode (*diagonal)(MSimImplicitTerm, PetscReal *w, Vec *c) = NULL;
   /* *e += this rank's part of the term's Phi at X (the problem sums over ranks) */
-  PetscErrorCode (*energy)(MSimImplicitTerm, Vec X, PetscReal *e);
+  PetscErrorCode (*energy)(MSimImplicitTerm, Vec X, PetscReal *e) = NULL;
   /* G += the term's gradient at X (owned rows) */
-  PetscErrorCode (*gradient)(MSimImplicitTerm, Vec X, Vec G);
+  PetscErrorCode (*gradient)(MSimImplicitTerm, Vec X, Vec G) = NULL;
   /* Hessian at X (psd: each block projected to PSD), as coefficients of the system's one-pass
      assembly ... */
-  PetscErrorCode (*hessian_coefficients)(MSimImplicitTerm, Vec X, PetscBool psd, MSimMatrixCoefficients *c);
+  PetscErrorCode (*hessian_coefficients)(MSimImplicitTerm, Vec X, PetscBool psd, MSimMatrixCoefficients *c) = NULL;
   /* ... or as blocks of its own, added into the assembled J (ADD_VALUES, then assemble) */
-  PetscErrorCode (*hessian)(MSimImplicitTerm, Vec X, PetscBool psd, Mat J);
+  PetscErrorCode (*hessian)(MSimImplicitTerm, Vec X, PetscBool psd, Mat J) = NULL;
   /* projective dynamics: its weights in the scalar PD matrix A (ADD_VALUES; A is assembled by
      the problem), and its local step: rhs += sum A_s^T w_s p_s(X) (owned rows), *e += its Phi at X
      when e is not NULL. pd_begin (optional) starts what pd_rhs needs (the ghost exchange), so it
      travels while the problem's inertia pass runs. */
-  PetscErrorCode (*pd_matrix)(MSimImplicitTerm, Mat A);
-  PetscErrorCode (*pd_begin)(MSimImplicitTerm, Vec X);
-  PetscErrorCode (*pd_rhs)(MSimImplicitTerm, Vec X, Vec rhs, PetscReal *e);
+  PetscErrorCode (*pd_matrix)(MSimImplicitTerm, Mat A) = NULL;
+  PetscErrorCode (*pd_begin)(MSimImplicitTerm, Vec X) = NULL;
+  PetscErrorCode (*pd_rhs)(MSimImplicitTerm, Vec X, Vec rhs, PetscReal *e) = NULL;
   /* optional, before each local step: a term whose PD weights depend on the state (contact:
      the vertices near an obstacle) updates them at X and sets *changed when they changed; the
      problem then reassembles A and refactors it (pd_matrix and pd_rhs use the new weights) */
-  PetscErrorCode (*pd_reweight)(MSimImplicitTerm, Vec X, PetscBool *changed);
+  PetscErrorCode (*pd_reweight)(MSimImplicitTerm, Vec X, PetscBool *changed) = NULL;
   /* the largest alpha in (0, *alpha] for which X - alpha Y stays where the term is defined
      (contact barriers: the line search starts there); lowers *alpha where it must, else leaves it */
-  PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha);
+  PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha) = NULL;
   /* optional, with max_step: where the term's feasible set is per vertex (obstacles), moves back
      each vertex of X whose own segment from the feasible A would leave it (its own safe step), so
      that one vertex near an obstacle does not shorten every vertex's move (the first iterate;
      PD's global steps) */
-  PetscErrorCode (*clamp)(MSimImplicitTerm, Vec A, Vec X);
+  PetscErrorCode (*clamp)(MSimImplicitTerm, Vec A, Vec X) = NULL;
   /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
      back towards A instead of x_n) */
-  PetscErrorCode (*feasible_start)(MSimImplicitTerm, Vec A);
+  PetscErrorCode (*feasible_start)(MSimImplicitTerm, Vec A) = NULL;
   /* for a scheme whose residual is not Phi's gradient (scheme->no_objective): G += the term's
      part of that residual at X, its discrete gradient between imp->Xn and X (times step.h2) with
      its dissipation; and that part's exact Jacobian, blocks added into the assembled J
      (ADD_VALUES, then assemble) */
-  PetscErrorCode (*discrete_gradient)(MSimImplicitTerm, Vec X, Vec G);
-  PetscErrorCode (*discrete_jacobian)(MSimImplicitTerm, Vec X, Mat J);
-  PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer);
-  PetscErrorCode (*destroy)(MSimImplicitTerm);
+  PetscErrorCode (*discrete_gradient)(MSimImplicitTerm, Vec X, Vec G) = NULL;
+  PetscErrorCode (*discrete_jacobian)(MSimImplicitTerm, Vec X, Mat J) = NULL;
+  PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer) = NULL;
+  PetscErrorCode (*destroy)(MSimImplicitTerm) = NULL;
 } MSimImplicitTermOps;
 
 struct _n_MSimImplicitTerm {
@@ -132,3 +150,10 @@ struct _n_MSimImplicit {
   Vec        rhs;
   MSimPDProblem pd;
 };
+
+/* For the schemes' begin_step: what the terms measure from (imp->step.xref, tref) and when the
+   unknown sees the boundary (tx) */
+PetscErrorCode MSimImplicitSetReference(MSimImplicit imp, Vec xref, PetscReal tref, PetscReal tx);
+/* the sum of the diagonal terms' weights w (each term w/2 |x - c|^2), for the Jacobian's and PD's
+   diagonals */
+PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w);

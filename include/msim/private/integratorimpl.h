@@ -4,17 +4,19 @@
 #pragma once
 #include <msim/integrator.h>
 
+/* An integrator type's ops: each NULL unless its type sets it (one static table per type, with
+   designated initializers, copied into integ->ops by its create function). */
 typedef struct {
-  PetscErrorCode (*setfromoptions)(MSimIntegrator);
-  PetscErrorCode (*setup)(MSimIntegrator);
-  PetscErrorCode (*step)(MSimIntegrator, PetscReal t, Vec X, Vec V); /* advance (X, V) from t to t + dt */
-  PetscErrorCode (*view)(MSimIntegrator, PetscViewer);
-  PetscErrorCode (*openfiles)(MSimIntegrator); /* optional: its monitor files, opened before the run writes anything */
+  PetscErrorCode (*setfromoptions)(MSimIntegrator) = NULL;
+  PetscErrorCode (*setup)(MSimIntegrator) = NULL;
+  PetscErrorCode (*step)(MSimIntegrator, PetscReal t, Vec X, Vec V) = NULL; /* advance (X, V) from t to t + dt */
+  PetscErrorCode (*view)(MSimIntegrator, PetscViewer) = NULL;
+  PetscErrorCode (*openfiles)(MSimIntegrator) = NULL; /* optional: its monitor files, opened before the run writes anything */
   /* optional: the vectors besides x and v that the next step reads (BDF2's x_{n-1}, v_{n-1}), which
      a checkpoint writes; history_loaded: a restart filled them, the next step uses them */
-  PetscErrorCode (*get_history)(MSimIntegrator, PetscInt *n, Vec **history);
-  PetscErrorCode (*history_loaded)(MSimIntegrator);
-  PetscErrorCode (*destroy)(MSimIntegrator);
+  PetscErrorCode (*get_history)(MSimIntegrator, PetscInt *n, Vec **history) = NULL;
+  PetscErrorCode (*history_loaded)(MSimIntegrator) = NULL;
+  PetscErrorCode (*destroy)(MSimIntegrator) = NULL;
 } MSimIntegratorOps;
 
 struct _n_MSimIntegrator {

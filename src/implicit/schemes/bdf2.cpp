@@ -32,114 +32,52 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 
-typedef struct {
-  Vec hist[2]; /* x_{n-1}, v_{n-1} (valid when scheme->history_valid) */
-  Vec Xh, Vn; /* xh and v_n, kept for the velocity update */
-  Vec P, U;   /* the predictor p = x_n + h v_n (the dissipation's reference) and u = 3 (p - xh)/(2 h) */
-  Vec F, W;
-  PetscBool startup; /* this step is the start-up step (its own velocity update) */
-} BDF2Data;
+/* scheme->work: x_{n-1}, v_{n-1} (the history, valid when scheme->history_valid); xh and v_n, kept
+   for the velocity update; the predictor p = x_n + h v_n (the dissipation's reference) and
+   u = 3 (p - xh)/(2 h); two work vectors. The start-up step is the one taken while
+   scheme->history_valid is false (EndStep sets it), with its own velocity update. */
+enum { X_PREV, V_PREV, X_HAT, V_N, PRED, U_PRED, WORK_F, WORK_W, NWORK };
 
 static PetscErrorCode BeginStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
 {
-  BDF2Data *d = (BDF2Data *)scheme->data;
+  Vec *w = scheme->work;
 
   PetscFunctionBeginUser;
-  d->startup = (PetscBool)!scheme->history_valid;
-  if (d->startup) { /* start-up: the past state x_{-1} = x_0 - h v_0, v_{-1} = v_0 */
-    PetscCall(VecWAXPY(d->hist[0], -h, V, X));
-    PetscCall(VecCopy(V, d->hist[1]));
+  if (!scheme->history_valid) { /* start-up: the past state x_{-1} = x_0 - h v_0, v_{-1} = v_0 */
+    PetscCall(VecWAXPY(w[X_PREV], -h, V, X));
+    PetscCall(VecCopy(V, w[V_PREV]));
   }
   PetscCall(VecCopy(X, imp->Xn));
-  PetscCall(VecCopy(V, d->Vn));
-  PetscCall(VecAXPBYPCZ(d->Xh, 4.0 / 3.0, -1.0 / 3.0, 0.0, X, d->hist[0]));
+  PetscCall(VecCopy(V, w[V_N]));
+  PetscCall(VecAXPBYPCZ(w[X_HAT], 4.0 / 3.0, -1.0 / 3.0, 0.0, X, w[X_PREV]));
   /* y = xh + 2/3 h (4/3 v_n - 1/3 v_{n-1}) + 4/9 h^2 M^-1 f_e */
-  PetscCall(VecCopy(d->Xh, imp->Y));
-  PetscCall(VecAXPBYPCZ(imp->Y, 8.0 / 9.0 * h, -2.0 / 9.0 * h, 1.0, V, d->hist[1]));
+  PetscCall(VecCopy(w[X_HAT], imp->Y));
+  PetscCall(VecAXPBYPCZ(imp->Y, 8.0 / 9.0 * h, -2.0 / 9.0 * h, 1.0, V, w[V_PREV]));
   PetscCall(MSimImplicitAddExternalAcceleration(imp, 4.0 / 9.0 * h * h, imp->Y));
-  PetscCall(VecWAXPY(d->P, h, V, X));
+  PetscCall(VecWAXPY(w[PRED], h, V, X));
   if (imp->sys->damping > 0 || imp->sys->drag > 0) {
-    PetscCall(VecAXPBYPCZ(d->U, 1.5 / h, -1.5 / h, 0.0, d->P, d->Xh));
-    PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 4.0 / 9.0 * h * h, t + h, d->P, d->U, d->F, d->W, imp->Y));
+    PetscCall(VecAXPBYPCZ(w[U_PRED], 1.5 / h, -1.5 / h, 0.0, w[PRED], w[X_HAT]));
+    PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 4.0 / 9.0 * h * h, t + h, w[PRED], w[U_PRED], w[WORK_F], w[WORK_W], imp->Y));
   }
-  imp->step.xref = d->P;
-  imp->step.tref = t + h;
-  imp->step.tx   = t + h;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Guess_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
-{
-  PetscFunctionBeginUser;
-  PetscCall(VecAXPY(X, imp->h, V));
+  PetscCall(MSimImplicitSetReference(imp, w[PRED], t + h, t + h));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* v_{n+1} = 3 (x_{n+1} - xh) / (2 h) (start-up: v_0 + h a_1); (x_n, v_n) become the history */
 static PetscErrorCode EndStep_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, Vec X, Vec V)
 {
-  BDF2Data *d = (BDF2Data *)scheme->data;
+  Vec *w = scheme->work;
 
   PetscFunctionBeginUser;
-  if (d->startup) { /* v_0 + 9 (x_1 - x_0 - h v_0) / (4 h) */
+  if (!scheme->history_valid) { /* start-up: v_0 + 9 (x_1 - x_0 - h v_0) / (4 h) */
     PetscCall(VecAXPBYPCZ(V, 2.25 / imp->h, -2.25 / imp->h, 0.0, X, imp->Xn));
-    PetscCall(VecAXPY(V, -1.25, d->Vn));
-  } else PetscCall(VecAXPBYPCZ(V, 1.5 / imp->h, -1.5 / imp->h, 0.0, X, d->Xh));
-  PetscCall(VecCopy(imp->Xn, d->hist[0]));
-  PetscCall(VecCopy(d->Vn, d->hist[1]));
+    PetscCall(VecAXPY(V, -1.25, w[V_N]));
+  } else PetscCall(VecAXPBYPCZ(V, 1.5 / imp->h, -1.5 / imp->h, 0.0, X, w[X_HAT]));
+  PetscCall(VecCopy(imp->Xn, w[X_PREV]));
+  PetscCall(VecCopy(w[V_N], w[V_PREV]));
   scheme->history_valid = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode GetHistory_BDF2(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
-{
-  BDF2Data *d = (BDF2Data *)scheme->data;
-
-  PetscFunctionBeginUser;
-  *n       = 2;
-  *history = d->hist;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Destroy_BDF2(MSimImplicitScheme scheme)
-{
-  BDF2Data *d = (BDF2Data *)scheme->data;
-
-  PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&d->hist[0]));
-  PetscCall(VecDestroy(&d->hist[1]));
-  PetscCall(VecDestroy(&d->Xh));
-  PetscCall(VecDestroy(&d->Vn));
-  PetscCall(VecDestroy(&d->P));
-  PetscCall(VecDestroy(&d->U));
-  PetscCall(VecDestroy(&d->F));
-  PetscCall(VecDestroy(&d->W));
-  PetscCall(PetscFree(scheme->data));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimImplicitSchemeCreate_BDF2(MSimImplicitScheme scheme)
-{
-  BDF2Data *d;
-  Vec       X0 = scheme->imp->sys->X0;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscNew(&d));
-  PetscCall(VecDuplicate(X0, &d->hist[0]));
-  PetscCall(VecDuplicate(X0, &d->hist[1]));
-  PetscCall(VecDuplicate(X0, &d->Xh));
-  PetscCall(VecDuplicate(X0, &d->Vn));
-  PetscCall(VecDuplicate(X0, &d->P));
-  PetscCall(VecDuplicate(X0, &d->U));
-  PetscCall(VecDuplicate(X0, &d->F));
-  PetscCall(VecDuplicate(X0, &d->W));
-  scheme->data            = d;
-  scheme->beta            = 4.0 / 9.0;
-  scheme->gamma           = 2.0 / 3.0;
-  scheme->ops.begin_step  = BeginStep_BDF2;
-  scheme->ops.guess       = Guess_BDF2;
-  scheme->ops.end_step    = EndStep_BDF2;
-  scheme->ops.get_history = GetHistory_BDF2;
-  scheme->ops.destroy     = Destroy_BDF2;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
+/* beta 4/9, gamma 2/3, first iterate x_n + h v_n; restarts need x_{n-1}, v_{n-1} */
+extern const MSimImplicitSchemeType MSimImplicitSchemeBDF2 = {4.0 / 9.0, 2.0 / 3.0, 1, NWORK, 2, NULL, NULL, BeginStep_BDF2, EndStep_BDF2};

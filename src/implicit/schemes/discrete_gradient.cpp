@@ -33,17 +33,15 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 
-typedef struct {
-  Vec P; /* the midpoint predictor p = x_n + h/2 v_n: the damping's axes, the drag's reference */
-} DGData;
+enum { PRED, NWORK }; /* scheme->work: the midpoint predictor p = x_n + h/2 v_n: the damping's axes, the drag's reference */
 
 static PetscErrorCode BeginStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
 {
-  DGData *d = (DGData *)scheme->data;
+  Vec *w = scheme->work;
 
   PetscFunctionBeginUser;
   PetscCall(VecCopy(X, imp->Xn));
-  PetscCall(VecWAXPY(d->P, 0.5 * h, V, X));
+  PetscCall(VecWAXPY(w[PRED], 0.5 * h, V, X));
   /* y = x_n + h v_n + h^2/2 M^-1 f_e - h^2/4 M^-1 c v_n */
   PetscCall(VecWAXPY(imp->Y, h, V, X));
   PetscCall(MSimImplicitAddExternalAcceleration(imp, 0.5 * h * h, imp->Y));
@@ -58,16 +56,7 @@ static PetscErrorCode BeginStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, 
     PetscCall(VecRestoreArrayRead(V, &v));
     PetscCall(VecRestoreArray(imp->Y, &y));
   }
-  imp->step.xref = d->P;
-  imp->step.tref = t + 0.5 * h;
-  imp->step.tx   = t + h;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Guess_DG(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
-{
-  PetscFunctionBeginUser;
-  PetscCall(VecAXPY(X, imp->h, V));
+  PetscCall(MSimImplicitSetReference(imp, w[PRED], t + 0.5 * h, t + h));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -79,41 +68,7 @@ static PetscErrorCode EndStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, Ve
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode GetHistory_DG(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
-{
-  PetscFunctionBeginUser;
-  *n       = 0;
-  *history = NULL;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Destroy_DG(MSimImplicitScheme scheme)
-{
-  DGData *d = (DGData *)scheme->data;
-
-  PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&d->P));
-  PetscCall(PetscFree(scheme->data));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimImplicitSchemeCreate_DiscreteGradient(MSimImplicitScheme scheme)
-{
-  DGData *d;
-  Vec     X0 = scheme->imp->sys->X0;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscNew(&d));
-  PetscCall(VecDuplicate(X0, &d->P));
-  scheme->data            = d;
-  scheme->beta            = 0.5;
-  scheme->gamma           = 0.5;
-  scheme->no_barrier      = "a barrier needs a minimization with a feasible line search, and this step is a residual";
-  scheme->no_objective    = "its step is a discrete-gradient residual, not the gradient of an energy";
-  scheme->ops.begin_step  = BeginStep_DG;
-  scheme->ops.guess       = Guess_DG;
-  scheme->ops.end_step    = EndStep_DG;
-  scheme->ops.get_history = GetHistory_DG;
-  scheme->ops.destroy     = Destroy_DG;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
+/* beta 1/2, gamma 1/2, first iterate x_n + h v_n, no history; the step is a residual (no
+   objective), so a barrier, which needs a minimization with a feasible line search, is refused */
+extern const MSimImplicitSchemeType MSimImplicitSchemeDiscreteGradient = {0.5, 0.5, 1, NWORK, 0, "a barrier needs a minimization with a feasible line search, and this step is a residual",
+                                                                          "its step is a discrete-gradient residual, not the gradient of an energy", BeginStep_DG, EndStep_DG};

@@ -10,16 +10,7 @@ static PetscErrorCode BeginStep_Euler(MSimImplicitScheme scheme, MSimImplicit im
   PetscCall(VecCopy(X, imp->Xn));
   PetscCall(VecWAXPY(imp->Y, h, V, X));
   PetscCall(MSimImplicitAddExternalAcceleration(imp, h * h, imp->Y));
-  imp->step.xref = imp->Xn;
-  imp->step.tref = t;
-  imp->step.tx   = t + h;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Guess_Euler(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
-{
-  PetscFunctionBeginUser;
-  PetscCall(VecAXPY(X, imp->h, V));
+  PetscCall(MSimImplicitSetReference(imp, imp->Xn, t, t + h));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -30,22 +21,5 @@ static PetscErrorCode EndStep_Euler(MSimImplicitScheme scheme, MSimImplicit imp,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode GetHistory_Euler(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
-{
-  PetscFunctionBeginUser;
-  *n       = 0;
-  *history = NULL;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimImplicitSchemeCreate_Euler(MSimImplicitScheme scheme)
-{
-  PetscFunctionBeginUser;
-  scheme->beta            = 1;
-  scheme->gamma           = 1;
-  scheme->ops.begin_step  = BeginStep_Euler;
-  scheme->ops.guess       = Guess_Euler;
-  scheme->ops.end_step    = EndStep_Euler;
-  scheme->ops.get_history = GetHistory_Euler;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
+/* beta 1, gamma 1, first iterate x_n + h v_n, no vectors kept */
+extern const MSimImplicitSchemeType MSimImplicitSchemeEuler = {1, 1, 1, 0, 0, NULL, NULL, BeginStep_Euler, EndStep_Euler};

@@ -15,30 +15,19 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 
-typedef struct {
-  Vec P, F, W; /* the predictor p = x_n + h/2 v_n; work vectors */
-} MidpointData;
+enum { PRED, WORK_F, WORK_W, NWORK }; /* scheme->work: the predictor p = x_n + h/2 v_n; work vectors */
 
 static PetscErrorCode BeginStep_Midpoint(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
 {
-  MidpointData *d = (MidpointData *)scheme->data;
+  Vec *w = scheme->work;
 
   PetscFunctionBeginUser;
   PetscCall(VecCopy(X, imp->Xn));
-  PetscCall(VecWAXPY(d->P, 0.5 * h, V, X));
-  PetscCall(VecCopy(d->P, imp->Y));
+  PetscCall(VecWAXPY(w[PRED], 0.5 * h, V, X));
+  PetscCall(VecCopy(w[PRED], imp->Y));
   PetscCall(MSimImplicitAddExternalAcceleration(imp, 0.25 * h * h, imp->Y));
-  PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 0.25 * h * h, t + 0.5 * h, d->P, V, d->F, d->W, imp->Y));
-  imp->step.xref = d->P;
-  imp->step.tref = t + 0.5 * h;
-  imp->step.tx   = t + 0.5 * h;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Guess_Midpoint(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
-{
-  PetscFunctionBeginUser;
-  PetscCall(VecAXPY(X, 0.5 * imp->h, V));
+  PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 0.25 * h * h, t + 0.5 * h, w[PRED], V, w[WORK_F], w[WORK_W], imp->Y));
+  PetscCall(MSimImplicitSetReference(imp, w[PRED], t + 0.5 * h, t + 0.5 * h));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -51,45 +40,6 @@ static PetscErrorCode EndStep_Midpoint(MSimImplicitScheme scheme, MSimImplicit i
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode GetHistory_Midpoint(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
-{
-  PetscFunctionBeginUser;
-  *n       = 0;
-  *history = NULL;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Destroy_Midpoint(MSimImplicitScheme scheme)
-{
-  MidpointData *d = (MidpointData *)scheme->data;
-
-  PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&d->P));
-  PetscCall(VecDestroy(&d->F));
-  PetscCall(VecDestroy(&d->W));
-  PetscCall(PetscFree(scheme->data));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimImplicitSchemeCreate_Midpoint(MSimImplicitScheme scheme)
-{
-  MidpointData *d;
-  Vec           X0 = scheme->imp->sys->X0;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscNew(&d));
-  PetscCall(VecDuplicate(X0, &d->P));
-  PetscCall(VecDuplicate(X0, &d->F));
-  PetscCall(VecDuplicate(X0, &d->W));
-  scheme->data            = d;
-  scheme->beta            = 0.25;
-  scheme->gamma           = 0.5;
-  /* x_{n+1} = 2 x_m - x_n went inside a box a cloth fell on */
-  scheme->no_barrier      = "a barrier keeps the midpoint feasible, not x_{n+1} = 2 x_m - x_n";
-  scheme->ops.begin_step  = BeginStep_Midpoint;
-  scheme->ops.guess       = Guess_Midpoint;
-  scheme->ops.end_step    = EndStep_Midpoint;
-  scheme->ops.get_history = GetHistory_Midpoint;
-  scheme->ops.destroy     = Destroy_Midpoint;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
+/* beta 1/4, gamma 1/2, first iterate x_n + h/2 v_n, no history; a barrier is refused (x_{n+1} =
+   2 x_m - x_n went inside a box a cloth fell on) */
+extern const MSimImplicitSchemeType MSimImplicitSchemeMidpoint = {0.25, 0.5, 0.5, NWORK, 0, "a barrier keeps the midpoint feasible, not x_{n+1} = 2 x_m - x_n", NULL, BeginStep_Midpoint, EndStep_Midpoint};

@@ -16,98 +16,41 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 
-typedef struct {
-  Vec A;  /* a_n (valid when scheme->history_valid) */
-  Vec P;  /* the predictor p = x_n + h v_n, the dissipation's reference */
-  Vec Vn; /* v_n, for the velocity update */
-  Vec F, W;
-} NewmarkData;
+/* scheme->work: a_n (the history, valid when scheme->history_valid); the predictor p = x_n + h v_n,
+   the dissipation's reference; v_n, for the velocity update; two work vectors */
+enum { ACC, PRED, V_N, WORK_F, WORK_W, NWORK };
 
 static PetscErrorCode BeginStep_Newmark(MSimImplicitScheme scheme, MSimImplicit imp, PetscReal t, PetscReal h, Vec X, Vec V)
 {
-  NewmarkData *d = (NewmarkData *)scheme->data;
+  Vec *w = scheme->work;
 
   PetscFunctionBeginUser;
-  if (!scheme->history_valid) PetscCall(MSimSystemAcceleration(imp->sys, t, X, V, d->A));
+  if (!scheme->history_valid) PetscCall(MSimSystemAcceleration(imp->sys, t, X, V, w[ACC]));
   PetscCall(VecCopy(X, imp->Xn));
-  PetscCall(VecCopy(V, d->Vn));
-  PetscCall(VecWAXPY(d->P, h, V, X));
+  PetscCall(VecCopy(V, w[V_N]));
+  PetscCall(VecWAXPY(w[PRED], h, V, X));
   /* y = x_n + h v_n + h^2/4 a_n + h^2/4 M^-1 (f_e + f_d(p, v_n)) */
-  PetscCall(VecWAXPY(imp->Y, 0.25 * h * h, d->A, d->P));
+  PetscCall(VecWAXPY(imp->Y, 0.25 * h * h, w[ACC], w[PRED]));
   PetscCall(MSimImplicitAddExternalAcceleration(imp, 0.25 * h * h, imp->Y));
-  PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 0.25 * h * h, t + h, d->P, V, d->F, d->W, imp->Y));
-  imp->step.xref = d->P;
-  imp->step.tref = t + h;
-  imp->step.tx   = t + h;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Guess_Newmark(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec X)
-{
-  PetscFunctionBeginUser;
-  PetscCall(VecAXPY(X, imp->h, V));
+  PetscCall(MSimImplicitAddDissipativeAcceleration(imp, 0.25 * h * h, t + h, w[PRED], V, w[WORK_F], w[WORK_W], imp->Y));
+  PetscCall(MSimImplicitSetReference(imp, w[PRED], t + h, t + h));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* a_{n+1} = 4/h^2 (x_{n+1} - x_n - h v_n) - a_n, then v_{n+1} = 2 (x_{n+1} - x_n)/h - v_n */
 static PetscErrorCode EndStep_Newmark(MSimImplicitScheme scheme, MSimImplicit imp, Vec X, Vec V)
 {
-  NewmarkData    *d = (NewmarkData *)scheme->data;
+  Vec            *w = scheme->work;
   const PetscReal h = imp->h;
 
   PetscFunctionBeginUser;
-  PetscCall(VecAXPBYPCZ(d->A, 4.0 / (h * h), -4.0 / (h * h), -1.0, X, imp->Xn));
-  PetscCall(VecAXPY(d->A, -4.0 / h, d->Vn));
+  PetscCall(VecAXPBYPCZ(w[ACC], 4.0 / (h * h), -4.0 / (h * h), -1.0, X, imp->Xn));
+  PetscCall(VecAXPY(w[ACC], -4.0 / h, w[V_N]));
   PetscCall(VecAXPBYPCZ(V, 2.0 / h, -2.0 / h, -1.0, X, imp->Xn));
   scheme->history_valid = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode GetHistory_Newmark(MSimImplicitScheme scheme, PetscInt *n, Vec **history)
-{
-  NewmarkData *d = (NewmarkData *)scheme->data;
-
-  PetscFunctionBeginUser;
-  *n       = 1;
-  *history = &d->A;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Destroy_Newmark(MSimImplicitScheme scheme)
-{
-  NewmarkData *d = (NewmarkData *)scheme->data;
-
-  PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&d->A));
-  PetscCall(VecDestroy(&d->P));
-  PetscCall(VecDestroy(&d->F));
-  PetscCall(VecDestroy(&d->W));
-  PetscCall(VecDestroy(&d->Vn));
-  PetscCall(PetscFree(scheme->data));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-PetscErrorCode MSimImplicitSchemeCreate_Newmark(MSimImplicitScheme scheme)
-{
-  NewmarkData *d;
-  Vec          X0 = scheme->imp->sys->X0;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscNew(&d));
-  PetscCall(VecDuplicate(X0, &d->A));
-  PetscCall(VecDuplicate(X0, &d->P));
-  PetscCall(VecDuplicate(X0, &d->F));
-  PetscCall(VecDuplicate(X0, &d->W));
-  PetscCall(VecDuplicate(X0, &d->Vn));
-  scheme->data            = d;
-  scheme->beta            = 0.25;
-  scheme->gamma           = 0.5;
-  /* a cloth dropped on a box diverged: nothing damps the recursions' response to the barrier */
-  scheme->no_barrier      = "its trapezoidal velocity and acceleration recursions ring on a barrier's stiff response and diverge";
-  scheme->ops.begin_step  = BeginStep_Newmark;
-  scheme->ops.guess       = Guess_Newmark;
-  scheme->ops.end_step    = EndStep_Newmark;
-  scheme->ops.get_history = GetHistory_Newmark;
-  scheme->ops.destroy     = Destroy_Newmark;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
+/* beta 1/4, gamma 1/2, first iterate x_n + h v_n; restarts need a_n; a barrier is refused (a cloth
+   dropped on a box diverged: nothing damps the recursions' response to the barrier) */
+extern const MSimImplicitSchemeType MSimImplicitSchemeNewmark = {0.25, 0.5, 1, NWORK, 1, "its trapezoidal velocity and acceleration recursions ring on a barrier's stiff response and diverge", NULL, BeginStep_Newmark, EndStep_Newmark};

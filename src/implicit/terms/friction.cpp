@@ -158,6 +158,8 @@ static PetscErrorCode Destroy_Friction(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const MSimImplicitTermOps FrictionOps = {.energy = Energy_Friction, .gradient = Gradient_Friction, .hessian = Hessian_Friction, .pd_rhs = PDRHS_Friction, .view = View_Friction, .destroy = Destroy_Friction};
+
 PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
 {
   MSimContact ct;
@@ -165,11 +167,6 @@ PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(term->imp->sys, &ct));
   if (!ct || ct->mu == 0) PetscFunctionReturn(PETSC_SUCCESS); /* nothing per iteration */
-  term->ops.energy   = Energy_Friction;
-  term->ops.gradient = Gradient_Friction;
-  term->ops.hessian  = Hessian_Friction;
-  term->ops.pd_rhs   = PDRHS_Friction;
-  term->ops.view     = View_Friction;
-  term->ops.destroy  = Destroy_Friction;
+  term->ops = FrictionOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

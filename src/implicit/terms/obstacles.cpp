@@ -348,6 +348,9 @@ static PetscErrorCode View_Obstacles(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const MSimImplicitTermOps ObstaclesOps = {.energy = Energy_Obstacles, .gradient = Gradient_Obstacles, .hessian = Hessian_Obstacles, .pd_matrix = PDMatrix_Obstacles, .pd_rhs = PDRHS_Obstacles,
+                                                 .pd_reweight = PDReweight_Obstacles, .max_step = MaxStep_Obstacles, .clamp = Clamp_Obstacles, .feasible_start = FeasibleStart_Obstacles, .view = View_Obstacles, .destroy = Destroy_Obstacles};
+
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
 {
   MSimContact ct;
@@ -358,19 +361,12 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS); /* no obstacle: no op, nothing per iteration */
   /* the scheme says where a barrier on its unknown cannot guarantee x_{n+1} (midpoint, Newmark) */
   PetscCheck(!term->imp->scheme->no_barrier, term->imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with obstacles (-msim_contact_*) is not supported (%s): use implicit_euler or bdf2 (or an explicit integrator)", term->imp->scheme->type, term->imp->scheme->no_barrier);
-  term->ops.energy   = Energy_Obstacles;
-  term->ops.gradient = Gradient_Obstacles;
-  term->ops.hessian  = Hessian_Obstacles;
-  term->ops.pd_rhs   = PDRHS_Obstacles;
-  term->data         = new PDWeights();
-  term->ops.destroy  = Destroy_Obstacles;
-  if (ct->pd_weight) {
-    term->ops.pd_reweight = PDReweight_Obstacles;
-    term->ops.pd_matrix   = PDMatrix_Obstacles;
+  term->data = new PDWeights();
+  term->ops  = ObstaclesOps;
+  if (!ct->pd_weight) { /* the barrier in PD's right-hand side only */
+    term->ops.pd_reweight = NULL;
+    term->ops.pd_matrix   = NULL;
   }
-  term->ops.max_step = MaxStep_Obstacles;
-  term->ops.clamp    = Clamp_Obstacles;
-  if (ct->moving) term->ops.feasible_start = FeasibleStart_Obstacles;
-  term->ops.view     = View_Obstacles;
+  if (!ct->moving) term->ops.feasible_start = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

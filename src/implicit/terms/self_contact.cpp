@@ -437,6 +437,8 @@ static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const MSimImplicitTermOps SelfOps = {.energy = Energy_Self, .gradient = Gradient_Self, .hessian = Hessian_Self, .pd_rhs = PDRHS_Self, .max_step = MaxStep_Self, .view = View_Self, .destroy = Destroy_Self};
+
 PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
 {
   MSimSystem                   sys = term->imp->sys;
@@ -459,12 +461,7 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
   /* the candidate list's margin: pairs within 2 dhat, reused while no vertex moved dhat / 2 */
   sd->margin  = sd->surf->dhat;
   sd->wmargin = 4 * sd->margin;
-  term->ops.energy   = Energy_Self;
-  term->ops.gradient = Gradient_Self;
-  term->ops.hessian  = Hessian_Self;
-  term->ops.pd_rhs   = PDRHS_Self;
-  term->ops.max_step = MaxStep_Self;
-  term->ops.view     = View_Self;
+  term->ops   = SelfOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

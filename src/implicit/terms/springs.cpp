@@ -219,16 +219,12 @@ static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, Petsc
 PetscErrorCode MSimImplicitSpringsDiscreteGradient(MSimImplicitTerm, Vec, Vec);
 PetscErrorCode MSimImplicitSpringsDiscreteJacobian(MSimImplicitTerm, Vec, Mat);
 
+static const MSimImplicitTermOps SpringsOps = {.energy = Energy_Springs, .gradient = Gradient_Springs, .hessian_coefficients = HessianCoefficients_Springs, .pd_matrix = PDMatrix_Springs, .pd_begin = PDBegin_Springs,
+                                               .pd_rhs = PDRHS_Springs, .discrete_gradient = MSimImplicitSpringsDiscreteGradient, .discrete_jacobian = MSimImplicitSpringsDiscreteJacobian};
+
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm term)
 {
   PetscFunctionBeginUser;
-  term->ops.energy               = Energy_Springs;
-  term->ops.gradient             = Gradient_Springs;
-  term->ops.hessian_coefficients = HessianCoefficients_Springs;
-  term->ops.pd_matrix            = PDMatrix_Springs;
-  term->ops.pd_begin             = PDBegin_Springs;
-  term->ops.pd_rhs               = PDRHS_Springs;
-  term->ops.discrete_gradient    = MSimImplicitSpringsDiscreteGradient;
-  term->ops.discrete_jacobian    = MSimImplicitSpringsDiscreteJacobian;
+  term->ops = SpringsOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -73,6 +73,8 @@ static PetscErrorCode View_Volume(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const MSimImplicitTermOps VolumeOps = {.energy = Energy_Volume, .gradient = Gradient_Volume, .hessian = Hessian_Volume, .pd_rhs = PDRHS_Volume, .max_step = MaxStep_Volume, .view = View_Volume};
+
 PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
 {
   const MSimTets &T = term->imp->sys->tets;
@@ -80,11 +82,7 @@ PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
   PetscFunctionBeginUser;
   if (!T.ntet) PetscFunctionReturn(PETSC_SUCCESS); /* no tets, or -msim_volume 0: no op */
   PetscCheck(T.kappa == 0 || !term->imp->scheme->no_barrier, term->imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with the tets' inversion barrier is not supported (%s): use implicit_euler or bdf2, or -msim_volume_kappa 0 (or -msim_volume 0)", term->imp->scheme->type, term->imp->scheme->no_barrier);
-  term->ops.energy   = Energy_Volume;
-  term->ops.gradient = Gradient_Volume;
-  term->ops.hessian  = Hessian_Volume;
-  term->ops.pd_rhs   = PDRHS_Volume;
-  if (T.kappa > 0) term->ops.max_step = MaxStep_Volume;
-  term->ops.view = View_Volume;
+  term->ops = VolumeOps;
+  if (T.kappa == 0) term->ops.max_step = NULL; /* no barrier: every step is feasible */
   PetscFunctionReturn(PETSC_SUCCESS);
 }

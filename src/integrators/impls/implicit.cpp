@@ -12,6 +12,7 @@
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <msim/destroy.h>
 
 typedef struct {
   MSimImplicit           imp;
@@ -261,17 +262,33 @@ static PetscErrorCode SetUpGAMGSmoothers(ImplicitData *ie, MSimSystem sys, KSP k
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* What msim chooses for a SNES type by default: the trust region (ntr) handles indefinite
-   Hessians, so it gets the exact one; it and L-BFGS (qn) precondition with the constant PD factor
-   unless a -pc_type is given, and L-BFGS then takes the PD matrix itself as its constant Jacobian
-   (its initial Hessian). */
+/* What msim knows of a SNES type, the one list of them: whether it minimizes Phi (pd, L-BFGS and
+   the trust region need an objective, so a scheme without one refuses them: RefuseMinimizers),
+   and what msim chooses for it by default: the trust region (ntr) handles indefinite Hessians, so
+   it gets the exact one; it and L-BFGS (qn) precondition with the constant PD factor unless a
+   -pc_type is given, and L-BFGS then takes the PD matrix itself as its constant Jacobian (its
+   initial Hessian). */
 static const struct {
   const char *type;
-  PetscBool   pc_pd, jacobian_pd, exact;
+  PetscBool   minimizer, pc_pd, jacobian_pd, exact;
 } kTypeDefaults[] = {
-  {SNESQN,  PETSC_TRUE, PETSC_TRUE,  PETSC_FALSE},
-  {SNESNTR, PETSC_TRUE, PETSC_FALSE, PETSC_TRUE },
+  {SNESPD,  PETSC_TRUE, PETSC_FALSE, PETSC_FALSE, PETSC_FALSE},
+  {SNESQN,  PETSC_TRUE, PETSC_TRUE,  PETSC_TRUE,  PETSC_FALSE},
+  {SNESNTR, PETSC_TRUE, PETSC_TRUE,  PETSC_FALSE, PETSC_TRUE },
 };
+
+/* whether snes's type minimizes Phi (kTypeDefaults) */
+static PetscErrorCode SNESIsMinimizer(SNES snes, PetscBool *minimizer)
+{
+  PetscFunctionBeginUser;
+  *minimizer = PETSC_FALSE;
+  for (const auto &d : kTypeDefaults) {
+    PetscBool match;
+    PetscCall(PetscObjectTypeCompare((PetscObject)snes, d.type, &match));
+    if (match) *minimizer = d.minimizer;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
 
 static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
 {
@@ -373,7 +390,7 @@ static PetscErrorCode RefuseMinimizers(MSimIntegrator integ, ImplicitData *ie)
       if (!has_npc) break;
       PetscCall(SNESGetNPC(ie->snes, &snes));
     }
-    PetscCall(PetscObjectTypeCompareAny((PetscObject)snes, &minimizer, SNESPD, SNESQN, SNESNTR, ""));
+    PetscCall(SNESIsMinimizer(snes, &minimizer));
     PetscCall(SNESGetType(snes, &type));
     PetscCheck(!minimizer, integ->comm, PETSC_ERR_SUP, "-%ssnes_type %s with -msim_integrator %s is not supported: %s minimizes an energy, and the scheme has none (%s); use newtonls (GMRES by default, or -ksp_type preonly -pc_type lu)", prefix, type, integ->type, type, reason);
   }
@@ -582,9 +599,7 @@ static PetscErrorCode Destroy_Implicit(MSimIntegrator integ)
 {
   ImplicitData *ie = (ImplicitData *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(SNESDestroy(&ie->snes));
-  PetscCall(MatDestroy(&ie->J));
-  PetscCall(VecDestroy(&ie->G));
+  PetscCall(MSimDestroy(&ie->snes, &ie->J, &ie->G));
   PetscCall(MSimImplicitDestroy(&ie->imp));
   PetscCall(MSimConvergenceMonitorDestroy(&ie->conv));
   PetscCall(MSimContactBoundsDestroy(&ie->bounds));
@@ -615,7 +630,8 @@ static PetscErrorCode GetHistory_Implicit(MSimIntegrator integ, PetscInt *n, Vec
   ImplicitData *ie = (ImplicitData *)integ->data;
 
   PetscFunctionBeginUser;
-  PetscCall(ie->imp->scheme->ops.get_history(ie->imp->scheme, n, history));
+  *n       = ie->imp->scheme->nhistory;
+  *history = *n ? ie->imp->scheme->work : NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -641,22 +657,18 @@ PetscErrorCode MSimIntegratorRegisterImplicit(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const MSimIntegratorOps ImplicitOps = {.setfromoptions = SetFromOptions_Implicit, .setup = Setup_Implicit, .step = Step_Implicit, .view = View_Implicit,
+                                              .openfiles = OpenFiles_Implicit, .get_history = GetHistory_Implicit, .history_loaded = HistoryLoaded_Implicit, .destroy = Destroy_Implicit};
+
 PetscErrorCode MSimIntegratorCreate_Implicit(MSimIntegrator integ)
 {
   ImplicitData *ie;
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&ie));
-  ie->psd_fallback          = PETSC_TRUE;
-  ie->check_saddle          = PETSC_TRUE;
-  integ->data               = ie;
-  integ->ops.setfromoptions = SetFromOptions_Implicit;
-  integ->ops.setup          = Setup_Implicit;
-  integ->ops.step           = Step_Implicit;
-  integ->ops.view           = View_Implicit;
-  integ->ops.openfiles      = OpenFiles_Implicit;
-  integ->ops.get_history    = GetHistory_Implicit;
-  integ->ops.history_loaded = HistoryLoaded_Implicit;
-  integ->ops.destroy        = Destroy_Implicit;
+  ie->psd_fallback = PETSC_TRUE;
+  ie->check_saddle = PETSC_TRUE;
+  integ->data      = ie;
+  integ->ops       = ImplicitOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -3,6 +3,7 @@
 #include <msim/integrator.h>
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
+#include <msim/destroy.h>
 
 typedef struct {
   Vec Xs, Vs, F, dX, dV; /* stage state, stage force, accumulated increments */
@@ -95,11 +96,7 @@ static PetscErrorCode Destroy_RK4(MSimIntegrator integ)
 {
   RK4 *rk = (RK4 *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(VecDestroy(&rk->Xs));
-  PetscCall(VecDestroy(&rk->Vs));
-  PetscCall(VecDestroy(&rk->F));
-  PetscCall(VecDestroy(&rk->dX));
-  PetscCall(VecDestroy(&rk->dV));
+  PetscCall(MSimDestroy(&rk->Xs, &rk->Vs, &rk->F, &rk->dX, &rk->dV));
   PetscCall(PetscFree(integ->data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -17,6 +17,7 @@
 #include "ts_forms.h"
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
+#include <msim/destroy.h>
 
 typedef enum { TS_FORM_EXPLICIT, TS_FORM_FIRST_ORDER, TS_FORM_SECOND_ORDER } TSForm;
 
@@ -314,29 +315,21 @@ static PetscErrorCode Destroy_TS(MSimIntegrator integ)
   if (d->ts && !integ->help_listing) PetscCall(TSViewFromOptions(d->ts, NULL, "-ts_view"));
   PetscCall(TSDestroy(&d->ts));
   PetscCall(MSimTSFormsDestroy(&d->forms));
-  PetscCall(VecDestroy(&d->U));
-  PetscCall(VecDestroy(&d->X2));
-  PetscCall(VecDestroy(&d->V2));
-  PetscCall(VecDestroy(&d->H));
-  PetscCall(ISDestroy(&d->is_pos));
-  PetscCall(ISDestroy(&d->is_mom));
+  PetscCall(MSimDestroy(&d->U, &d->X2, &d->V2, &d->H, &d->is_pos, &d->is_mom));
   PetscCall(PetscFree(integ->data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+static const MSimIntegratorOps TSOps = {.setfromoptions = SetFromOptions_TS, .setup = Setup_TS, .step = Step_TS, .view = View_TS, .get_history = GetHistory_TS, .history_loaded = HistoryLoaded_TS,
+                                        .destroy = Destroy_TS};
 
 PetscErrorCode MSimIntegratorCreate_TS(MSimIntegrator integ)
 {
   TSInteg *d;
   PetscFunctionBeginUser;
   PetscCall(PetscNew(&d));
-  d->max_substeps    = 100000;
-  integ->data        = d;
-  integ->ops.setfromoptions = SetFromOptions_TS;
-  integ->ops.setup   = Setup_TS;
-  integ->ops.step    = Step_TS;
-  integ->ops.view    = View_TS;
-  integ->ops.get_history    = GetHistory_TS;
-  integ->ops.history_loaded = HistoryLoaded_TS;
-  integ->ops.destroy = Destroy_TS;
+  d->max_substeps = 100000;
+  integ->data     = d;
+  integ->ops      = TSOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
