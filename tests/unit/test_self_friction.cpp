@@ -126,13 +126,7 @@ static PetscErrorCode CheckDerivatives(TestSim *s, MSimImplicitTerm t, Vec Xn, V
     PetscCall(MatDestroy(&Jt));
     PetscCall(PetscRandomDestroy(&r));
   }
-  PetscCall(MatDestroy(&J));
-  PetscCall(VecDestroy(&HD));
-  PetscCall(VecDestroy(&Gm));
-  PetscCall(VecDestroy(&Gp));
-  PetscCall(VecDestroy(&G));
-  PetscCall(VecDestroy(&Xp));
-  PetscCall(VecDestroy(&X));
+  PetscCall(MSimDestroy(&J, &HD, &Gm, &Gp, &G, &Xp, &X));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -151,8 +145,7 @@ static PetscErrorCode Run(const char *opts, PetscBool handles_move)
   PetscCall(FindTerm(imp, "self_contact", &self));
   CHECK(t && t->ops.energy && self && self->ops.energy, "self_friction is not active with -msim_self_contact -msim_friction %g", (double)mu);
   if (!(t && t->ops.energy)) {
-    PetscCall(MSimImplicitDestroy(&imp));
-    PetscCall(TestSimDestroy(&s));
+    PetscCall(MSimDestroy(&imp, &s));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(MSimImplicitBeginStep(imp, 0.0, h, s.X, s.V));
@@ -201,12 +194,7 @@ static PetscErrorCode Run(const char *opts, PetscBool handles_move)
   }
   PetscCall(CheckDerivatives(&s, t, s.X, R, D, 0.1 * eps, "static"));
   PetscCall(CheckDerivatives(&s, t, s.X, R, D, 50 * eps, "sliding"));
-  PetscCall(VecDestroy(&T));
-  PetscCall(VecDestroy(&G));
-  PetscCall(VecDestroy(&D));
-  PetscCall(VecDestroy(&R));
-  PetscCall(MSimImplicitDestroy(&imp));
-  PetscCall(TestSimDestroy(&s));
+  PetscCall(MSimDestroy(&T, &G, &D, &R, &imp, &s));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

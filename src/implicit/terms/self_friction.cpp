@@ -228,6 +228,8 @@ static PetscErrorCode Destroy_SelfFriction(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const MSimImplicitTermOps SelfFrictionOps = {.energy = Energy_SelfFriction, .gradient = Gradient_SelfFriction, .hessian = Hessian_SelfFriction, .pd_rhs = PDRHS_SelfFriction, .view = View_SelfFriction, .destroy = Destroy_SelfFriction};
+
 PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
 {
   MSimImplicit   imp  = term->imp;
@@ -253,11 +255,6 @@ PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
   fd->eps_v        = ct->eps_v;
   fd->self         = self;
   term->data       = fd;
-  term->ops.destroy  = Destroy_SelfFriction;
-  term->ops.energy   = Energy_SelfFriction;
-  term->ops.gradient = Gradient_SelfFriction;
-  term->ops.hessian  = Hessian_SelfFriction;
-  term->ops.pd_rhs   = PDRHS_SelfFriction;
-  term->ops.view     = View_SelfFriction;
+  term->ops        = SelfFrictionOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
