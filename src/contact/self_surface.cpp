@@ -57,7 +57,8 @@ PetscErrorCode MSimSelfSurfaceTriangles(MPI_Comm comm, const MSimSceneData &S, s
   tris.clear();
   PetscCheck(S.cell_size == 3 || S.cell_size == 4, comm, PETSC_ERR_PLIB, "self-contact's surface needs triangles or tets (cells of %d vertices)", S.cell_size);
   const size_t nc = S.cells.size() / S.cell_size;
-  PetscCheck(S.ncell == 0 || nc > 0 || S.cells_not_stored == 0, PETSC_COMM_SELF, PETSC_ERR_PLIB, "the scene did not keep its cells for self-contact");
+  /* collective: the exchange below must not be left by one rank alone */
+  PetscCall(MSimCollectiveCheck(comm, (PetscBool)(S.ncell == 0 || nc > 0 || S.cells_not_stored == 0), "the scene did not keep its cells for self-contact"));
   if (S.cell_size == 3) {
     for (size_t c = 0; c < nc; c++) faces.push_back(Sorted(S.cells[3 * c], S.cells[3 * c + 1], S.cells[3 * c + 2]));
   } else {

@@ -102,8 +102,8 @@ typedef struct {
   PetscErrorCode (*max_step)(MSimImplicitTerm, Vec X, Vec Y, PetscReal *alpha) = NULL;
   /* optional, with max_step: where the term's feasible set is per vertex (obstacles), moves back
      each vertex of X whose own segment from the feasible A would leave it (its own safe step), so
-     that one vertex near an obstacle does not shorten every vertex's move (the first iterate;
-     PD's global steps) */
+     that one vertex near an obstacle does not shorten every vertex's move (MSimImplicitGuess, on
+     the first iterate) */
   PetscErrorCode (*clamp)(MSimImplicitTerm, Vec A, Vec X) = NULL;
   /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate

@@ -201,7 +201,9 @@ static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x,
   if (sd->plan == sd->surf->nplans && sd->xlist.size() == x.size() && Reach(sd->xlist, x, u, a) <= 0.5 * sd->margin) {
     sd->nreuse++;
     for (size_t k = 0; k < sd->cand.size(); k += 5)
-      if (u || !PairApart(x, NULL, 0, (PetscBool)sd->cand[k], &sd->cand[k + 1], dhat)) f((PetscBool)sd->cand[k], &sd->cand[k + 1]);
+      /* a motion's pairs filtered as the wide list's and the broad phase's are, so whichever list a
+         rank's history reuses, the same pairs reach f (results do not depend on the partition) */
+      if (u ? !PairApart(x, u, a, (PetscBool)sd->cand[k], &sd->cand[k + 1], 0.0) : !PairApart(x, NULL, 0, (PetscBool)sd->cand[k], &sd->cand[k + 1], dhat)) f((PetscBool)sd->cand[k], &sd->cand[k + 1]);
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   const bool      wide_ok = sd->wplan == sd->surf->nplans && sd->xwide.size() == x.size();

@@ -169,11 +169,10 @@ static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBo
   FrictionData    *fd = (FrictionData *)term->data;
   const PetscReal  w = term->imp->step.h2 * fd->mu, eps = fd->eps_v * term->imp->step.h;
   PetscErrorCode   ierr = PETSC_SUCCESS;
-  PetscObjectState before, after;
 
   PetscFunctionBeginUser;
-  PetscCall(MatGetNonzeroState(J, &before));
-  PetscCall(MatSetOption(J, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  /* a lagged pair may join vertices no barrier block joins now: the system's matrix takes new
+     entries when self-contact is on, and matrix.cpp rebuilds its assembly map when they come */
   PetscCall(ForEachSliding(term, fd, X, [&](size_t q, PetscReal lambda, const PetscReal *P, const PetscReal *u, PetscReal y) {
     const MSimSelfContactPair &p = fd->pairs[q];
     PetscInt                   idx[12];
@@ -192,9 +191,6 @@ static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBo
   PetscCall(ierr);
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatGetNonzeroState(J, &after));
-  /* a lagged pair may join vertices no barrier block joins now: as terms/self_contact.cpp does */
-  if (after != before) PetscCall(PetscObjectCompose((PetscObject)J, "MSimAssemblyMap", NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
