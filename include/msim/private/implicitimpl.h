@@ -126,6 +126,40 @@ struct _n_MSimImplicitTerm {
   void               *data;
 };
 
+/* The ops of a term computed by one pass over what this rank holds (self-contact's pairs, their
+   friction): LocalEnergy adds this rank's part of E, unreduced; AddGradient adds sign grad E to G
+   (owned rows, ghosts sent back). energy sums the parts over the ranks; gradient is +grad E;
+   pd_rhs is -grad E with the local part of E, which PD sums with the other terms' in one
+   reduction. */
+template <PetscErrorCode (*LocalEnergy)(MSimImplicitTerm, Vec, PetscReal *)>
+PetscErrorCode MSimTermSummedEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  PetscReal local = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(LocalEnergy(term, X, &local));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, PetscObjectComm((PetscObject)X)));
+  *e += local;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+template <PetscErrorCode (*AddGradient)(MSimImplicitTerm, Vec, Vec, PetscReal)>
+PetscErrorCode MSimTermGradient(MSimImplicitTerm term, Vec X, Vec G)
+{
+  PetscFunctionBeginUser;
+  PetscCall(AddGradient(term, X, G, 1.0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+template <PetscErrorCode (*LocalEnergy)(MSimImplicitTerm, Vec, PetscReal *), PetscErrorCode (*AddGradient)(MSimImplicitTerm, Vec, Vec, PetscReal)>
+PetscErrorCode MSimTermPDRHS(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
+{
+  PetscFunctionBeginUser;
+  PetscCall(AddGradient(term, X, rhs, -1.0));
+  if (e) PetscCall(LocalEnergy(term, X, e));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 struct _n_MSimImplicit {
   MSimSystem         sys;
   PetscReal          h, t;    /* step and start time of the current step */

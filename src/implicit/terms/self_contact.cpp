@@ -275,17 +275,6 @@ static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Energy_Self(MSimImplicitTerm term, Vec X, PetscReal *e)
-{
-  PetscReal local = 0;
-
-  PetscFunctionBeginUser;
-  PetscCall(LocalEnergy(term, X, &local));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, term->imp->sys->comm));
-  *e += local;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* G += sign times the gradient (sent to the vertices' owners) */
 static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal sign)
 {
@@ -312,13 +301,6 @@ static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal
   }));
   PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
   PetscCall(MSimSelfSurfaceAddGradient(sd->surf, sd->g, G));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Gradient_Self(MSimImplicitTerm term, Vec X, Vec G)
-{
-  PetscFunctionBeginUser;
-  PetscCall(AddGradient(term, X, G, 1.0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -353,14 +335,6 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool, Mat 
   PetscCall(ierr);
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode PDRHS_Self(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
-{
-  PetscFunctionBeginUser;
-  PetscCall(AddGradient(term, X, rhs, -1.0));
-  if (e) PetscCall(LocalEnergy(term, X, e));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -439,7 +413,7 @@ static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps SelfOps = {.energy = Energy_Self, .gradient = Gradient_Self, .hessian = Hessian_Self, .pd_rhs = PDRHS_Self, .max_step = MaxStep_Self, .view = View_Self, .destroy = Destroy_Self};
+static const MSimImplicitTermOps SelfOps = {.energy = MSimTermSummedEnergy<LocalEnergy>, .gradient = MSimTermGradient<AddGradient>, .hessian = Hessian_Self, .pd_rhs = MSimTermPDRHS<LocalEnergy, AddGradient>, .max_step = MaxStep_Self, .view = View_Self, .destroy = Destroy_Self};
 
 PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
 {

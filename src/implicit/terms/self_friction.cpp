@@ -120,17 +120,6 @@ static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Energy_SelfFriction(MSimImplicitTerm term, Vec X, PetscReal *e)
-{
-  PetscReal local = 0;
-
-  PetscFunctionBeginUser;
-  PetscCall(LocalEnergy(term, X, &local));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, term->imp->sys->comm));
-  *e += local;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* G += sign h2 mu lambda f1(y)/y w_k u, sent to the vertices' owners */
 static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal sign)
 {
@@ -154,13 +143,6 @@ static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal
   PetscCall(VecRestoreArray(fd->dl, &ga));
   PetscCall(VecScatterBegin(fd->scatter, fd->dl, G, ADD_VALUES, SCATTER_REVERSE));
   PetscCall(VecScatterEnd(fd->scatter, fd->dl, G, ADD_VALUES, SCATTER_REVERSE));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-static PetscErrorCode Gradient_SelfFriction(MSimImplicitTerm term, Vec X, Vec G)
-{
-  PetscFunctionBeginUser;
-  PetscCall(AddGradient(term, X, G, 1.0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -194,14 +176,6 @@ static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBo
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode PDRHS_SelfFriction(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e)
-{
-  PetscFunctionBeginUser;
-  PetscCall(AddGradient(term, X, rhs, -1.0));
-  if (e) PetscCall(LocalEnergy(term, X, e));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 static PetscErrorCode View_SelfFriction(MSimImplicitTerm term, PetscViewer viewer)
 {
   FrictionData *fd = (FrictionData *)term->data;
@@ -224,7 +198,7 @@ static PetscErrorCode Destroy_SelfFriction(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps SelfFrictionOps = {.energy = Energy_SelfFriction, .gradient = Gradient_SelfFriction, .hessian = Hessian_SelfFriction, .pd_rhs = PDRHS_SelfFriction, .view = View_SelfFriction, .destroy = Destroy_SelfFriction};
+static const MSimImplicitTermOps SelfFrictionOps = {.energy = MSimTermSummedEnergy<LocalEnergy>, .gradient = MSimTermGradient<AddGradient>, .hessian = Hessian_SelfFriction, .pd_rhs = MSimTermPDRHS<LocalEnergy, AddGradient>, .view = View_SelfFriction, .destroy = Destroy_SelfFriction};
 
 PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
 {
