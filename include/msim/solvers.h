@@ -39,6 +39,10 @@ typedef struct {
   PetscErrorCode (*max_step)(SNES snes, Vec X, Vec Y, PetscReal *lambda, void *ctx);
   void    *ctx;
   PetscInt nfallback; /* directions replaced, over the life of the SNES */
+  /* |Y| of the last search's direction before max_step's cut and the halvings: the length of
+     the step the method asked for. A step rule (-msim_step_atol) reads it, so that a step cut
+     short by a barrier's feasible set or by backtracking is not taken for a converged one. */
+  PetscReal dxnorm;
 } MSimLineSearchCtx;
 PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *ctx);
 

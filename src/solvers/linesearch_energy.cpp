@@ -60,12 +60,14 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
   PetscCall(VecDot(F, Y, &slope)); /* the step is X - lambda Y: dPhi/dlambda = -g . Y */
   slope       = -slope;
   can_replace = (PetscBool)(ctx && ctx->descent);
+  if (ctx) PetscCall(VecNorm(Y, NORM_2, &ctx->dxnorm));
   if (ctx && ctx->max_step) PetscCall(ctx->max_step(snes, X, Y, &lambda0, ctx->ctx));
   if (slope < 0) PetscCall(Backtrack(snes, X, F, Y, W, G, phi0, slope, fnorm, lambda0, can_replace ? MSIM_LS_EXACT_HALVINGS : PetscMax(maxit, 40), &lambda, &accepted, &have_g, &gnorm));
   if (!accepted && can_replace) {
     PetscCall(PetscInfo(snes, "energy line search: %s direction replaced by the descent callback's\n", slope < 0 ? "poor" : "ascent"));
     PetscCall(ctx->descent(snes, X, F, Y, ctx->ctx));
     ctx->nfallback++;
+    PetscCall(VecNorm(Y, NORM_2, &ctx->dxnorm));
     PetscCall(VecDot(F, Y, &slope));
     slope = -slope;
     if (ctx->max_step) PetscCall(ctx->max_step(snes, X, Y, &lambda0, ctx->ctx));
@@ -74,6 +76,14 @@ PetscErrorCode MSimLineSearchEnergy(SNESLineSearch ls, void *vctx)
   if (!accepted) {
     PetscCall(PetscInfo(snes, "energy line search: no decrease of Phi or |g| (slope %g)\n", (double)slope));
     PetscCall(SNESLineSearchSetReason(ls, SNES_LINESEARCH_FAILED_REDUCT));
+    /* newtonls takes a failed search on a step below -snes_stol |x| for convergence (Y at
+       roundoff, where neither Phi nor |g| can still fall): it reads these norms, so they must be
+       X's and the rejected direction's, not the stale ones PETSc handed in (the last accepted
+       step's, 1.1 m on the falling benchmark cloth, which turned a converged step 8 into
+       DIVERGED_LINE_SEARCH) */
+    PetscCall(VecNorm(X, NORM_2, &xnorm));
+    PetscCall(VecNorm(Y, NORM_2, &ynorm));
+    PetscCall(SNESLineSearchSetNorms(ls, xnorm, fnorm, ynorm));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   if (!have_g) {

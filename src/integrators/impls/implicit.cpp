@@ -41,15 +41,44 @@ typedef struct {
 /* -msim_step_atol d: also converged once an iteration's step dx has |dx|_2 < d (in metres), the rule
    of graphics codes' Newton (e.g. |dx| < 1e-3 with at most 20 iterations). PETSc's own step test,
    -snes_stol, is relative to |x|: it would make convergence depend on where the scene sits in
-   space. Read by the SNES types that report their step length (newtonls, ntr, qn; not pd). */
+   space. Read by the SNES types that report their step length (newtonls, ntr, qn; not pd).
+   The length judged is the step the method asked for (the line search's direction), not the
+   step taken: a contact barrier's max_step cuts a step short where a vertex nears an obstacle,
+   and so does backtracking, and such a short step says nothing about convergence (taking it for
+   one ended the benchmark cloth's steps on a ball after one cut iteration each, far from the
+   step's minimum, until the run diverged at step 9). An inexact Newton direction (CG to the
+   Eisenstat-Walker tolerance) falls short of Newton's step too: CG's iterates grow in length
+   from 0, and one CG iteration on a barrier's stiff blocks, which the PD factor lacks, gave a
+   direction of 1e-5 m where the step was centimetres. So newtonls's direction is counted with
+   the step it still misses, P^-1 r (the linear solve's preconditioned residual, in metres where
+   the preconditioner P approximates the Hessian: a factor, ICC, GAMG; not with -pc_type none,
+   whose residual is a force, nor with a direct solve, where it is 0). */
 static PetscErrorCode ConvergedStep(SNES snes, PetscInt it, PetscReal xnorm, PetscReal snorm, PetscReal fnorm, SNESConvergedReason *reason, void *ctx)
 {
   ImplicitData *ie = (ImplicitData *)ctx;
+  PetscReal     dx = PetscMax(snorm, ie->ls.dxnorm);
 
   PetscFunctionBeginUser;
+  ie->ls.dxnorm = 0; /* read once: the next iteration's search sets it again */
+  if (it > 0 && dx < ie->step_atol) {
+    KSP       ksp;
+    PC        pc;
+    KSPNormType nt;
+    PetscBool newton, none;
+    PetscReal rnorm;
+    PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESNEWTONLS, &newton));
+    PetscCall(SNESGetKSP(snes, &ksp));
+    PetscCall(KSPGetNormType(ksp, &nt));
+    PetscCall(KSPGetPC(ksp, &pc));
+    PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCNONE, &none));
+    if (newton && nt == KSP_NORM_PRECONDITIONED && !none) {
+      PetscCall(KSPGetResidualNorm(ksp, &rnorm));
+      dx += rnorm;
+    }
+  }
   PetscCall(SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, NULL));
-  if ((*reason == SNES_CONVERGED_ITERATING || *reason == SNES_DIVERGED_MAX_IT) && it > 0 && snorm < ie->step_atol) {
-    PetscCall(PetscInfo(snes, "converged: step length %g < -msim_step_atol %g\n", (double)snorm, (double)ie->step_atol));
+  if ((*reason == SNES_CONVERGED_ITERATING || *reason == SNES_DIVERGED_MAX_IT) && it > 0 && dx < ie->step_atol) {
+    PetscCall(PetscInfo(snes, "converged: step length %g < -msim_step_atol %g\n", (double)dx, (double)ie->step_atol));
     *reason = SNES_CONVERGED_SNORM_RELATIVE;
   }
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -143,13 +172,16 @@ static PetscErrorCode LineSearchMaxStep(SNES snes, Vec X, Vec Y, PetscReal *lamb
 
 /* PETSc's own line searches (L-BFGS's cp, a user's bt): the step X - Y shortened to the terms'
    max_step, so that no trial point leaves the feasible set of a contact barrier. msim's energy
-   search (shell) never calls it: it asks max_step itself. */
+   search (shell) never calls it: it asks max_step itself. The direction's length before the
+   cut goes to -msim_step_atol's test (ConvergedStep), as the shell search's does. */
 static PetscErrorCode LineSearchPreCheckMaxStep(SNESLineSearch ls, Vec X, Vec Y, PetscBool *changed, void *ctx)
 {
-  PetscReal alpha = 1;
+  ImplicitData *ie    = (ImplicitData *)ctx;
+  PetscReal     alpha = 1;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitMaxStep((MSimImplicit)ctx, X, Y, &alpha));
+  PetscCall(VecNorm(Y, NORM_2, &ie->ls.dxnorm));
+  PetscCall(MSimImplicitMaxStep(ie->imp, X, Y, &alpha));
   *changed = (PetscBool)(alpha < 1);
   if (*changed) PetscCall(VecScale(Y, alpha));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -467,7 +499,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
       PetscCall(SNESGetType(ie->snes, &type));
       PetscCheck(!unguarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with obstacles (-msim_contact_*) is not supported: its steps have no feasible line search; use newtonls (-snes_max_it 1 for one Baraff-Witkin step), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type);
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
-      PetscCall(SNESLineSearchSetPreCheck(ls, LineSearchPreCheckMaxStep, ie->imp));
+      PetscCall(SNESLineSearchSetPreCheck(ls, LineSearchPreCheckMaxStep, ie));
       /* L-BFGS's default cp search extrapolates past the shortened step on gradients alone (it
          left the feasible set and ended in DIVERGED_DTOL on a cloth dropped on a plane): with a
          barrier, backtracking on Phi unless the user chose a search */
