@@ -27,6 +27,7 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
     for (PetscInt k = 0; k < (*imp)->scheme->nwork; k++) PetscCall(VecDestroy(&(*imp)->scheme->work[k]));
     delete (*imp)->scheme;
   }
+  PetscCall(MSimDestroy(&(*imp)->Vprev, &(*imp)->Vstar, &(*imp)->Vwork));
   PetscCall(MSimDestroy(&(*imp)->Xn, &(*imp)->Y, &(*imp)->rhs, &(*imp)->A, &(*imp)->A3, &(*imp)->B, &(*imp)->Xd, &(*imp)->pdb, &(*imp)->pdx, &(*imp)->pdksp));
   delete *imp;
   *imp = NULL;
@@ -95,12 +96,54 @@ PetscErrorCode MSimImplicitBeginStep(MSimImplicit imp, PetscReal t, PetscReal h,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The first iterate (-msim_implicit_guess). A solver stopped after a fixed count (PD-10) keeps
+   part of its first iterate's error, so the guess matters there. constant_velocity: the unknown at
+   v_{n+1} = v_n (x_n + h v_n; midpoint's x_m: x_n + h/2 v_n), an O(h^2) error (beta h^2 a).
+   extrapolate: the scheme's own position relation (its predict op, which derives it) at the
+   linearly extrapolated end velocity W = 2 v_n - v_{n-1} = v_n + h a_n + O(h^2): an O(h^3) error
+   for smooth motion, none under a constant acceleration. Where v_{n-1} is unknown (the first step,
+   a restart from a checkpoint without it) W = v_n + h a_e with a_e the constant external
+   acceleration (gravity, the wind's drag): that first iterate is still exact in a free fall.
+   v_{n-1} is the v_n that EndStep saw, carried by checkpoints after the scheme's history, so a
+   restart repeats the run bit for bit. inertial: the scheme's y (for implicit Euler x_n + h v_n +
+   h^2 a_e, its first step's extrapolation). Either way a barrier's feasibility pull-back follows.
+   extrapolate is unstable with PD-10 on the undamped schemes (midpoint, Newmark: the 21 x 21 and
+   benchmark cloths and the beam diverged within 15-30 steps): on a single linear mode of true
+   stiffness k that PD sees as l >= k, PD-k leaves r = (1 - (1 + beta h^2 k)/(1 + beta h^2 l))^10
+   of the first iterate's error, and the map (x_n, v_n, v_{n-1}) -> (x_{n+1}, v_{n+1}, v_n) then
+   has spectral radius up to 1.41 for midpoint, 1.23 Newmark, 1.13 implicit Euler (r about 0.6-0.8,
+   beta h^2 l about 1e5: stiff modes PD converges slowly; constant_velocity: 1 for all three).
+   filtered extrapolates with A^-1 M (v_n - v_{n-1}), A = M + beta h^2 L the PD matrix: a mode's
+   extrapolation is scaled by 1/(1 + beta h^2 l), so smooth motion (beta h^2 l << 1) keeps its
+   O(h^3) first iterate (and a rigid free fall, L 1 = 0, its exact one) while the modes PD
+   converges slowly are hardly extrapolated: spectral radius 1 for implicit Euler and Newmark,
+   1.012 for midpoint in the same model. It costs one PD solve a step (and the PD factor, once,
+   for solvers that do not use it). */
 PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
 {
   PetscBool feasible = PETSC_TRUE;
 
   PetscFunctionBeginUser;
-  PetscCall(VecAXPY(X, imp->scheme->guess * imp->h, V));
+  if (imp->guess_type == MSIM_GUESS_EXTRAPOLATE) {
+    if (imp->vprev_valid) PetscCall(VecAXPBYPCZ(imp->Vstar, 2.0, -1.0, 0.0, V, imp->Vprev));
+    else {
+      PetscCall(VecCopy(V, imp->Vstar));
+      PetscCall(MSimImplicitAddExternalAcceleration(imp, imp->h, imp->Vstar));
+    }
+    PetscCall(imp->scheme->ops.predict(imp->scheme, imp, V, imp->Vstar, X));
+  } else if (imp->guess_type == MSIM_GUESS_FILTERED) {
+    if (imp->vprev_valid) { /* W = v_n + A^-1 M (v_n - v_{n-1}) */
+      PetscCall(VecWAXPY(imp->Vwork, -1.0, imp->Vprev, V));
+      PetscCall(VecPointwiseMult(imp->Vwork, imp->Vwork, imp->sys->mass));
+      PetscCall(MSimImplicitPDSolve(imp, imp->Vwork, NULL, imp->Vstar));
+      PetscCall(VecAXPY(imp->Vstar, 1.0, V));
+    } else {
+      PetscCall(VecCopy(V, imp->Vstar));
+      PetscCall(MSimImplicitAddExternalAcceleration(imp, imp->h, imp->Vstar));
+    }
+    PetscCall(imp->scheme->ops.predict(imp->scheme, imp, V, imp->Vstar, X));
+  } else if (imp->guess_type == MSIM_GUESS_INERTIAL) PetscCall(VecCopy(imp->Y, X));
+  else PetscCall(VecAXPY(X, imp->scheme->guess * imp->h, V));
   /* a term with a feasible set (contact barriers) needs a first iterate inside it: the guess is
      pulled back towards x_n, which is feasible, as far as the terms' max_step says */
   for (PetscInt k = 0; k < imp->nterms; k++)
@@ -126,6 +169,10 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
 PetscErrorCode MSimImplicitEndStep(MSimImplicit imp, Vec X, Vec V)
 {
   PetscFunctionBeginUser;
+  if (imp->Vprev) { /* V still holds v_n: the next step's v_{n-1} */
+    PetscCall(VecCopy(V, imp->Vprev));
+    imp->vprev_valid = PETSC_TRUE;
+  }
   PetscCall(imp->scheme->ops.end_step(imp->scheme, imp, X, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

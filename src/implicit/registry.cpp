@@ -43,6 +43,7 @@ static PetscErrorCode MSimImplicitSchemeCreateFromType(MSimImplicitScheme scheme
   scheme->no_objective   = type->no_objective;
   scheme->ops.begin_step = type->begin_step;
   scheme->ops.end_step   = type->end_step;
+  scheme->ops.predict    = type->predict;
   scheme->nhistory       = type->nhistory;
   for (; scheme->nwork < type->nwork; scheme->nwork++) PetscCall(VecDuplicate(scheme->imp->sys->X0, &scheme->work[scheme->nwork]));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -123,6 +124,8 @@ static PetscErrorCode AddTerm(MSimImplicit imp, const char name[])
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static const char *const kGuessTypes[] = {"constant_velocity", "extrapolate", "filtered", "inertial"}; /* MSIM_GUESS_* */
+
 PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[], MSimImplicit *imp)
 {
   PetscErrorCode (*create)(MSimImplicitScheme);
@@ -159,7 +162,11 @@ PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[],
   PetscCall(PetscStrlcat(help, ")", sizeof(help)));
   PetscOptionsBegin(sys->comm, NULL, "msim implicit problem", NULL);
   PetscCall(PetscOptionsStringArray("-msim_implicit_terms", help, NULL, list, &nlist, &set));
+  PetscCall(PetscOptionsEList("-msim_implicit_guess", "First iterate of each implicit step: constant_velocity (x_n + h v_n), extrapolate (the scheme's position at v_{n+1} = 2 v_n - v_{n-1}: O(h^3), exact under constant acceleration), filtered (v_{n+1} = v_n + A^-1 M (v_n - v_{n-1}), A the PD matrix: one PD solve a step, stable with PD-10) or inertial (the scheme's y)", NULL, kGuessTypes, 4, kGuessTypes[(*imp)->guess_type], &(*imp)->guess_type, NULL));
   PetscOptionsEnd();
+  if ((*imp)->guess_type != MSIM_GUESS_CONSTANT_VELOCITY) PetscCall(VecDuplicate(sys->X0, &(*imp)->Vstar));
+  if ((*imp)->guess_type == MSIM_GUESS_EXTRAPOLATE || (*imp)->guess_type == MSIM_GUESS_FILTERED) PetscCall(VecDuplicate(sys->X0, &(*imp)->Vprev));
+  if ((*imp)->guess_type == MSIM_GUESS_FILTERED) PetscCall(VecDuplicate(sys->X0, &(*imp)->Vwork));
   if (!set) {
     for (int k = 0; k < nnames; k++) PetscCall(AddTerm(*imp, names[k]));
   } else {

@@ -21,11 +21,15 @@ typedef struct {
 /* A time scheme: Phi's y and beta, the first iterate, and the velocity update. */
 typedef PetscErrorCode (*MSimImplicitSchemeBeginStep)(MSimImplicitScheme, MSimImplicit, PetscReal t, PetscReal h, Vec X, Vec V);
 typedef PetscErrorCode (*MSimImplicitSchemeEndStep)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
+/* X := the unknown that the scheme's own position relation gives for the end-of-step velocity
+   v_{n+1} = W (V holds v_n, imp->Xn x_n): the first iterate of -msim_implicit_guess extrapolate */
+typedef PetscErrorCode (*MSimImplicitSchemePredict)(MSimImplicitScheme, MSimImplicit, Vec V, Vec W, Vec X);
 typedef struct {
   /* from (X, V) at t: y, x_n and whatever history the scheme keeps; imp->step.xref, tref, tx */
   MSimImplicitSchemeBeginStep begin_step;
   /* X holds the minimizer on entry: x_{n+1} into X and v_{n+1} into V */
   MSimImplicitSchemeEndStep end_step;
+  MSimImplicitSchemePredict predict;
   PetscErrorCode (*view)(MSimImplicitScheme, PetscViewer);
   PetscErrorCode (*destroy)(MSimImplicitScheme); /* what the scheme keeps besides its work vectors */
 } MSimImplicitSchemeOps;
@@ -38,6 +42,7 @@ typedef struct {
   const char                 *no_barrier, *no_objective;
   MSimImplicitSchemeBeginStep begin_step;
   MSimImplicitSchemeEndStep   end_step;
+  MSimImplicitSchemePredict   predict;
 } MSimImplicitSchemeType;
 
 #define MSIM_SCHEME_MAX_WORK 8
@@ -160,11 +165,22 @@ PetscErrorCode MSimTermPDRHS(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *e
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* -msim_implicit_guess's choices, in the order of MSimImplicitGuessTypes */
+enum { MSIM_GUESS_CONSTANT_VELOCITY, MSIM_GUESS_EXTRAPOLATE, MSIM_GUESS_FILTERED, MSIM_GUESS_INERTIAL };
+
 struct _n_MSimImplicit {
   MSimSystem         sys;
   PetscReal          h, t;    /* step and start time of the current step */
   MSimImplicitStep   step;    /* the terms' view of the step (MSimImplicitStepUpdate) */
   Vec                Xn, Y;   /* x_n and y */
+  /* the first iterate (-msim_implicit_guess, problem.cpp): x_n + guess h v_n, the scheme's
+     position at the extrapolated v_{n+1} = 2 v_n - v_{n-1} (Vprev: v_{n-1}, kept by EndStep,
+     valid once a step has ended or a restart loaded it; a checkpoint carries it after the
+     scheme's history), the same with v_n - v_{n-1} filtered by the PD matrix, or y; Vstar, Vwork:
+     work */
+  PetscInt           guess_type;
+  Vec                Vprev, Vstar, Vwork;
+  PetscBool          vprev_valid;
   PetscBool          psd;     /* project Hessian blocks to PSD in the Jacobian */
   MSimImplicitScheme scheme;
   PetscInt           nterms;

@@ -28,7 +28,10 @@
    = h^2/2 c v_n/2, so the two sum to h/2 c (x - x_n). One C_p for the whole step, so the damping
    stays exactly dissipative. The unknown is x_{n+1}, at b(t + h); x_n is seen with b(t), so a
    spring to a handle gets the discrete gradient between its two true states. First iterate
-   x_n + h v_n. No history beyond (x_n, v_n): a checkpoint holds all a restart needs. */
+   x_n + h v_n. No history beyond (x_n, v_n): a checkpoint holds all a restart needs.
+   Predictor (-msim_implicit_guess extrapolate): x_{n+1} = x_n + h/2 (v_n + v_{n+1}) at a predicted
+   v_{n+1} = W = 2 v_n - v_{n-1}: x_n + h v_n + h^2/2 a + O(h^3), as Newmark's; exact under a
+   constant acceleration. */
 #include <msim/implicit.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
@@ -68,7 +71,16 @@ static PetscErrorCode EndStep_DG(MSimImplicitScheme scheme, MSimImplicit imp, Ve
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* x = x_n + h/2 (v_n + W) */
+static PetscErrorCode Predict_DG(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec W, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecCopy(imp->Xn, X));
+  PetscCall(VecAXPBYPCZ(X, 0.5 * imp->h, 0.5 * imp->h, 1.0, V, W));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* beta 1/2, gamma 1/2, first iterate x_n + h v_n, no history; the step is a residual (no
    objective), so a barrier, which needs a minimization with a feasible line search, is refused */
 extern const MSimImplicitSchemeType MSimImplicitSchemeDiscreteGradient = {0.5, 0.5, 1, NWORK, 0, "a barrier needs a minimization with a feasible line search, and this step is a residual",
-                                                                          "its step is a discrete-gradient residual, not the gradient of an energy", BeginStep_DG, EndStep_DG};
+                                                                          "its step is a discrete-gradient residual, not the gradient of an energy", BeginStep_DG, EndStep_DG, Predict_DG};

@@ -11,7 +11,14 @@
    the history: at the start (or a restart without it) a_0 = M^-1 f(x_0, v_0), one force
    evaluation; after each step a_{n+1} = 4/h^2 (x_{n+1} - x_n - h v_n) - a_n, the scheme's own
    relation (equal to M^-1 f(x_{n+1}, v_{n+1}) where the step is solved exactly), which costs no
-   force evaluation and keeps the recursion consistent with an inexact solve. */
+   force evaluation and keeps the recursion consistent with an inexact solve.
+   Predictor (-msim_implicit_guess extrapolate): the position relation x_{n+1} = x_n + h/2 (v_n +
+   v_{n+1}) (from v_{n+1} = 2 (x_{n+1} - x_n)/h - v_n) at a predicted v_{n+1} = W: with
+   W = 2 v_n - v_{n-1} it is x_n + h v_n + h/2 (v_n - v_{n-1}) = x_n + h v_n + h^2/2 a + O(h^3),
+   the solution's own expansion (x_n + h v_n + h^2/4 (a_n + a_{n+1})); exact under a constant
+   acceleration. (a_n, the recursion's, would serve as well where the solve is exact; an
+   unconverged solve leaves its error in a_n with a factor -1 per step, which v_n - v_{n-1}
+   averages.) */
 #include <msim/implicit.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
@@ -51,6 +58,15 @@ static PetscErrorCode EndStep_Newmark(MSimImplicitScheme scheme, MSimImplicit im
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* x = x_n + h/2 (v_n + W) */
+static PetscErrorCode Predict_Newmark(MSimImplicitScheme scheme, MSimImplicit imp, Vec V, Vec W, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(VecCopy(imp->Xn, X));
+  PetscCall(VecAXPBYPCZ(X, 0.5 * imp->h, 0.5 * imp->h, 1.0, V, W));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* beta 1/4, gamma 1/2, first iterate x_n + h v_n; restarts need a_n; a barrier is refused (a cloth
    dropped on a box diverged: nothing damps the recursions' response to the barrier) */
-extern const MSimImplicitSchemeType MSimImplicitSchemeNewmark = {0.25, 0.5, 1, NWORK, 1, "its trapezoidal velocity and acceleration recursions ring on a barrier's stiff response and diverge", NULL, BeginStep_Newmark, EndStep_Newmark};
+extern const MSimImplicitSchemeType MSimImplicitSchemeNewmark = {0.25, 0.5, 1, NWORK, 1, "its trapezoidal velocity and acceleration recursions ring on a barrier's stiff response and diverge", NULL, BeginStep_Newmark, EndStep_Newmark, Predict_Newmark};

@@ -36,6 +36,7 @@ typedef struct {
   PetscBool              linesearch_set; /* the line search (-snes_linesearch_type) */
   PetscInt               icntl13;        /* MUMPS's ICNTL(13) (-mat_mumps_icntl_13; 1 unless set) */
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
+  Vec                    history[MSIM_SCHEME_MAX_WORK + 1]; /* what a checkpoint carries (GetHistory_Implicit) */
 } ImplicitData;
 
 /* -msim_step_atol d: also converged once an iteration's step dx has |dx|_2 < d (in metres), the rule
@@ -656,14 +657,19 @@ static PetscErrorCode OpenFiles_Implicit(MSimIntegrator integ)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* the scheme's history, for checkpoints */
+/* the scheme's history, for checkpoints, then v_{n-1} where the first iterate extrapolates with
+   it (-msim_implicit_guess extrapolate); a checkpoint written with the other guess has another
+   count, so a restart that toggles the option starts both up afresh */
 static PetscErrorCode GetHistory_Implicit(MSimIntegrator integ, PetscInt *n, Vec **history)
 {
-  ImplicitData *ie = (ImplicitData *)integ->data;
+  ImplicitData      *ie     = (ImplicitData *)integ->data;
+  MSimImplicitScheme scheme = ie->imp->scheme;
 
   PetscFunctionBeginUser;
-  *n       = ie->imp->scheme->nhistory;
-  *history = *n ? ie->imp->scheme->work : NULL;
+  *n = 0;
+  for (PetscInt k = 0; k < scheme->nhistory; k++) ie->history[(*n)++] = scheme->work[k];
+  if (ie->imp->Vprev) ie->history[(*n)++] = ie->imp->Vprev;
+  *history = *n ? ie->history : NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -673,6 +679,7 @@ static PetscErrorCode HistoryLoaded_Implicit(MSimIntegrator integ)
 
   PetscFunctionBeginUser;
   ie->imp->scheme->history_valid = PETSC_TRUE;
+  if (ie->imp->Vprev) ie->imp->vprev_valid = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
