@@ -8,7 +8,7 @@
 # e.g. MPIRUN="srun --cpu-bind=cores" on a cluster). Every mesh is made here by msim's own
 # generators. Bash, coreutils and awk only: the machine needs no Python.
 #
-# Cases (CASES, default "box fold box_explicit"):
+# Cases (CASES, default "box fold box_explicit"; box_jacobi when named):
 #  box          the 52^3 Kuhn tet box (148,877 vertices, 1,008,748 springs, 1000 kg, E = 1 MPa), free,
 #               implicit Euler (h = 10 ms) with msim's default Newton (CG + block Jacobi ICC), BOX_STEPS
 #               steps; "contact": resting 5 mm above the plane z >= -0.005 with friction 0.5, so its
@@ -20,6 +20,10 @@
 #               PREFOLD_STEPS (where it has started to fold onto itself) and checkpoints it; every
 #               measured run restarts from that state and makes CLOTH_STEPS steps "self" (with
 #               -msim_self_contact) or "noself" (without).
+#  box_jacobi   the box case with BOXJ_PC (default -pc_type jacobi) added to both variants: CG with a
+#               preconditioner whose iteration count does not depend on the partition (block Jacobi
+#               ICC's does: 123 -> 204 CG iterations from 1 to 2 ranks on the free box), so that the
+#               speed-ups with and without contact compare the steps' own parallel work.
 #  box_explicit the box by symplectic Euler (h = 50 us, EXPL_STEPS steps) with the penalty on the plane
 #               z >= -1e-5 (touched after ~28 steps) or without: the step the scaling model predicts.
 #
@@ -41,6 +45,7 @@ RUN_MAX=${RUN_MAX:-150}
 REPEAT=${REPEAT:-1}
 PACK=${PACK:-}   # a .tar.gz path: the whole of $OUT packed there after every run (for a machine that returns only a few files)
 BOX_N=${BOX_N:-52}
+BOXJ_PC=${BOXJ_PC:-"-pc_type jacobi"}
 BOX_STEPS=${BOX_STEPS:-3}
 EXPL_STEPS=${EXPL_STEPS:-200}
 CLOTH_N=${CLOTH_N:-101}
@@ -67,7 +72,7 @@ CSV=$OUT/runs.csv
 echo "case,variant,ranks,rep,status,rc,wall_s,steps,first_step,setup_s,stepping_s,nonlinear_its,linear_its,contact_n_last,cmd" > "$CSV"
 { echo "date $(date -u +%FT%TZ)"; echo "host $(hostname) cores $(nproc)"; lscpu 2>/dev/null | grep -E '^(Model name|Socket|Core|Thread|CPU\(s\)|L3|NUMA node\(s\))'; echo "msim $(command -v "$MSIM")";
   echo "mpirun $(command -v ${MPIRUN%% *}) ($MPIRUN)"; echo "budget $BUDGET s, ranks $RANKS, cases $CASES";
-  echo "BOX_N=$BOX_N BOX_STEPS=$BOX_STEPS EXPL_STEPS=$EXPL_STEPS CLOTH_N=$CLOTH_N CLOTH_STEPS=$CLOTH_STEPS CLOTH_NEWTON_MAX=$CLOTH_NEWTON_MAX PREFOLD_STEPS=$PREFOLD_STEPS"; } > "$OUT/machine.txt"
+  echo "BOXJ_PC=$BOXJ_PC"; echo "BOX_N=$BOX_N BOX_STEPS=$BOX_STEPS EXPL_STEPS=$EXPL_STEPS CLOTH_N=$CLOTH_N CLOTH_STEPS=$CLOTH_STEPS CLOTH_NEWTON_MAX=$CLOTH_NEWTON_MAX PREFOLD_STEPS=$PREFOLD_STEPS"; } > "$OUT/machine.txt"
 cat "$OUT/machine.txt"
 
 elapsed() { echo $(( $(date +%s) - T0 )); }
@@ -161,6 +166,10 @@ round() {
   if has box; then
     if [ "$rep" -eq 1 ]; then try box free "$p" "$rep" $BOX_IMPL; try box contact "$p" "$rep" $BOX_IMPL $BOX_CONTACT
     else try box contact "$p" "$rep" $BOX_IMPL $BOX_CONTACT; try box free "$p" "$rep" $BOX_IMPL; fi
+  fi
+  if has box_jacobi; then
+    if [ "$rep" -eq 1 ]; then try box_jacobi free "$p" "$rep" $BOX_IMPL $BOXJ_PC; try box_jacobi contact "$p" "$rep" $BOX_IMPL $BOX_CONTACT $BOXJ_PC
+    else try box_jacobi contact "$p" "$rep" $BOX_IMPL $BOX_CONTACT $BOXJ_PC; try box_jacobi free "$p" "$rep" $BOX_IMPL $BOXJ_PC; fi
   fi
   if has fold; then
     if [ "$rep" -eq 1 ]; then try fold noself "$p" "$rep" $FOLD_RUN -msim_self_contact 0; try fold self "$p" "$rep" $FOLD_RUN -msim_self_contact 1
