@@ -9,7 +9,9 @@ pair within dhat (point-triangle, its normal along z), so the barrier holds m_v 
 friction, with that normal force lagged at each step's start, is mu m_v g cos(theta) against the
 slip. Each vertex starts at the gap where the barrier's force holds its weight's normal part
 (computed here from the term's rule for its weight C, as tests/contact.py does for the obstacles),
-so the lagged normal force is right from the first step:
+so the lagged normal force is right from the first step (a start resting in contact, within dhat:
+-msim_self_contact_start_gap 0 lets it pass the start check, which refuses only crossing or
+touching elements then):
 - mu > tan(theta): the sheet stays; the smoothed friction acts as static below the speed eps_v, so it
   may creep, never by more than eps_v T;
 - mu < tan(theta): it slides with a = g (sin theta - mu cos theta): implicit Euler under a constant
@@ -90,7 +92,7 @@ def main():
     gaps = write_off(off)
     grav = f"{G * math.sin(THETA)},0,{-G * math.cos(THETA)}"
     base = ["-msim_scene", "mesh", "-msim_mesh_file", off, "-msim_mass", "1", "-msim_fix_box", "-1,3,-1,2,-1e-6,1e-6",
-            "-msim_self_contact", "-msim_self_contact_distance", str(DHAT), "-msim_gravity", grav,
+            "-msim_self_contact", "-msim_self_contact_distance", str(DHAT), "-msim_self_contact_start_gap", "0", "-msim_gravity", grav,
             "-msim_integrator", "implicit_euler", "-msim_dt", str(H), "-msim_steps", str(STEPS), "-msim_output_every", "1"]
     T = STEPS * H
     eps_v = 1e-3 * math.hypot(2, 1)  # -msim_friction_eps's default: 1e-3 of the scene's diameter per second

@@ -13,15 +13,20 @@ PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *
   o->stiffness = 1;
   o->ccd_s     = 0.1;
   o->halo      = PETSC_TRUE;
+  o->start_gap   = -1;
+  o->start_check = PETSC_TRUE;
   PetscOptionsBegin(comm, NULL, "msim self-contact", NULL);
   PetscCall(PetscOptionsBool("-msim_self_contact", "Self-contact: IPC distance barriers between the surface's vertex-disjoint point-triangle and edge-edge pairs (cloth, a surface mesh's triangles, a tet mesh's boundary faces), with a CCD-filtered line search (implicit integrators)", NULL, o->on, &o->on, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_distance", "Self-contact: distance dhat below which the barrier acts, m (0: a quarter of the shortest rest edge)", NULL, o->dhat, &o->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_stiffness", "Self-contact: factor on the barrier's weight (1: a pair's stiffness at dhat/2 equals a mean vertex's mass term)", NULL, o->stiffness, &o->stiffness, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_ccd_fraction", "Self-contact: additive CCD stops a step where a pair's gap falls to this fraction of its start (0 < s < 1)", NULL, o->ccd_s, &o->ccd_s, NULL));
   PetscCall(PetscOptionsBool("-msim_self_contact_halo", "Self-contact: include neighbouring ranks' elements (0 only to test that the halo matters)", NULL, o->halo, &o->halo, NULL));
+  PetscCall(MSimOptionsReal("-msim_self_contact_start_gap", "Self-contact: refuse a start whose vertex-disjoint surface elements are closer than this, m (-1: the contact distance dhat; 0: refuse only elements that cross or touch; a start resting in contact gives its gap)", NULL, o->start_gap, &o->start_gap, NULL));
+  PetscCall(PetscOptionsBool("-msim_self_contact_start_check", "Self-contact: check the start for crossing or touching elements (0 only to test the stall report: crossing elements stay locked through each other)", NULL, o->start_check, &o->start_check, NULL));
   PetscOptionsEnd();
   PetscCheck(o->dhat >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_distance must be >= 0 m (got %g)", (double)o->dhat);
   PetscCheck(o->stiffness > 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_stiffness must be > 0 (got %g)", (double)o->stiffness);
+  PetscCheck(o->start_gap >= 0 || o->start_gap == -1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_start_gap must be >= 0 m, or -1 for the contact distance (got %g)", (double)o->start_gap);
   PetscCheck(o->ccd_s > 0 && o->ccd_s < 1, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_ccd_fraction must be in (0, 1) (got %g)", (double)o->ccd_s);
   PetscFunctionReturn(PETSC_SUCCESS);
 }

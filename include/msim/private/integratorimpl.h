@@ -44,6 +44,11 @@ struct _n_MSimIntegrator {
      and that tolerance in words, for the warning at the end of the run */
   PetscInt          unconverged_steps;
   char              tolerance[160];
+  /* steps that ended on the step-length test (-snes_stol) with the last step cut short (a contact
+     barrier's largest feasible step, or backtracking) while |g| was above its tolerance: a jam,
+     not a converged step (elements locked against each other), and the last one in words */
+  PetscInt          stalled_steps;
+  char              stall[320];
   /* Newton on the exact Hessian factored by MUMPS (LDL^T): steps that converged where that factor
      had negative pivots, i.e. to a saddle point of Phi, not a minimum, and the most negative
      eigenvalues seen there (the inertia comes free with the factorization) */

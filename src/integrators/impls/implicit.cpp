@@ -484,6 +484,9 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
     PetscCall(SNESLineSearchShellSetUserFunc(ls, MSimLineSearchEnergy, &ie->ls));
   }
   if (ie->step_atol > 0) PetscCall(SNESSetConvergenceTest(ie->snes, ConvergedStep, ie, NULL));
+  /* |g| at each iteration of the current solve (reset by each): its first entry is |g0|, the
+     relative tolerance's base, which StepStalled reads */
+  PetscCall(SNESSetConvergenceHistory(ie->snes, NULL, NULL, PETSC_DECIDE, PETSC_TRUE));
   PetscCall(SNESSetFromOptions(ie->snes));
   if (discrete) PetscCall(RefuseMinimizers(integ, ie));
   /* before the barrier's checks: it takes the obstacles it serves as bounds out of the system's
@@ -556,6 +559,45 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitData *ie, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A solve that ended on the step-length test (-snes_stol |x|, SNES_CONVERGED_SNORM_RELATIVE)
+   while |g| is still above max(-snes_atol, -snes_rtol |g0|), and whose last step was cut short
+   (line search lambda < 1), did not converge: the step is short because a contact barrier's
+   largest feasible step (self-contact's CCD, an obstacle's) or the backtracking cut it, not because
+   Newton's step was. A surface whose elements start crossing or touching (locked by the barrier)
+   ended every step so after one iteration, |g| frozen at 0.77 of |g0| and the cloth at rest
+   (examples/cloth_fold.opts at 41 x 41), counted as converged. -msim_step_atol's rule is the
+   user's: a step it accepted (the Newton step asked for below it) is not a stall. */
+static PetscErrorCode StepStalled(ImplicitData *ie, SNESConvergedReason reason, PetscReal residual, PetscBool *stalled, PetscReal *lambda, PetscReal *target)
+{
+  SNESLineSearch   ls;
+  const PetscReal *hist;
+  PetscInt         nhist;
+  PetscReal        atol, rtol, stol;
+  PetscInt         maxit, maxf;
+
+  PetscFunctionBeginUser;
+  *stalled = PETSC_FALSE;
+  *lambda  = 1;
+  *target  = 0;
+  if (reason != SNES_CONVERGED_SNORM_RELATIVE) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
+  PetscCall(SNESGetConvergenceHistory(ie->snes, (PetscReal **)&hist, NULL, &nhist));
+  *target = PetscMax(atol, nhist > 0 ? rtol * hist[0] : 0.0);
+  if (!(residual > *target)) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESGetLineSearch(ie->snes, &ls));
+  PetscCall(SNESLineSearchGetLambda(ls, lambda));
+  if (!(*lambda < 1)) PetscFunctionReturn(PETSC_SUCCESS);
+  if (ie->step_atol > 0) { /* the rule judges the step asked for: the search's direction */
+    Vec       Y;
+    PetscReal ynorm;
+    PetscCall(SNESGetSolutionUpdate(ie->snes, &Y));
+    PetscCall(VecNorm(Y, NORM_2, &ynorm));
+    if (ynorm < ie->step_atol) PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  *stalled = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 {
   ImplicitData       *ie = (ImplicitData *)integ->data;
@@ -575,7 +617,6 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));
   PetscCall(SNESGetType(ie->snes, &type));
   integ->nonlinear_its = its;
-  if (reason > 0) PetscCall(CountSaddle(integ, ie, X));
   /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
      counts, also where pd runs as another SNES's nonlinear preconditioner */
   integ->linear_its = lits + ie->imp->pd_lits;
@@ -585,6 +626,15 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   if (reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
   if (ie->bounds) PetscCall(MSimContactBoundsEndStep(ie->bounds, X, F, ie->imp->step.h2, &integ->residual)); /* reactions; |g| off the active bounds */
+  {
+    PetscBool stalled;
+    PetscReal lambda, target;
+    PetscCall(StepStalled(ie, reason, integ->residual, &stalled, &lambda, &target));
+    if (stalled) {
+      integ->stalled_steps++;
+      PetscCall(PetscSNPrintf(integ->stall, sizeof(integ->stall), "step %" PetscInt_FMT " ended on -snes_stol with its step cut to %g of Newton's (a contact barrier's largest feasible step, or backtracking) at |g| = %g > its tolerance %g: elements locked against each other (crossing or touching at the start?)", integ->step, (double)lambda, (double)integ->residual, (double)target));
+    } else if (reason > 0) PetscCall(CountSaddle(integ, ie, X)); /* a stalled step did not converge, to a saddle or otherwise */
+  }
   if (integ->want_phi && ie->imp->scheme->no_objective) integ->phi = NAN; /* the monitor's phi: none */
   else if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
   PetscReal atol, rtol, stol;
