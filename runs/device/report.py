@@ -4,8 +4,11 @@ the speed-up charts and the summary table of contact (issue 34) and self-contact
 the same runs without them.
 
 Usage: /usr/bin/python3 runs/device/report.py OUT [DEST]   (DEST: where to write, default OUT)
-Writes DEST/summary.csv (one row per case, variant and rank count: the fastest of its repetitions),
-DEST/summary.md (the tables and the targets), DEST/speedup.png.
+Writes DEST/summary.csv (one row per run, case, variant and rank count: the fastest of its
+repetitions), DEST/summary.md (the tables and the targets), DEST/speedup.png. A run is named by the
+date line of OUT/machine.txt (its `run` column); the rows of other runs already in DEST/summary.csv
+are kept, with their machine header from DEST/machine_<run>.txt, so that calls on other days or
+machines stay beside the new one (latest first).
 
 Time per step is the Stepping stage of -log_view over the steps made (setup, i.e. the Read,
 Partition, Distribution, Refinement and Setup stages, apart); "steady" is the same from the
@@ -26,6 +29,7 @@ from msimrun import event, write_csv  # noqa: E402
 
 # (case, the variant with the feature, without it, the issue's 2-rank target: relative difference)
 CASES = [("box", "contact", "free", 0.10, "issue 34: tet box on a plane, implicit Euler + Newton-CG"),
+         ("box_jacobi", "contact", "free", 0.10, "issue 34: the same box, CG with point Jacobi (iterations independent of the partition)"),
          ("fold", "self", "noself", 0.15, "issue 35: folding cloth, self-contact, implicit Euler + Newton-CG"),
          ("box_explicit", "contact", "free", None, "explicit box (symplectic Euler), penalty on a plane")]
 EVENTS = ["KSPSolve", "MSimJacobian", "MSimResidual", "MSimEnergy", "MSimForce", "MSimSelfBroad", "MSimSelfNarrow", "MSimSelfCCD", "MSimSelfHalo"]
@@ -100,7 +104,7 @@ def fastest(rows):
         k = (r["case"], r["variant"], r["ranks"])
         if k not in best or r["step_s"] < best[k]["step_s"]:
             best[k] = dict(r, repetitions=sum(1 for q in rows if (q["case"], q["variant"], q["ranks"]) == k))
-    out = sorted(best.values(), key=lambda r: ([c[0] for c in CASES].index(r["case"]) if r["case"] in [c[0] for c in CASES] else 9, r["variant"], r["ranks"]))
+    out = sorted(best.values(), key=case_order)
     for r in out:
         one = best.get((r["case"], r["variant"], min(q["ranks"] for q in out if (q["case"], q["variant"]) == (r["case"], r["variant"]))))
         r["speedup"] = one["step_s"] * one["ranks"] / r["step_s"]
@@ -110,6 +114,43 @@ def fastest(rows):
         else:
             r["steady_speedup"] = ""
     return out, best
+
+
+def case_order(r):
+    names = [c[0] for c in CASES]
+    return (names.index(r["case"]) if r["case"] in names else 9, r["variant"], int(r["ranks"]))
+
+
+def run_name(machine):
+    """a run's name: the date line of its machine.txt (the call's start, UTC)"""
+    m = re.search(r"^date (\S+)", machine, re.M)
+    return m.group(1) if m else "unnamed"
+
+
+def machine_file(dest, run):
+    return os.path.join(dest, "machine_" + re.sub(r"[^0-9A-Za-z]", "", run) + ".txt")
+
+
+def earlier_runs(dest, run):
+    """{run: rows} of DEST/summary.csv's other runs, numbers as numbers (rows without a run column
+    belong to 'earlier')"""
+    path = os.path.join(dest, "summary.csv")
+    runs = {}
+    if not os.path.exists(path):
+        return runs
+    for r in csv.DictReader(open(path)):
+        name = r.get("run") or "earlier"
+        if name == run:
+            continue
+        for k, v in r.items():
+            if k in ("case", "variant", "run") or v in ("", None):
+                continue
+            try:
+                r[k] = int(v) if re.fullmatch(r"-?\d+", v) else float(v)
+            except ValueError:
+                pass
+        runs.setdefault(name, []).append(r)
+    return runs
 
 
 def model_rows(best, out):
@@ -146,21 +187,27 @@ def sized(rows, case):
     return f"{springs:,} springs" if springs else ""
 
 
-def chart(best_rows, model, dest):
+def chart(runs, models, dest):
+    """one panel per run and case, the latest run first; runs: [(name, rows)]"""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    present = [c for c in CASES if any(r["case"] == c[0] for r in best_rows)]
-    if not present:
+    panels = [(name, rows, c) for name, rows in runs for c in CASES if any(r["case"] == c[0] for r in rows)]
+    if not panels:
         return
-    fig, axes = plt.subplots(1, len(present), figsize=(5.2 * len(present), 4.4), squeeze=False)
-    for ax, (case, on, off, _, title) in zip(axes[0], present):
+    ncol = min(3, len(panels))
+    nrow = (len(panels) + ncol - 1) // ncol
+    fig, axes = plt.subplots(nrow, ncol, figsize=(5.2 * ncol, 4.4 * nrow), squeeze=False)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax, (name, best_rows, (case, on, off, _, title)) in zip(axes.flat, panels):
         ps = sorted({r["ranks"] for r in best_rows if r["case"] == case})
         ax.plot(ps, ps, color="0.7", ls=":", label="ideal")
         for variant, style in ((off, "o-"), (on, "s--")):
             rs = sorted((r for r in best_rows if r["case"] == case and r["variant"] == variant), key=lambda r: r["ranks"])
             if rs:
                 ax.plot([r["ranks"] for r in rs], [r["speedup"] for r in rs], style, label=f"{variant} ({rs[0]['step_s']:.3g} s/step at {rs[0]['ranks']})")
+        model = models.get(name)
         if case == "box_explicit" and model:
             ax.plot([m["ranks"] for m in model], [m["predicted_speedup"] for m in model], "k-", lw=0.8, label="scaling model (explicit step)")
         ax.set_xscale("log", base=2)
@@ -169,15 +216,27 @@ def chart(best_rows, model, dest):
         ax.set_xticklabels([str(p) for p in ps])
         ax.set_xlabel("ranks")
         ax.set_ylabel("speed-up of the time per step (Stepping stage)")
-        ax.set_title(f"{title}\n{sized(best_rows, case)}", fontsize=9)
+        ax.set_title(f"{title}\n{sized(best_rows, case)}, run {name}", fontsize=8)
         ax.legend(fontsize=8)
         ax.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     fig.savefig(os.path.join(dest, "speedup.png"), dpi=110)
 
 
-def summary_md(best_rows, best, model, machine, dest):
-    lines = ["# Contact and self-contact at scale: the device run", "", "```", machine.strip(), "```", ""]
+def summary_md(runs, models, dest):
+    """runs: [(name, rows, machine text)], the latest first"""
+    lines = ["# Contact and self-contact at scale: the device runs", "",
+             "Each run's tables under its heading, the latest first; a run is one device call, named by its start (UTC).", ""]
+    for k, (name, best_rows, machine) in enumerate(runs):
+        best = {(r["case"], r["variant"], r["ranks"]): r for r in best_rows}
+        lines += [f"# Run {name}" + (" (latest)" if k == 0 else ""), "", "```", machine.strip() or "(machine header not kept)", "```", ""]
+        lines += run_tables(best_rows, best, models.get(name))
+    open(os.path.join(dest, "summary.md"), "w").write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+
+
+def run_tables(best_rows, best, model):
+    lines = []
     for case, on, off, target, title in CASES:
         rs = [r for r in best_rows if r["case"] == case]
         if not rs:
@@ -214,8 +273,7 @@ def summary_md(best_rows, best, model, machine, dest):
             sc = next((r["speedup"] for r in best_rows if r["case"] == "box_explicit" and r["variant"] == "contact" and r["ranks"] == m["ranks"]), None) if c else None
             lines.append(f"| {m['ranks']} | {m['predicted_step_s']:.4g} | {m['predicted_speedup']:.2f} | {'-' if sf is None else f'{sf:.2f}'} | {'-' if sc is None else f'{sc:.2f}'} |")
         lines.append("")
-    open(os.path.join(dest, "summary.md"), "w").write("\n".join(lines) + "\n")
-    print("\n".join(lines))
+    return lines
 
 
 def main():
@@ -228,13 +286,33 @@ def main():
     if not rows:
         sys.exit(f"report.py: no finished run in {out}/runs.csv")
     best_rows, best = fastest(rows)
-    write_csv(os.path.join(dest, "summary.csv"), best_rows)
-    model = model_rows(best, out)
-    if model:
-        write_csv(os.path.join(dest, "model_box_explicit.csv"), model)
     machine = open(os.path.join(out, "machine.txt")).read() if os.path.exists(os.path.join(out, "machine.txt")) else ""
-    summary_md(best_rows, best, model, machine, dest)
-    chart(best_rows, model, dest)
+    run = run_name(machine)
+    earlier = earlier_runs(dest, run)
+    for r in best_rows:
+        r["run"] = run
+    open(machine_file(dest, run), "w").write(machine)
+    runs = [(run, best_rows, machine)]
+    for name in sorted(earlier, reverse=True):
+        mf = machine_file(dest, name)
+        runs.append((name, sorted(earlier[name], key=case_order), open(mf).read() if os.path.exists(mf) else ""))
+    write_csv(os.path.join(dest, "summary.csv"), [r for _, rs, _ in runs for r in rs])
+    # the explicit box's model belongs to the run that measured it: this one, or else the earlier
+    # run whose model_box_explicit.csv is kept
+    models = {}
+    model = model_rows(best, out)
+    mpath = os.path.join(dest, "model_box_explicit.csv")
+    if model:
+        write_csv(mpath, model)
+        models[run] = model
+    elif os.path.exists(mpath):
+        owner = next((n for n, rs, _ in runs[1:] if any(r["case"] == "box_explicit" for r in rs)), None)
+        if owner:
+            models[owner] = [{k: float(v) for k, v in m.items()} for m in csv.DictReader(open(mpath))]
+            for m in models[owner]:
+                m["ranks"] = int(m["ranks"])
+    summary_md(runs, models, dest)
+    chart([(n, rs) for n, rs, _ in runs], models, dest)
 
 
 if __name__ == "__main__":
