@@ -31,10 +31,10 @@ import vtu  # noqa: E402
 
 
 def fold(n, steps=35):
-    # the out-of-plane perturbation a fifth of an edge (1 cm at 21 x 21, as examples/cloth_fold.opts):
-    # a fixed 1 cm on finer cloths puts non-adjacent elements within dhat (a quarter of an edge) from
-    # the start, and Newton then crawls under the barrier from step 1 (51 x 51: |g| 1.00 -> 0.97 in
-    # 11 iterations, before and after this session's change)
+    # the perturbation (in all three directions) a fifth of an edge (1 cm at 21 x 21, as
+    # examples/cloth_fold.opts): a fixed 1 cm on finer cloths folds triangles over at the start (41 x
+    # 41: 10 edge-triangle crossings), which msim now refuses in one line (the start check, README);
+    # before, Newton stalled under the barrier from step 1 with the cloth frozen
     perturb = 0.2 / (n - 1)
     return ["-msim_cloth_n", str(n), "-msim_fix", "none", "-msim_gravity", "0,-9.81,0", "-msim_perturb", f"{perturb:g}",
             "-msim_integrator", "implicit_euler", "-msim_dt", "0.02", "-msim_steps", str(steps),
