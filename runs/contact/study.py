@@ -28,12 +28,12 @@ PLANE = "0,0,1,-0.05"
 
 
 def run(msim, args, np_=1):
-    """runs msim; (returncode, stderr, -log_view text, CPU seconds of the run)"""
+    """runs msim; (returncode, stderr, -log_view text, CPU user seconds of the run)"""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     cmd = ([] if np_ == 1 else ["mpirun", "-n", str(np_)]) + [msim] + [str(a) for a in args] + ["-log_view"]
     r = subprocess.run(cmd, capture_output=True, text=True, env=msimrun.ENV)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.returncode, r.stderr, r.stdout, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return r.returncode, r.stderr, r.stdout, after.ru_utime - before.ru_utime
 
 
 def read_csv(path):
