@@ -1,4 +1,4 @@
-/* The volume term of tet scenes (-msim_volume, on by default): per tet the energy |V0| psi(J),
+/* The volume term of tet scenes (-msim_volume, off by default): per tet the energy |V0| psi(J),
    J = V / V0, of msim/volume_kernels.hpp, a Teschner volume term plus IPC's log barrier on J, so
    that an implicit step whose line search stays where the barrier is finite (max_step) never
    inverts a tet. The system holds the tets (sys->tets): every tet computed once, by the owner of
@@ -20,8 +20,12 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
 /* J += w D^2 E (12 x 12 blocks, PSD-projected with psd), ADD_VALUES, then assembled */
 PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, PetscReal w, PetscBool psd, Mat J);
 /* the largest alpha <= *alpha with every tet's signed volume positive along X - a Y for a in
-   [0, alpha / 0.8] (with the barrier; nothing without). Collective. */
-PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha);
+   [0, alpha / 0.8] (with the barrier; nothing without). Collective. With barrier not NULL, also
+   whether any tet may come below J = jhat along X - a Y, a in [0, *alpha / 0.8] (or the step was
+   cut): where not, the term is Teschner's quadratic all along the step. Tets that no vertex
+   motion of the step can bring to jhat (safe radii kept by the last gradient pass with F and
+   without clamp) are skipped. */
+PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha, PetscBool *barrier);
 /* ksum's free slots += each vertex's sum over its tets of ||D^2 E_ij|| at rest (Gershgorin) */
 PetscErrorCode MSimSystemVolumeRowSums(MSimSystem sys, PetscScalar *floc);
 /* inverted tets (J <= 0) at X, summed over ranks */

@@ -10,6 +10,7 @@
 #pragma once
 #include <petscsys.h>
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 
 namespace msim {
@@ -135,11 +136,39 @@ inline double TetEnergy(const TetMaterial &m, double V0, const double *const x[4
   return w * psi;
 }
 
+/* A safe radius: if each of the 4 vertices moves by less than r from x, the tet keeps
+   6 |V| > 6 |V0| jhat (so J > jhat: outside the barrier's reach, and far from inverting). With
+   the edges e_i = x_i - x_0 moved by d_i (|d_i| < 2 r), Hadamard's inequality on the 7 terms of
+   det(e + d) - det(e) bounds the loss by 2 r S2 + 4 r^2 S1 + 8 r^3, S2 = sum_{i<j} |e_i||e_j|
+   <= L = sum |e_i|^2, S1 = sum |e_i| <= sqrt(3 L). With r = t sqrt(L) and t <= 0.1 the loss is
+   below L^1.5 t (2 + 0.4 sqrt(3) + 0.08) < 2.78 L^1.5 t, so any r with r^2 < g^2 / (2.78^2 L^2)
+   and r^2 <= L / 100 is safe, g = 6 |V| - 6 |V0| jhat (none where g <= 0). The passes keep g and
+   L per tet (TetSafeGap) and the test multiplies (TetWithinSafeRadius): no square root and no
+   division in the per-iteration loops. */
+inline double TetEdgeSquares(const double *const x[4])
+{
+  double L = 0;
+  for (int q = 1; q < 4; q++)
+    for (int k = 0; k < 3; k++) L += (x[q][k] - x[0][k]) * (x[q][k] - x[0][k]);
+  return L;
+}
+/* g of the tet at x (sign of V0 taken: positive while J > jhat) */
+inline double TetSafeGap(double V0, const double *const x[4], double jhat)
+{
+  const double V = TetSignedVolume(x[0], x[1], x[2], x[3]);
+  return 6 * ((V0 > 0 ? V : -V) - std::fabs(V0) * jhat);
+}
+/* whether a motion of every vertex by less than sqrt(m2) is within the safe radius of (g, L);
+   false for NaN */
+inline bool TetWithinSafeRadius(double m2, double g, double L) { return g > 0 && m2 < 0.01 * L && 7.7284 * m2 * L * L < g * g; }
+
 /* The first alpha in (0, amax] at which the signed volume of x - alpha y reaches 0 (the cubic
    c0 + c1 a + c2 a^2 + c3 a^3, with the sign of V0 so that it starts positive), or amax when it
    never does. Monotone pieces between the derivative's roots, each bisected where its end is not
-   positive: exact up to roundoff, never a root missed between samples. */
-inline double TetFirstZero(double V0, const double *const x[4], const double *const y[4], double amax)
+   positive: exact up to roundoff, never a root missed between samples. With low, *low gets the
+   least value of 6 x the signed volume (sign of V0) over [0, amax] (up to roundoff): where it is
+   above 6 |V0| jhat no point of the motion reaches the barrier. */
+inline double TetFirstZero(double V0, const double *const x[4], const double *const y[4], double amax, double *low = nullptr)
 {
   double e[3][3], d[3][3], ee[3], ed[3], de[3], dd[3];
   for (int q = 0; q < 3; q++)
@@ -157,9 +186,13 @@ inline double TetFirstZero(double V0, const double *const x[4], const double *co
   const double c2 = s * (Dot3(d[0], de) + Dot3(d[0], ed) + Dot3(e[0], dd));
   const double c3 = s * Dot3(d[0], dd);
   auto         f  = [&](double t) { return ((c3 * t + c2) * t + c1) * t + c0; };
-  if (!(c0 > 0)) return 0.0; /* already flat or inverted */
+  const double lb = c0 - amax * (std::fabs(c1) + amax * (std::fabs(c2) + amax * std::fabs(c3)));
+  if (!(c0 > 0)) { /* already flat or inverted */
+    if (low) *low = c0;
+    return 0.0;
+  }
   /* most tets: a lower bound of the cubic on [0, amax] that stays positive */
-  if (c0 - amax * (std::fabs(c1) + amax * (std::fabs(c2) + amax * std::fabs(c3))) > 0) return amax;
+  if (lb > 0 && !low) return amax;
   /* the ends of the monotone pieces: 0, the roots of 3 c3 t^2 + 2 c2 t + c1 in (0, amax), amax */
   double ends[4] = {0, amax, amax, amax};
   int    n       = 1;
@@ -176,6 +209,11 @@ inline double TetFirstZero(double V0, const double *const x[4], const double *co
     if (r > 0 && r < amax) ends[n++] = r;
   }
   ends[n++] = amax;
+  if (low) { /* the cubic's least value on [0, amax]: at an end of a monotone piece */
+    *low = c0;
+    for (int k = 1; k < n; k++) *low = std::min(*low, f(ends[k]));
+    if (lb > 0) return amax;
+  }
   for (int k = 0; k + 1 < n; k++) {
     double lo = ends[k], hi = ends[k + 1];
     if (f(hi) > 0) continue;

@@ -6,6 +6,7 @@
 #include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: whether guess is the local step's X unchanged */
 
 /* A = M + the diagonal terms' weights I + the other terms' PD weights, assembled once */
 static PetscErrorCode PDAssemble(MSimImplicit imp)
@@ -206,6 +207,12 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.pd_rhs) PetscCall(imp->terms[k]->ops.pd_rhs(imp->terms[k], X, rhs, phi ? &energy : NULL));
   if (phi) PetscCall(MPIU_Allreduce(&energy, phi, 1, MPIU_REAL, MPIU_SUM, sys->comm));
+  imp->pd_phi_id = 0;
+  if (phi) {
+    imp->pd_phi = *phi;
+    PetscCall(PetscObjectGetId((PetscObject)X, &imp->pd_phi_id));
+    PetscCall(PetscObjectStateGet((PetscObject)X, &imp->pd_phi_state));
+  }
   PetscCall(PetscLogEventEnd(MSIM_PDLocal, X, rhs, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -343,8 +350,15 @@ PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
 
 static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
 {
+  MSimImplicit imp = (MSimImplicit)ctx;
+  PetscReal    own;
+
   PetscFunctionBeginUser;
-  PetscCall(MSimImplicitPDRHS((MSimImplicit)ctx, X, rhs, phi));
+  /* with a feasible set the global step may check Phi from X: Phi(X) comes almost free with the
+     local step's passes (kept in imp->pd_phi), where a separate evaluation costs every term's */
+  for (PetscInt k = 0; k < imp->nterms && !phi; k++)
+    if (imp->terms[k]->ops.max_step) phi = &own;
+  PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -354,7 +368,7 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
 static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
   MSimImplicit imp      = (MSimImplicit)ctx;
-  PetscBool    feasible = PETSC_TRUE;
+  PetscBool    feasible = PETSC_TRUE, cached = PETSC_FALSE;
   Vec          X0       = NULL, D;
   PetscReal    alpha;
 
@@ -362,6 +376,11 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
   if (!feasible && guess) {
+    PetscObjectId    id;
+    PetscObjectState state;
+    PetscCall(PetscObjectGetId((PetscObject)guess, &id));
+    PetscCall(PetscObjectStateGet((PetscObject)guess, &state));
+    cached = (PetscBool)(imp->pd_phi_id && id == imp->pd_phi_id && state == imp->pd_phi_state); /* Phi(guess) known */
     PetscCall(VecDuplicate(guess, &X0));
     PetscCall(VecCopy(guess, X0));
   }
@@ -371,12 +390,22 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   PetscCall(VecWAXPY(D, -1.0, X, X0)); /* X = x_k - D */
   PetscCall(MSimImplicitMaxStep(imp, X0, D, &alpha));
   if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, X0));
-  {
+  /* a term may say that its barrier is not met along this step (pd_check): no check for it */
+  PetscBool check = (PetscBool)(alpha < 1);
+  for (PetscInt k = 0; k < imp->nterms && !check; k++) {
+    PetscBool needed = PETSC_TRUE;
+    if (!imp->terms[k]->ops.max_step) continue;
+    if (imp->terms[k]->ops.pd_check) PetscCall(imp->terms[k]->ops.pd_check(imp->terms[k], &needed));
+    check = needed;
+  }
+  if (check) {
     /* With the barrier's force lagged in the right-hand side, D = A^-1 g(x_k) (A x - rhs(x) is
        Phi's gradient), a descent direction but not a contraction where the barrier is stiffer
-       than A: halve the step until Phi does not rise. */
+       than A: halve the step until Phi does not rise. Phi(x_k): the local step's, when it was
+       taken at guess as it is now. */
     PetscReal phi0, phi;
-    PetscCall(MSimImplicitObjective(imp, X0, &phi0));
+    if (cached) phi0 = imp->pd_phi;
+    else PetscCall(MSimImplicitObjective(imp, X0, &phi0));
     PetscCall(MSimImplicitObjective(imp, X, &phi));
     for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
       alpha *= 0.5;

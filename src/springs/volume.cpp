@@ -12,27 +12,28 @@ static msim::TetMaterial Material(MSimSystem sys)
   return {sys->tets.kv, sys->tets.kappa, sys->tets.jhat};
 }
 
-/* f(c, x[4]) for every tet of this rank at X (t: the fixed slots' time); xl filled here */
+/* f(c, x[4]) for every tet of this rank at X (t: the fixed slots' time). xloc gets X's owned rows
+   too (a copy, cheap next to the tets), so that each vertex is read from one array, without a
+   branch per vertex in the per-iteration passes. */
 template <class F>
 static PetscErrorCode ForEachTet(MSimSystem sys, PetscReal t, Vec X, F &&f)
 {
-  const PetscScalar *xo, *xl;
+  const PetscScalar *xo;
+  PetscScalar       *xl;
   const MSimTets    &T = sys->tets;
+  const PetscInt    *sl = T.slot.data();
 
   PetscFunctionBeginUser;
   PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
   PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));
   PetscCall(VecGetArrayRead(X, &xo));
-  PetscCall(VecGetArrayRead(sys->xloc, &xl));
+  PetscCall(VecGetArray(sys->xloc, &xl));
+  PetscCall(PetscArraycpy(xl, xo, 3 * sys->nown));
   for (size_t c = 0; c < T.V0.size(); c++) {
-    const double *x[4];
-    for (int q = 0; q < 4; q++) {
-      const PetscInt s = T.slot[4 * c + q];
-      x[q]             = (s < sys->nown ? xo : xl) + 3 * s;
-    }
+    const double *x[4] = {xl + 3 * sl[4 * c], xl + 3 * sl[4 * c + 1], xl + 3 * sl[4 * c + 2], xl + 3 * sl[4 * c + 3]};
     f(c, x);
   }
-  PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
+  PetscCall(VecRestoreArray(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(X, &xo));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -72,25 +73,53 @@ PetscErrorCode MSimSystemVolumeCountInverted(MSimSystem sys, PetscReal t, Vec X,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* max_step's reference: X's local slots, as the pass just filled xloc */
+static PetscErrorCode KeepReference(MSimSystem sys)
+{
+  MSimTets          &T = sys->tets;
+  const PetscScalar *xl;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetArrayRead(sys->xloc, &xl));
+  PetscCall(PetscArraycpy(T.xref.data(), xl, 3 * sys->nloc));
+  PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, PetscReal w, Vec F, PetscReal *e, PetscBool clamp)
 {
-  const MSimTets         &T = sys->tets;
+  MSimTets               &T = sys->tets;
   const msim::TetMaterial m = Material(sys);
   PetscScalar            *f = NULL, *fl = NULL;
   PetscReal               local = 0;
+  /* an implicit gradient pass with the barrier also keeps each tet's safe radius at X, so that
+     max_step from (near) X skips the tets no vertex motion of the step can bring to jhat; only
+     when max_step asked for it (T.refresh): an old reference stays valid, only less tight */
+  const bool radii = F && !clamp && T.kappa > 0 && T.refresh;
+  PetscReal *gl    = NULL;
 
   PetscFunctionBeginUser;
   if (!T.ntet) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_Volume, X, F, 0, 0));
-  if (F) {
+  if (F) { /* every slot's force into floc (fixed slots' unused), then owned rows to F */
     PetscCall(VecGetArray(F, &f));
     PetscCall(VecGetArray(sys->floc, &fl));
-    PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * sys->nghost));
+    PetscCall(PetscArrayzero(fl, 3 * sys->nloc));
+  }
+  if (radii) {
+    T.gl.resize(2 * T.V0.size());
+    T.xref.resize(3 * sys->nloc);
+    gl        = T.gl.data();
+    T.refresh = false;
   }
   PetscCall(ForEachTet(sys, t, X, [&](size_t c, const double *const x[4]) {
     double       g[12], psi = 0, dpsi = 0;
     const double V0 = T.V0[c]; /* > 0 */
     const double J  = (F ? msim::TetVolumeGradient(x, g) : msim::TetSignedVolume(x[0], x[1], x[2], x[3])) * T.iV0[c];
+    if (gl) {
+      gl[2 * c]     = 6 * V0 * (J - m.jhat); /* msim::TetSafeGap, V0 > 0 */
+      gl[2 * c + 1] = msim::TetEdgeSquares(x);
+    }
     /* clamp (the explicit force): J held at jhat/100 or more in the barrier, so that an inverted
        tet is pushed back by a finite force instead of none (psi is +inf there) */
     const double Jc = clamp ? PetscMax(J, 0.01 * m.jhat) : J;
@@ -100,16 +129,15 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
     if (!F) return;
     const double coef = w * dpsi; /* V0 psi'(J) dJ/dV */
     for (int q = 0; q < 4; q++) {
-      const PetscInt s = T.slot[4 * c + q];
-      if (s < sys->nown)
-        for (int k = 0; k < 3; k++) f[3 * s + k] += coef * g[3 * q + k];
-      else if (s < sys->nown + sys->nghost)
-        for (int k = 0; k < 3; k++) fl[3 * s + k] += coef * g[3 * q + k];
+      double *fs = fl + 3 * T.slot[4 * c + q];
+      for (int k = 0; k < 3; k++) fs[k] += coef * g[3 * q + k];
     }
   }));
   if (F) {
+    for (PetscInt i = 0; i < 3 * sys->nown; i++) f[i] += fl[i];
     PetscCall(VecRestoreArray(sys->floc, &fl));
     PetscCall(VecRestoreArray(F, &f));
+    if (radii) PetscCall(KeepReference(sys));
     PetscCall(MSimSystemGhostsAdd(sys, sys->floc, F));
   }
   if (e) *e += local;
@@ -150,36 +178,78 @@ PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, Petsc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha)
+/* Per tet, the cubic's first root (TetFirstZero) only where the step may matter: with a reference
+   from the last gradient pass (xref, gl), m_s = |x_s - xref_s| + amax |y_s| bounds how far each
+   local slot gets from the reference along X - a Y, a in [0, amax]; a tet whose 4 slots all stay
+   within its safe radius keeps J > jhat on the whole segment (msim::TetWithinSafeRadius): it
+   neither inverts nor meets the barrier, so its root is beyond amax and it is skipped. */
+PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha, PetscBool *barrier)
 {
-  const MSimTets    &T = sys->tets;
-  const PetscScalar *yo, *yl;
-  PetscReal          a = *alpha;
-  static const double zero[3] = {0, 0, 0};
+  MSimTets          &T = sys->tets;
+  const PetscScalar *xo, *yo;
+  PetscScalar       *xl, *yl;
+  const PetscReal    amax = *alpha / 0.8;
+  PetscReal          r[2] = {*alpha, 1}; /* the step, and 1 while no tet may meet the barrier */
+  const bool         ref  = T.gl.size() == 2 * T.V0.size() && T.xref.size() == (size_t)(3 * sys->nloc);
+  const PetscInt    *sl   = T.slot.data();
+  PetscInt           exact = 0;
 
   PetscFunctionBeginUser;
+  if (barrier) *barrier = PETSC_FALSE;
   if (!T.ntet || T.kappa == 0) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_Volume, X, Y, 0, 0));
-  /* Y's ghost slots (its fixed slots are not read: fixed vertices do not move along Y) */
+  /* X and Y at every local slot (as ForEachTet); Y is zero at the fixed slots, which do not move
+     along it (the exchange wrote boundary positions there) */
   PetscCall(MSimSystemGhostsBegin(sys, Y, T.yloc));
   PetscCall(MSimSystemGhostsEnd(sys, t, Y, T.yloc));
+  PetscCall(MSimSystemGhostsBegin(sys, X, sys->xloc));
+  PetscCall(MSimSystemGhostsEnd(sys, t, X, sys->xloc));
+  PetscCall(VecGetArrayRead(X, &xo));
   PetscCall(VecGetArrayRead(Y, &yo));
-  PetscCall(VecGetArrayRead(T.yloc, &yl));
-  PetscCall(ForEachTet(sys, t, X, [&](size_t c, const double *const x[4]) {
-    const double *y[4];
-    for (int q = 0; q < 4; q++) {
-      const PetscInt s = T.slot[4 * c + q];
-      y[q]             = s < sys->nown ? yo + 3 * s : s < sys->nown + sys->nghost ? yl + 3 * s : zero;
+  PetscCall(VecGetArray(sys->xloc, &xl));
+  PetscCall(VecGetArray(T.yloc, &yl));
+  PetscCall(PetscArraycpy(xl, xo, 3 * sys->nown));
+  PetscCall(PetscArraycpy(yl, yo, 3 * sys->nown));
+  PetscCall(PetscArrayzero(yl + 3 * (sys->nown + sys->nghost), 3 * sys->nfix));
+  if (ref) {
+    T.m2.resize(sys->nloc);
+    for (PetscInt s = 0; s < sys->nloc; s++) {
+      const double *x = xl + 3 * s, *xr = T.xref.data() + 3 * s, *y = yl + 3 * s;
+      double        dx = 0, dy = 0;
+      for (int k = 0; k < 3; k++) {
+        dx += (x[k] - xr[k]) * (x[k] - xr[k]);
+        dy += y[k] * y[k];
+      }
+      const double mv = std::sqrt(dx) + amax * std::sqrt(dy);
+      T.m2[s]         = mv * mv;
     }
+  }
+  for (size_t c = 0; c < T.V0.size(); c++) {
+    const PetscInt *q4 = sl + 4 * c;
+    if (ref && msim::TetWithinSafeRadius(std::max(std::max(T.m2[q4[0]], T.m2[q4[1]]), std::max(T.m2[q4[2]], T.m2[q4[3]])), T.gl[2 * c], T.gl[2 * c + 1])) continue;
+    const double *x[4] = {xl + 3 * q4[0], xl + 3 * q4[1], xl + 3 * q4[2], xl + 3 * q4[3]};
+    const double *y[4] = {yl + 3 * q4[0], yl + 3 * q4[1], yl + 3 * q4[2], yl + 3 * q4[3]};
     /* the barrier's 0.8 (IPC's CCD filter, as the obstacles): the line search starts short of
-       the first flat tet, where the barrier is finite */
-    const double z = msim::TetFirstZero(T.V0[c], x, y, a / 0.8);
-    if (0.8 * z < a) a = 0.8 * z;
-  }));
-  PetscCall(VecRestoreArrayRead(T.yloc, &yl));
+       the first flat tet, where the barrier is finite. Once the step is cut the barrier is met
+       anyway, so the running step's segment is enough for the lower bound. */
+    double       low;
+    const double z = msim::TetFirstZero(T.V0[c], x, y, r[0] / 0.8, &low);
+    exact++;
+    if (0.8 * z < r[0]) r[0] = 0.8 * z;
+    if (!(low >= 6 * T.V0[c] * T.jhat)) r[1] = 0;
+  }
+  PetscCall(VecRestoreArray(T.yloc, &yl));
+  PetscCall(VecRestoreArray(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(Y, &yo));
-  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &a, 1, MPIU_REAL, MPIU_MIN, sys->comm));
-  *alpha = a;
+  PetscCall(VecRestoreArrayRead(X, &xo));
+  if (r[0] < *alpha) r[1] = 0; /* a cut step met the barrier */
+  /* the reference has drifted (or is missing) where more than 1 tet in 32 needed its root: the
+     next gradient pass takes a new one (this rank's; it costs that pass ~30%) */
+  if (!ref || 32 * exact > (PetscInt)T.V0.size()) T.refresh = true;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, r, 2, MPIU_REAL, MPIU_MIN, sys->comm));
+  *alpha = r[0];
+  if (barrier) *barrier = (PetscBool)(r[1] == 0);
+  PetscCall(PetscLogFlops(20.0 * sys->nloc + 100.0 * exact));
   PetscCall(PetscLogEventEnd(MSIM_Volume, X, Y, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -99,6 +99,40 @@ static PetscErrorCode TestKernels(void)
     if (!ok) NOTE("line %d: first zero %.9f, sampled %.9f\n", trial, a, first);
     CHECK(ok, "line %d: first zero %g, sampled %g", trial, a, first);
   }
+  /* the safe radius (max_step's skip): every vertex moved by just under r, in random directions
+     and in the worst one for the volume (against dV/dx_q, the motion that shrinks it fastest),
+     leaves J above jhat; and r is not vacuous (a rest-like tet gets r > 1% of its edges) */
+  for (int trial = 0; trial < 400; trial++) {
+    Vec12 x, g;
+    x << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
+    for (int k = 0; k < 12; k++) x(k) += (trial < 200 ? 0.1 : 0.45) * u(gen);
+    const double *p[4] = {x.data(), x.data() + 3, x.data() + 6, x.data() + 9};
+    const double  V0 = 1.0 / 6.0 * (trial % 2 ? 1 : -1), jhat = 0.2; /* J = V/V0 of either sign */
+    const double  V  = msim::TetVolumeGradient(p, g);
+    if (!(V / V0 > 0)) continue;
+    const double gap = msim::TetSafeGap(V0, p, jhat), L = msim::TetEdgeSquares(p);
+    /* the largest r^2 the test accepts, by bisection on the test itself */
+    double lo = 0, hi = L;
+    for (int it = 0; it < 200; it++) {
+      const double mid = 0.5 * (lo + hi);
+      (msim::TetWithinSafeRadius(mid, gap, L) ? lo : hi) = mid;
+    }
+    const double r = std::sqrt(lo) * (1 - 1e-12);
+    if (trial < 200 && V / V0 > 0.5) CHECK(r > 0.01 * std::sqrt(L / 3), "tet %d: J %.2f, safe radius %g of edges %g: vacuous", trial, V / V0, r, std::sqrt(L / 3));
+    if (V / V0 <= jhat) CHECK(lo == 0, "tet %d: J %.3f <= jhat has a safe radius %g", trial, V / V0, r);
+    for (int dir = 0; dir < 20 && lo > 0; dir++) {
+      Vec12 z = x;
+      for (int q = 0; q < 4; q++) {
+        Eigen::Vector3d d;
+        if (dir == 0) d = -(V0 > 0 ? 1 : -1) * g.segment<3>(3 * q); /* shrinks |V| fastest */
+        else d << u(gen), u(gen), u(gen);
+        if (d.norm() > 0) z.segment<3>(3 * q) += r * d / d.norm();
+      }
+      const double Jz = msim::TetSignedVolume(z.data(), z.data() + 3, z.data() + 6, z.data() + 9) / V0;
+      if (!(Jz > jhat)) NOTE("tet %d dir %d: J %.6f -> %.6f within the safe radius %g\n", trial, dir, V / V0, Jz, r);
+      CHECK(Jz > jhat, "tet %d: a motion within the safe radius %g brings J %g to %g <= jhat", trial, r, V / V0, Jz);
+    }
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -191,11 +225,104 @@ static PetscErrorCode TestProblem(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* max_step's skip at any rank count: a box at rest (J ~ 1, every tet outside the barrier's
+   reach), a gradient pass at X (the reference and safe radii), then a direction that moves one
+   vertex far (its tets must flatten: found by the cubic) and the others by tiny amounts (their
+   tets skipped). Expected: the step that flattens the first tet, found here independently by
+   bisection on the count of inverted tets; max_step must give 0.8 of it. */
+static PetscErrorCode TestSkip(void)
+{
+  TestSim      s;
+  MSimImplicit imp;
+  Vec          G, Y, Z;
+  PetscReal    alpha = 1, lo = 0, hi = 1;
+  PetscInt     bad, skipped = 0, total = 0, nown, n;
+  PetscMPIInt  rank;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate("-msim_scene box -msim_box_n 4,3,3 -msim_box_size 0.4,0.3,0.3 -msim_young 1e5 -msim_density 1000 -msim_fix_plane x_min -msim_perturb 0.002 -msim_volume -msim_integrator implicit_euler", &s));
+  PetscCall(MSimImplicitCreate(s.sys, &imp));
+  PetscCall(MSimImplicitBeginStep(imp, 0.0, 0.01, s.X, s.V));
+  PetscCall(VecDuplicate(s.X, &G));
+  PetscCall(VecDuplicate(s.X, &Y));
+  PetscCall(VecDuplicate(s.X, &Z));
+  PetscCall(VecZeroEntries(G));
+  PetscCall(MSimImplicitResidual(imp, s.X, G)); /* the gradient pass takes the reference */
+  {
+    PetscRandom r;
+    PetscCall(PetscRandomCreate(PETSC_COMM_WORLD, &r));
+    PetscCall(PetscRandomSetInterval(r, -1e-6, 1e-6));
+    PetscCall(VecSetRandom(Y, r));
+    PetscCall(PetscRandomDestroy(&r));
+  }
+  /* the free vertex nearest the box's centre (0.2, 0.15, 0.15), moved 0.2 m along (1, 0.5, 0.3):
+     two edge lengths, so some of its tets flatten within the step */
+  {
+    const PetscScalar *x;
+    PetscInt           lo_, best = -1;
+    PetscReal          d = PETSC_MAX_REAL, dmin;
+    PetscInt           pick;
+    PetscCall(VecGetOwnershipRange(s.X, &lo_, NULL));
+    PetscCall(VecGetLocalSize(s.X, &nown));
+    PetscCall(VecGetArrayRead(s.X, &x));
+    for (PetscInt v = 0; v < nown / 3; v++) {
+      const PetscReal dd = PetscSqr(x[3 * v] - 0.2) + PetscSqr(x[3 * v + 1] - 0.15) + PetscSqr(x[3 * v + 2] - 0.15);
+      if (dd < d) {
+        d    = dd;
+        best = lo_ + 3 * v;
+      }
+    }
+    PetscCall(VecRestoreArrayRead(s.X, &x));
+    PetscCallMPI(MPI_Allreduce(&d, &dmin, 1, MPIU_REAL, MPIU_MIN, PETSC_COMM_WORLD));
+    pick = d == dmin ? best : PETSC_MAX_INT;
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &pick, 1, MPIU_INT, MPI_MIN, PETSC_COMM_WORLD));
+    if (pick >= lo_ && pick < lo_ + nown) {
+      const PetscInt    idx[3] = {pick, pick + 1, pick + 2};
+      const PetscScalar val[3] = {0.2, 0.1, 0.06};
+      PetscCall(VecSetValues(Y, 3, idx, val, INSERT_VALUES));
+    }
+    PetscCall(VecAssemblyBegin(Y));
+    PetscCall(VecAssemblyEnd(Y));
+  }
+  /* expected: the first alpha at which a tet is flat, by bisection on the inverted count */
+  PetscCall(VecWAXPY(Z, -1.0, Y, s.X));
+  PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+  CHECK(bad > 0, "the vertex's move inverts nothing at alpha 1: the test tests nothing");
+  for (int it = 0; it < 60; it++) {
+    const PetscReal mid = 0.5 * (lo + hi);
+    PetscCall(VecWAXPY(Z, -mid, Y, s.X));
+    PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+    (bad ? hi : lo) = mid;
+  }
+  PetscCall(MSimImplicitMaxStep(imp, s.X, Y, &alpha));
+  /* the skip was in play: most tets within their safe radius (m2 from this max_step) */
+  {
+    const MSimTets &T = s.sys->tets;
+    CHECK(T.gl.size() == 2 * T.V0.size(), "no reference after the gradient pass");
+    for (size_t c = 0; c < T.V0.size() && T.gl.size() == 2 * T.V0.size(); c++) {
+      const PetscInt *q = &T.slot[4 * c];
+      skipped += msim::TetWithinSafeRadius(std::max(std::max(T.m2[q[0]], T.m2[q[1]]), std::max(T.m2[q[2]], T.m2[q[3]])), T.gl[2 * c], T.gl[2 * c + 1]);
+    }
+    total = (PetscInt)T.V0.size();
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &skipped, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+  }
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  n = s.sys->tets.ntet;
+  NOTE("skip: %d of %d tets skipped; max_step %.12f, 0.8 x the first flat tet's step %.12f\n", (int)skipped, (int)n, (double)alpha, (double)(0.8 * lo));
+  CHECK(total == n, "the ranks hold %d tets, the term %d", (int)total, (int)n);
+  CHECK(skipped > n / 2 && skipped < n, "%d of %d tets skipped: the skip is not tested", (int)skipped, (int)n);
+  CHECK(PetscAbsReal(alpha - 0.8 * lo) <= 1e-9, "max_step %.12g, expected 0.8 x %.12g", (double)alpha, (double)lo);
+  PetscCall(MSimDestroy(&G, &Y, &Z, &imp, &s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode TestVolume(void)
 {
   PetscFunctionBeginUser;
   PetscCall(TestKernels());
   PetscCall(TestProblem());
+  PetscCall(TestSkip());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -22,7 +22,8 @@ typedef struct {
 typedef PetscErrorCode (*MSimImplicitSchemeBeginStep)(MSimImplicitScheme, MSimImplicit, PetscReal t, PetscReal h, Vec X, Vec V);
 typedef PetscErrorCode (*MSimImplicitSchemeEndStep)(MSimImplicitScheme, MSimImplicit, Vec X, Vec V);
 /* X := the unknown that the scheme's own position relation gives for the end-of-step velocity
-   v_{n+1} = W (V holds v_n, imp->Xn x_n): the first iterate of -msim_implicit_guess extrapolate */
+   v_{n+1} = W (V holds v_n, imp->Xn x_n): the first iterate of -msim_implicit_guess extrapolate
+   and filtered */
 typedef PetscErrorCode (*MSimImplicitSchemePredict)(MSimImplicitScheme, MSimImplicit, Vec V, Vec W, Vec X);
 typedef struct {
   /* from (X, V) at t: y, x_n and whatever history the scheme keeps; imp->step.xref, tref, tx */
@@ -110,6 +111,9 @@ typedef struct {
      that one vertex near an obstacle does not shorten every vertex's move (MSimImplicitGuess, on
      the first iterate) */
   PetscErrorCode (*clamp)(MSimImplicitTerm, Vec A, Vec X) = NULL;
+  /* optional, with max_step: after it, whether PD's global step must check Phi along the step
+     (halving until it does not rise); a term without it always asks for the check */
+  PetscErrorCode (*pd_check)(MSimImplicitTerm, PetscBool *needed) = NULL;
   /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
      back towards A instead of x_n) */
@@ -198,6 +202,11 @@ struct _n_MSimImplicit {
   PetscInt   pd_lits;         /* Krylov iterations of the PD solves in the current step */
   PetscInt   nfactor;         /* numeric factorizations done by the PD solves */
   Vec        rhs;
+  /* Phi at the last local step's X (the Vec of that id, at that state; id 0: none), where the
+     global step's check starts */
+  PetscReal        pd_phi       = 0;
+  PetscObjectId    pd_phi_id    = 0;
+  PetscObjectState pd_phi_state = 0;
   MSimPDProblem pd;
 };
 

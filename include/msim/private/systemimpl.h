@@ -48,6 +48,10 @@ typedef struct {
   PetscInt               ntet = 0;  /* tets of the scene in the term (every rank knows it) */
   PetscReal              kv = 0, kappa = 0, jhat = 0; /* msim/volume_kernels.hpp's TetMaterial */
   Vec                    yloc = NULL; /* a direction's local slots, for max_step */
+  /* max_step's shortcut (src/springs/volume.cpp): the last implicit gradient pass's positions
+     (3 per local slot) and each tet's g and L there (msim::TetWithinSafeRadius); m2: work */
+  std::vector<PetscReal> xref, gl, m2;
+  bool                   refresh = true; /* the next implicit gradient pass takes a new reference */
 } MSimTets;
 
 struct _n_MSimSystem {

@@ -55,12 +55,31 @@ static PetscErrorCode PDRHS_Volume(MSimImplicitTerm term, Vec X, Vec rhs, PetscR
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* term->data: whether the last max_step's motion may meet the barrier (J < jhat) */
 static PetscErrorCode MaxStep_Volume(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimImplicit imp = term->imp;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemVolumeMaxStep(imp->sys, imp->step.tx, X, Y, alpha));
+  PetscCall(MSimSystemVolumeMaxStep(imp->sys, imp->step.tx, X, Y, alpha, (PetscBool *)term->data));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* PD's global step checks Phi along its step only where the barrier may be met: elsewhere the
+   term is Teschner's quadratic, lagged in the right-hand side as with -msim_volume_kappa 0, which
+   never asks for that check. Saves an evaluation of Phi (every term's pass) per PD iteration. */
+static PetscErrorCode PDCheck_Volume(MSimImplicitTerm term, PetscBool *needed)
+{
+  PetscFunctionBeginUser;
+  *needed = *(PetscBool *)term->data;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Destroy_Volume(MSimImplicitTerm term)
+{
+  PetscFunctionBeginUser;
+  delete (PetscBool *)term->data;
+  term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -73,7 +92,7 @@ static PetscErrorCode View_Volume(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps VolumeOps = {.energy = Energy_Volume, .gradient = Gradient_Volume, .hessian = Hessian_Volume, .pd_rhs = PDRHS_Volume, .max_step = MaxStep_Volume, .view = View_Volume};
+static const MSimImplicitTermOps VolumeOps = {.energy = Energy_Volume, .gradient = Gradient_Volume, .hessian = Hessian_Volume, .pd_rhs = PDRHS_Volume, .max_step = MaxStep_Volume, .pd_check = PDCheck_Volume, .view = View_Volume, .destroy = Destroy_Volume};
 
 PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
 {
@@ -83,6 +102,10 @@ PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
   if (!T.ntet) PetscFunctionReturn(PETSC_SUCCESS); /* no tets, or -msim_volume 0: no op */
   PetscCheck(T.kappa == 0 || !term->imp->scheme->no_barrier, term->imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with the tets' inversion barrier is not supported (%s): use implicit_euler or bdf2, or -msim_volume_kappa 0 (or -msim_volume 0)", term->imp->scheme->type, term->imp->scheme->no_barrier);
   term->ops = VolumeOps;
-  if (T.kappa == 0) term->ops.max_step = NULL; /* no barrier: every step is feasible */
+  if (T.kappa == 0) { /* no barrier: every step is feasible */
+    term->ops.max_step = NULL;
+    term->ops.pd_check = NULL;
+    term->ops.destroy  = NULL;
+  } else term->data = new PetscBool(PETSC_TRUE);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
