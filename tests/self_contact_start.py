@@ -13,7 +13,8 @@
 - a start closer than the contact distance: the vertical triangle lifted so that vertex 4 is
   0.1 m above the middle of triangle (0, 1, 2) (its closest point, the nearest edge 0.28 m away):
   refused with -msim_self_contact_distance 0.2 ("vertex 4 is 0.1 m from triangle (0, 1, 2)"), runs
-  with 0.05 (the start gap follows the contact distance);
+  with 0.05 (the start gap follows the contact distance); a start gap above the contact distance
+  is refused (the barrier acts only within it, and the halo holds other ranks' elements that far);
 - a stall is reported: the 41 x 41 cloth with the start check off (-msim_self_contact_start_check
   0, a switch for this test) stays locked through itself; every step's CCD cuts Newton's step to
   nothing with |g| far above its tolerance, and msim must warn that the steps did not converge
@@ -94,6 +95,8 @@ def main():
                 ["touches itself at the start", "vertex 4 is 0.1 m from triangle (0, 1, 2)", "-msim_self_contact_start_gap 0.2"], "touching mesh")
         r = mt.run(exe, mesh + ["-msim_mesh_file", touch, "-msim_self_contact_distance", "0.05"], np_)
         check(r.returncode == 0, f"np {np_}: the same mesh with a contact distance of 0.05 m (< 0.1 m) runs ({r.stderr.strip()[-300:]})")
+        refused(check, exe, mesh + ["-msim_mesh_file", touch, "-msim_self_contact_distance", "0.05", "-msim_self_contact_start_gap", "0.2"], np_,
+                os.path.join(tmp, f"gap_{np_}"), ["-msim_self_contact_start_gap", "above the contact distance"], "a start gap above dhat")
         if first_crossing:
             e, t = first_crossing[:2], first_crossing[2:]
             refused(check, exe, FOLD + ["-msim_steps", "1"], np_, os.path.join(tmp, f"cloth_{np_}"),

@@ -62,6 +62,9 @@ PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContac
   Offence                   worst;
 
   PetscFunctionBeginUser;
+  /* beyond dhat the barrier does not act, and the halo holds other ranks' elements only that far
+     (plus a margin): a larger gap would be checked at one rank and not at several */
+  PetscCheck(gap <= s->dhat, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_start_gap %g m is above the contact distance %g m (-msim_self_contact_distance): the barrier acts only within it", (double)gap, (double)s->dhat);
   /* the term's rule: some vertex free, the least input id in this rank's block */
   auto mine = [&](const PetscInt *v, int n) {
     PetscInt low = PETSC_MAX_INT;
