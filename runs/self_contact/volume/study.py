@@ -3,8 +3,10 @@
 with and without it, its cost per step (CPU time, alternated runs), and what it changes in the
 explicit limit (Gershgorin bound msim prints, and SLEPc's omega_max of (K, M) with the term's
 Hessian in K).
-Usage: study.py [path/to/msim] (default build/msim); writes inverted.csv, cost.csv, limit.csv and
-inverted.png here. Steps: 45 of the bunny's 150 (the inversions start at step 9), 2 ranks."""
+Usage: study.py [path/to/msim] [inverted|cost|limit|steps[:N[:msim-before]]] (default build/msim,
+all but steps); writes inverted.csv, cost.csv, limit.csv and inverted.png here, and stepsN.csv
+(the per-step CPU user time over N bunny steps at 1 rank, steps-only by difference with a 1-step
+run, min of 3 alternated repetitions). Steps: 45 of the bunny's 150 (the inversions start at step 9), 2 ranks."""
 import os
 import re
 import subprocess
@@ -56,6 +58,36 @@ def cost(tmp):
     return rows
 
 
+def steps(tmp, nsteps=21, reps=3, extra=None):
+    """the term's cost per step: CPU user time of nsteps- and 1-step runs (their difference is the
+    steps alone, without TetGen and the setup), 1 rank, self-contact off, min over reps of runs
+    alternated between springs alone, the volume term without its barrier (kappa 0: Teschner's
+    quadratic alone, no max_step) and the full term. extra: a second msim (another build) whose
+    full term is measured in the same alternation (the code before a change)."""
+    confs = [("springs", MSIM, ["-msim_volume", "0"]), ("quadratic", MSIM, ["-msim_volume", "1", "-msim_volume_kappa", "0"]), ("volume", MSIM, ["-msim_volume", "1"])]
+    if extra:
+        confs.append(("volume_before", os.path.abspath(extra), ["-msim_volume", "1"]))
+    best = {}
+    for rep in range(reps):
+        for name, exe, args in confs:
+            for n in (1, nsteps):
+                t0 = os.times()
+                p = subprocess.run([exe, "-options_file", "examples/bunny.opts", "-msim_self_contact", "0", "-msim_steps", str(n), "-msim_output", os.path.join(tmp, "s"), "-msim_output_every", "1000"] + args, cwd=ROOT, env=msimrun.ENV, capture_output=True, text=True)
+                t1 = os.times()
+                if p.returncode:
+                    sys.exit(f"msim failed: {name}\n{p.stderr[-2000:]}")
+                user = t1.children_user - t0.children_user
+                best[(name, n)] = min(best.get((name, n), 1e30), user)
+    base = best[("springs", nsteps)] - best[("springs", 1)]
+    rows = []
+    for name, _, _ in confs:
+        s = best[(name, nsteps)] - best[(name, 1)]
+        rows.append({"config": name, "steps": nsteps - 1, "user_1step_s": f"{best[(name, 1)]:.2f}", f"user_{nsteps}steps_s": f"{best[(name, nsteps)]:.2f}", "steps_user_s": f"{s:.2f}", "vs_springs": f"{s / base:.3f}"})
+        print(rows[-1], flush=True)
+    msimrun.write_csv(os.path.join(HERE, f"steps{nsteps - 1}.csv"), rows)
+    return rows
+
+
 def limit():
     """explicit limit of the bunny with and without the term: SLEPc's omega_max of (K, M) with the
     term's Hessian in K (-msim_spectrum), and the Gershgorin bound the stability guard uses (its
@@ -99,3 +131,7 @@ if __name__ == "__main__":
             plot(inverted(tmp))
         if "cost" in what:
             cost(tmp)
+        for w in what:  # steps[:N[:before-msim]]: the per-step cost over N steps (steps: 20)
+            if w.startswith("steps"):
+                f = w.split(":")
+                steps(tmp, int(f[1]) + 1 if len(f) > 1 else 21, 3, f[2] if len(f) > 2 else None)
