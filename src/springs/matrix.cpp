@@ -79,8 +79,8 @@ PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
    for the 101 x 101 cloth's Jacobian). Blocks are listed in MSimSpringsForEach order: (i,i), (j,j),
    (i,j), (j,i) as present; for each, the offsets of its three rows' first entries in the diagonal
    part (owned columns) or the off-diagonal part of the owned rows, or -1 for rows another rank
-   owns (those keep MatSetValuesBlocked and travel in PETSc's stash). Built after the first
-   assembly; hangs on the Mat, and is rebuilt after an assembly once the Mat's nonzero pattern has
+   owns (those keep MatSetValuesBlocked and travel in PETSc's stash). Built when the Mat is
+   created, its pattern assembled with zeros (AssemblePattern); hangs on the Mat, and is rebuilt after an assembly once the Mat's nonzero pattern has
    changed (entries another term added, e.g. self-contact's blocks, move the value arrays). */
 typedef struct {
   PetscObjectState      state; /* the Mat's nonzero state the offsets belong to */
