@@ -41,7 +41,11 @@ def fold(n, steps=35):
             "-msim_contact_plane", "0,1,0,-0.01", "-msim_friction", "0.5"]
 
 
-SOLVERS = {"newton_cg": [], "pd": ["-snes_type", "pd", "-snes_max_it", "50"]}
+# newton_chol: Newton-CG preconditioned by a MUMPS Cholesky factor of each iteration's Hessian (one CG
+# iteration): CG/ICC(0) needs 5 x the iterations on the barrier's stiff blocks (README, "Newton-CG's
+# linear solve"); at 1 and 2 ranks alike
+SOLVERS = {"newton_cg": [], "pd": ["-snes_type", "pd", "-snes_max_it", "50"],
+           "newton_chol": ["-ksp_type", "cg", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps"]}
 
 
 def run_cpu(exe, args, np_):
@@ -114,8 +118,8 @@ def main():
     if "--append" in sys.argv and os.path.exists(os.path.join(HERE, "cost.csv")):  # keep other runs' rows
         import csv
         old = list(csv.DictReader(open(os.path.join(HERE, "cost.csv"))))
-        done = {(r["n"], r["ranks"]) for r in rows}
-        rows = [r for r in old if (int(r["n"]), int(r["ranks"])) not in done] + rows
+        done = {(r["n"], r["ranks"], r["solver"]) for r in rows}
+        rows = [r for r in old if (int(r["n"]), int(r["ranks"]), r["solver"]) not in done] + rows
     with open(os.path.join(HERE, "cost.csv"), "w") as f:
         f.write(",".join(keys) + "\n")
         for row in rows:
