@@ -23,64 +23,86 @@ PetscReal MSimEdgeEdgeDistance2(const PetscReal *a0, const PetscReal *a1, const 
    distance apart and before which it never touches (1 when it does not come that close). */
 PetscReal MSimAdditiveCCD(const PetscReal x[12], const PetscReal u[12], PetscBool edge_edge, PetscReal s);
 
-/* A uniform grid over boxes (the broad phase): Build hashes boxes (6 each: lo, hi) into cells of
-   side `cell`; Query calls f(id) once for each box overlapping the query box. */
+/* The broad phase's grid over boxes (6 each: lo, hi): a hierarchy of uniform grids, each box
+   binned once, by its centre, in the level whose cell is the first at least as large as the box
+   (cells of `cell` times 1, 2, 4, ...); Query(box, f) calls f(id) once for each box overlapping
+   box. Since each box sits in one cell, a query needs no stamps to report a box once, and the
+   boxes are kept in cell order, so a query reads them contiguously. */
 struct MSimBoxGrid {
-  PetscReal                                     cell = 1;
-  std::vector<std::pair<unsigned long long, PetscInt>> entries; /* (cell key, box), sorted */
-  std::vector<PetscInt>                         stamp;          /* last query that saw each box */
-  std::vector<PetscInt>                         large;          /* boxes over too many cells: every query tests them */
-  std::vector<PetscReal>                        all;            /* the boxes (a query over too many cells tests each) */
-  PetscInt                                      query = 0;
+  struct Level {
+    PetscReal             cell = 1, h[3] = {0, 0, 0}; /* cell side; the largest half extent per axis */
+    PetscInt              begin = 0, end = 0;         /* its boxes in the cell-ordered arrays */
+    std::vector<PetscInt> slot;                       /* open-addressing table: cell key -> run index */
+  };
+  std::vector<Level>                                   levels;
+  std::vector<std::pair<unsigned long long, PetscInt>> order; /* (level and cell key, box), sorted */
+  std::vector<unsigned long long>                      rkey;  /* runs of one cell: key, ... */
+  std::vector<PetscInt>                                rstart; /* ... and first position (one past: the next run's) */
+  std::vector<PetscInt>                                id;     /* boxes in cell order */
+  std::vector<PetscReal>                               box;    /* their boxes, same order */
+  std::vector<PetscInt>                                large;  /* boxes beyond the top level: every query tests them */
+  std::vector<PetscReal>                               all;    /* the boxes as given */
   void Build(const std::vector<PetscReal> &boxes, PetscReal cell_size);
   template <class F>
-  void Query(const PetscReal *box, F &&f);
-  static double MaxCells() { return 512; }
-  unsigned long long Key(long long i, long long j, long long k) const
+  void Query(const PetscReal *q, F &&f);
+  static int MaxLevels() { return 12; }
+  static unsigned long long Key(int level, long long i, long long j, long long k)
   {
-    return ((unsigned long long)(i & 0x1FFFFF) << 42) | ((unsigned long long)(j & 0x1FFFFF) << 21) | (unsigned long long)(k & 0x1FFFFF);
+    return ((unsigned long long)level << 60) | ((unsigned long long)(i & 0xFFFFF) << 40) | ((unsigned long long)(j & 0xFFFFF) << 20) | (unsigned long long)(k & 0xFFFFF);
+  }
+  static size_t Hash(unsigned long long key) /* splitmix64's finalizer: every bit of the key mixes into the low ones */
+  {
+    key = (key ^ (key >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    key = (key ^ (key >> 27)) * 0x94D049BB133111EBULL;
+    return (size_t)(key ^ (key >> 31));
+  }
+  PetscInt Find(const Level &L, unsigned long long key) const
+  {
+    const size_t mask = L.slot.size() - 1;
+    for (size_t s = Hash(key) & mask;; s = (s + 1) & mask) {
+      const PetscInt r = L.slot[s];
+      if (r < 0 || rkey[r] == key) return r;
+    }
   }
 };
 
 #include <algorithm>
 #include <cmath>
 template <class F>
-void MSimBoxGrid::Query(const PetscReal *box, F &&f)
+void MSimBoxGrid::Query(const PetscReal *q, F &&f)
 {
-  long long lo[3], hi[3];
-  double    ncell = 1;
-  query++;
-  for (int c = 0; c < 3; c++) {
-    lo[c] = (long long)std::floor(box[c] / cell);
-    hi[c] = (long long)std::floor(box[3 + c] / cell);
-    ncell *= (double)(hi[c] - lo[c] + 1);
-  }
-  auto overlaps = [&](PetscInt b) {
+  auto test = [&](const PetscReal *b) {
     for (int c = 0; c < 3; c++)
-      if (box[c] > all[6 * b + 3 + c] || box[3 + c] < all[6 * b + c]) return false;
+      if (q[c] > b[3 + c] || q[3 + c] < b[c]) return false;
     return true;
   };
-  if (ncell > MaxCells()) { /* a box swept far: test every box (a few per line search at most) */
-    for (PetscInt b = 0; b < (PetscInt)stamp.size(); b++)
-      if (overlaps(b)) f(b);
-    return;
-  }
   for (PetscInt b : large)
-    if (stamp[b] != query && overlaps(b)) {
-      stamp[b] = query;
-      f(b);
+    if (test(&all[6 * b])) f(b);
+  for (int l = 0; l < (int)levels.size(); l++) {
+    const Level &L = levels[l];
+    if (L.begin == L.end) continue;
+    long long lo[3], hi[3];
+    double    ncell = 1;
+    /* a box overlapping q has its centre within q grown by the level's half extents */
+    for (int c = 0; c < 3; c++) {
+      lo[c] = (long long)std::floor((q[c] - L.h[c]) / L.cell);
+      hi[c] = (long long)std::floor((q[3 + c] + L.h[c]) / L.cell);
+      ncell *= (double)(hi[c] - lo[c] + 1);
     }
-  for (long long i = lo[0]; i <= hi[0]; i++)
-    for (long long j = lo[1]; j <= hi[1]; j++)
-      for (long long k = lo[2]; k <= hi[2]; k++) {
-        const unsigned long long key = Key(i, j, k);
-        auto it = std::lower_bound(entries.begin(), entries.end(), std::make_pair(key, (PetscInt)-1));
-        for (; it != entries.end() && it->first == key; ++it)
-          if (stamp[it->second] != query) {
-            stamp[it->second] = query;
-            f(it->second);
-          }
-      }
+    if (ncell >= (double)(L.end - L.begin) || ncell > 1e6) { /* q spans the level (a box swept far): test its boxes */
+      for (PetscInt e = L.begin; e < L.end; e++)
+        if (test(&box[6 * e])) f(id[e]);
+      continue;
+    }
+    for (long long i = lo[0]; i <= hi[0]; i++)
+      for (long long j = lo[1]; j <= hi[1]; j++)
+        for (long long k = lo[2]; k <= hi[2]; k++) {
+          const PetscInt r = Find(L, Key(l, i, j, k));
+          if (r < 0) continue;
+          for (PetscInt e = rstart[r]; e < rstart[r + 1]; e++)
+            if (test(&box[6 * e])) f(id[e]);
+        }
+  }
 }
 
 /* The surface a rank sees (its elements and the halo from other ranks) is private:

@@ -27,6 +27,7 @@
 #include <msim/private/selfcontactimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <algorithm>
 #include <cmath>
 
 typedef struct {
@@ -43,9 +44,15 @@ typedef struct {
   PetscInt               nbuild, nreuse;
   /* the wide list: pairs within dhat + wmargin at xwide, from a grid; the near list above is remade
      from it by one pass of distances (no grid) while the vertices stay within (wmargin - margin) / 2
-     of xwide. wmargin adapts to the motion: doubled when a wide list served fewer than 3 near
-     lists, shrunk when it served more than 24 (correctness never depends on it, only the cost) */
+     of xwide. wmargin is 4 dhat: the pairs within R of each other grow as R^2 on a surface, and
+     past about an edge length (4 dhat by dhat's default) every element meets its neighbours in the
+     sheet, none of them in contact: on the 101 x 101 fold R = 9 dhat (the former adaptive
+     margin's cap) held 18 pairs per element against 2.2 at R = 5 dhat, and a longer-lived list
+     did not pay for its size (35 steps: CPU 19.1 s with the margin let grow to 6 dhat, 11.6 s at
+     4). The pairs are sorted by their distance at xwide (wd), so a query reads only the prefix
+     that can matter (WidePrefix) */
   std::vector<PetscInt>  wide;
+  std::vector<PetscReal> wd;           /* each wide pair's distance at xwide, ascending (the pairs sorted by it) */
   std::vector<PetscReal> xwide;
   PetscReal              wmargin;
   PetscInt               wplan, wuses, nwide;
@@ -53,6 +60,18 @@ typedef struct {
   PetscInt               plan;         /* the halo plan the list's local numbers belong to */
   PetscInt               npairs;        /* pairs within dhat at the last gradient (this rank) */
   PetscReal              dmin;          /* the smallest distance among them */
+  /* the last evaluation: the local energy and gradient (unsigned) at the local positions xeval of
+     plan eplan, both from one pass over the pairs. PD asks for Phi and its gradient at the same
+     iterate up to four times (the right-hand side, the global step's Phi check at x_k, the Phi
+     check at x_k+1, the residual at x_k+1, the next right-hand side at it), Newton's line search
+     for the energy and then the gradient at the accepted point: a query whose gathered positions
+     equal xeval bit for bit returns these without a pass */
+  std::vector<PetscReal> xeval, geval;
+  PetscReal              eeval;
+  PetscInt               eplan;
+  PetscInt               nevals, nhits;
+  PetscLogDouble         widesum, nearsum; /* pairs over all wide and near lists made */
+  PetscInt               nswept;        /* CCDs that needed a swept broad phase */
 } SelfData;
 
 /* f(ee, v[4]) for each pair this rank computes whose boxes overlap: within dhat of each other at
@@ -103,10 +122,7 @@ static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, 
     vbox(v, b);
     sd->tgrid.Query(b, [&](PetscInt t) {
       const PetscInt *tv = &s->tri[3 * t];
-      if (tv[0] == v || tv[1] == v || tv[2] == v) return;
-      const PetscReal *tb = &sd->boxes[6 * t];
-      for (int c = 0; c < 3; c++)
-        if (b[c] > tb[3 + c] || b[3 + c] < tb[c]) return;
+      if (tv[0] == v || tv[1] == v || tv[2] == v) return; /* the grid reports only overlapping boxes */
       const PetscInt q[4] = {v, tv[0], tv[1], tv[2]};
       if (mine(q)) pt.insert(pt.end(), q, q + 4);
     });
@@ -115,14 +131,12 @@ static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, 
   for (PetscInt e = 0; e < ne; e++) {
     const PetscInt *ev = &s->edge[2 * e];
     PetscReal       b[6];
-    for (int c = 0; c < 6; c++) b[c] = sd->boxes[6 * e + c];
+    /* the edge's own box against the others' grown ones (within grow of each other) */
+    for (int c = 0; c < 3; c++) b[c] = sd->boxes[6 * e + c] + grow, b[3 + c] = sd->boxes[6 * e + 3 + c] - grow;
     sd->egrid.Query(b, [&](PetscInt o) {
       if (o <= e) return;
       const PetscInt *ov = &s->edge[2 * o];
       if (ov[0] == ev[0] || ov[0] == ev[1] || ov[1] == ev[0] || ov[1] == ev[1]) return;
-      const PetscReal *ob = &sd->boxes[6 * o];
-      for (int c = 0; c < 3; c++) /* boxes both grown: within dhat when they overlap by dhat */
-        if (b[c] + grow > ob[3 + c] || b[3 + c] - grow < ob[c]) return;
       const PetscInt q[4] = {ev[0], ev[1], ov[0], ov[1]};
       if (mine(q)) ee.insert(ee.end(), q, q + 4);
     });
@@ -185,6 +199,26 @@ static inline bool PairApart(const std::vector<PetscReal> &x, const std::vector<
   return false;
 }
 
+/* The wide pairs whose distance at xwide is at most dmax, a prefix of the list (sorted by it):
+   while no vertex strays more than rho from xwide (less the shared motion, Reach), a pair d0 apart
+   there stays at least d0 - 2 rho apart, so a query that needs the pairs within r reads only
+   those with d0 <= r + 2 rho, the rest not even once. */
+static inline size_t WidePrefix(const SelfData *sd, PetscReal dmax)
+{
+  return 5 * (size_t)(std::upper_bound(sd->wd.begin(), sd->wd.end(), dmax) - sd->wd.begin());
+}
+
+/* The wide pairs a motion's CCD must see when no vertex strays more than rho from xwide: additive
+   CCD stops a pair only once it comes within s (-msim_self_contact_ccd_fraction) times its
+   distance at the motion's start, at most d0 + 2 rho, and the pair stays at least d0 - 2 rho
+   apart; so with d0 (1 - s) > 2 rho (1 + s) its CCD would return 1 and skipping it changes
+   nothing */
+static inline size_t WideCCDPrefix(const SelfData *sd, PetscReal rho)
+{
+  const PetscReal s = sd->opt.ccd_s;
+  return WidePrefix(sd, 2 * rho * (1 + s) / (1 - s));
+}
+
 /* f(ee, v[4]) for each pair this rank computes that may be within dhat at x (u NULL) or meet
    along x + t a u, t in [0, 1] (static queries get only the pairs whose boxes are within dhat:
    every caller skips the others). Two Verlet lists: the near one (margin dhat) while the vertices
@@ -210,32 +244,53 @@ static PetscErrorCode ForEachPair(SelfData *sd, const std::vector<PetscReal> &x,
   const PetscReal wfar    = wide_ok ? Reach(sd->xwide, x, u, a) : PETSC_MAX_REAL;
   if (u) {
     if (wfar <= 0.5 * sd->wmargin) {
-      for (size_t k = 0; k < sd->wide.size(); k += 5)
+      const size_t n = WideCCDPrefix(sd, wfar);
+      for (size_t k = 0; k < n; k += 5)
         if (!PairApart(x, u, a, (PetscBool)sd->wide[k], &sd->wide[k + 1], 0.0)) f((PetscBool)sd->wide[k], &sd->wide[k + 1]);
-    } else PetscCall(BroadPhase(sd, x, u, a, 0.0, f)); /* a long motion: this query's swept boxes, not cached */
+    } else { sd->nswept++; PetscCall(BroadPhase(sd, x, u, a, 0.0, f)); } /* a long motion: this query's swept boxes, not cached */
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  PetscReal rho = wfar; /* how far the vertices strayed from xwide */
   if (wfar > 0.5 * (sd->wmargin - sd->margin)) {
-    if (wide_ok && sd->wuses < 3) sd->wmargin = PetscMin(2 * sd->wmargin, 8 * dhat);
-    else if (wide_ok && sd->wuses > 24) sd->wmargin = PetscMax(0.75 * sd->wmargin, 3 * sd->margin);
     sd->wide.clear();
     PetscCall(BroadPhase(sd, x, NULL, 0, dhat + sd->wmargin, [&](PetscBool ee, const PetscInt *v) {
       sd->wide.push_back(ee);
       sd->wide.insert(sd->wide.end(), v, v + 4);
     }));
+    {
+      /* sorted by their distance at x */
+      const size_t                               n = sd->wide.size() / 5;
+      std::vector<std::pair<PetscReal, PetscInt>> d(n);
+      std::vector<PetscInt>                      sorted(5 * n);
+      for (size_t k = 0; k < n; k++) {
+        PetscReal w[4];
+        d[k] = {std::sqrt(PairDistance2(x, (PetscBool)sd->wide[5 * k], &sd->wide[5 * k + 1], w)), (PetscInt)k};
+      }
+      std::sort(d.begin(), d.end());
+      sd->wd.resize(n);
+      for (size_t k = 0; k < n; k++) {
+        sd->wd[k] = d[k].first;
+        for (int q = 0; q < 5; q++) sorted[5 * k + q] = sd->wide[5 * d[k].second + q];
+      }
+      sd->wide.swap(sorted);
+    }
     sd->xwide = x;
+    rho       = 0;
+    sd->widesum += sd->wide.size() / 5;
     sd->wplan = sd->surf->nplans;
     sd->wuses = 0;
     sd->nwide++;
   }
   /* the near list from the wide one: the pairs within dhat + margin at x */
   const PetscReal r2 = (dhat + sd->margin) * (dhat + sd->margin);
+  const size_t    nw = WidePrefix(sd, dhat + sd->margin + 2 * rho);
   sd->cand.clear();
-  for (size_t k = 0; k < sd->wide.size(); k += 5) {
+  for (size_t k = 0; k < nw; k += 5) {
     PetscReal w[4];
     if (!PairApart(x, NULL, 0, (PetscBool)sd->wide[k], &sd->wide[k + 1], dhat + sd->margin) && PairDistance2(x, (PetscBool)sd->wide[k], &sd->wide[k + 1], w) < r2) sd->cand.insert(sd->cand.end(), &sd->wide[k], &sd->wide[k + 5]);
   }
   sd->xlist = x;
+  sd->nearsum += sd->cand.size() / 5;
   sd->plan  = sd->surf->nplans;
   sd->wuses++;
   sd->nbuild++;
@@ -250,56 +305,69 @@ static PetscReal PairDistance2(const std::vector<PetscReal> &x, PetscBool ee, co
   return ee ? MSimEdgeEdgeDistance2(p0, p1, p2, p3, w) : MSimPointTriangleDistance2(p0, p1, p2, p3, w);
 }
 
-static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
+/* The local energy and gradient at the gathered positions sd->x, into eeval and geval, unless the
+   last evaluation was at the same positions (and halo plan) */
+static PetscErrorCode Evaluate(SelfData *sd)
 {
-  SelfData       *sd   = (SelfData *)term->data;
-  const PetscReal dh2  = sd->surf->dhat * sd->surf->dhat;
+  const PetscReal dh2 = sd->surf->dhat * sd->surf->dhat;
   PetscReal       local = 0;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
+  if (sd->eplan == sd->surf->nplans && sd->xeval.size() == sd->x.size() && std::equal(sd->x.begin(), sd->x.end(), sd->xeval.begin())) {
+    sd->nhits++;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
-  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
-    PetscReal w[4], b, db, d2b;
-    const PetscReal s = PairDistance2(sd->x, ee, v, w);
-    if (s >= dh2) return;
-    if (s <= 0) {
-      local = PETSC_INFINITY;
-      return;
-    }
-    MSimBarrier(s, dh2, &b, &db, &d2b);
-    local += sd->C * b;
-  }));
-  PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
-  *e += local;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
-/* G += sign times the gradient (sent to the vertices' owners) */
-static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal sign)
-{
-  SelfData       *sd  = (SelfData *)term->data;
-  const PetscReal dh2 = sd->surf->dhat * sd->surf->dhat;
-
-  PetscFunctionBeginUser;
-  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
-  PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
-  sd->g.assign(sd->x.size(), 0);
+  sd->geval.assign(sd->x.size(), 0);
   sd->npairs = 0;
   sd->dmin   = PETSC_INFINITY;
   PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
     PetscReal w[4], b, db, d2b, r[3] = {0, 0, 0};
     const PetscReal s = PairDistance2(sd->x, ee, v, w);
     if (s >= dh2) return;
-    MSimBarrier(PetscMax(s, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
+    if (s <= 0) local = PETSC_INFINITY;
+    else {
+      MSimBarrier(s, dh2, &b, &db, &d2b);
+      local += sd->C * b;
+    }
+    /* the gradient as Newton's: at a distance clamped away from 0 */
+    if (s < PETSC_SMALL * dh2) MSimBarrier(PETSC_SMALL * dh2, dh2, &b, &db, &d2b);
     for (int k = 0; k < 4; k++)
       for (int c = 0; c < 3; c++) r[c] += w[k] * sd->x[3 * v[k] + c];
     for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) sd->g[3 * v[k] + c] += sign * 2 * sd->C * db * w[k] * r[c];
+      for (int c = 0; c < 3; c++) sd->geval[3 * v[k] + c] += 2 * sd->C * db * w[k] * r[c];
     sd->npairs++;
     sd->dmin = PetscMin(sd->dmin, std::sqrt(s));
   }));
+  sd->eeval = local;
+  sd->xeval = sd->x;
+  sd->eplan = sd->surf->nplans;
+  sd->nevals++;
   PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode LocalEnergy(MSimImplicitTerm term, Vec X, PetscReal *e)
+{
+  SelfData *sd = (SelfData *)term->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
+  PetscCall(Evaluate(sd));
+  *e += sd->eeval;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* G += sign times the gradient (sent to the vertices' owners) */
+static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal sign)
+{
+  SelfData *sd = (SelfData *)term->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSelfSurfaceGather(sd->surf, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
+  PetscCall(Evaluate(sd));
+  sd->g.resize(sd->geval.size());
+  for (size_t k = 0; k < sd->g.size(); k++) sd->g[k] = sign * sd->geval[k];
   PetscCall(MSimSelfSurfaceAddGradient(sd->surf, sd->g, G));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -363,7 +431,7 @@ static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscRea
      outside it can touch before a0, so when one of its pairs stops the motion within a0 that is a
      safe step (conservative like any ACCD answer; PD's lagged barrier proposes huge
      steps that a close pair cuts to almost nothing). Otherwise the whole motion. */
-  auto part = [&](const std::vector<PetscInt> &list, const std::vector<PetscReal> &xref, PetscReal margin, PetscInt plan, PetscReal &tm) {
+  auto part = [&](const std::vector<PetscInt> &list, const std::vector<PetscReal> &xref, PetscReal margin, PetscInt plan, bool sorted, PetscReal &tm) {
     PetscReal am = 0;
     tm           = 1;
     if (plan != sd->surf->nplans || xref.size() != sd->x.size()) return am;
@@ -373,15 +441,17 @@ static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscRea
        it checks */
     am = ru > 0 ? PetscMin(a, a * (0.5 * margin - r0) / ru) : a;
     for (int it = 0; it < 8 && Reach(xref, sd->x, &sd->u, am) > 0.5 * margin; it++) am *= 0.5;
-    if (Reach(xref, sd->x, &sd->u, am) > 0.5 * margin) return (am = 0);
-    auto f = ccd(am, tm);
-    for (size_t k = 0; k < list.size(); k += 5)
+    const PetscReal rho = Reach(xref, sd->x, &sd->u, am); /* with r0, bounds the reach over [0, am] (convex) */
+    if (rho > 0.5 * margin) return (am = 0);
+    auto         f = ccd(am, tm);
+    const size_t n = sorted ? WideCCDPrefix(sd, PetscMax(r0, rho)) : list.size();
+    for (size_t k = 0; k < n; k += 5)
       if (!PairApart(sd->x, &sd->u, am, (PetscBool)list[k], &list[k + 1], 0.0)) f((PetscBool)list[k], &list[k + 1]);
     return am;
   };
   /* the near list first (a close pair cuts most long steps), then the wide one */
-  PetscReal t0, a0 = part(sd->cand, sd->xlist, sd->margin, sd->plan, t0);
-  if (!(a0 > 0 && (t0 < 1 || a0 == a))) a0 = part(sd->wide, sd->xwide, sd->wmargin, sd->wplan, t0);
+  PetscReal t0, a0 = part(sd->cand, sd->xlist, sd->margin, sd->plan, false, t0);
+  if (!(a0 > 0 && (t0 < 1 || a0 == a))) a0 = part(sd->wide, sd->xwide, sd->wmargin, sd->wplan, true, t0);
   if (a0 > 0 && (t0 < 1 || a0 == a)) t = a0 * t0 / a;
   else PetscCall(ForEachPair(sd, sd->x, &sd->u, a, ccd(a, t)));
   PetscCall(PetscLogEventEnd(MSIM_SelfCCD, 0, 0, 0, 0));
@@ -399,6 +469,7 @@ static PetscErrorCode View_Self(MSimImplicitTerm term, PetscViewer viewer)
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &halo, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &tris, 1, MPIU_INT, MPI_SUM, term->imp->sys->comm));
   PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact: IPC barrier on point-triangle and edge-edge pairs, dhat %g m, weight C %g, additive CCD (gap fraction %g); own triangles %" PetscInt_FMT " (summed over ranks), halo triangles %" PetscInt_FMT ", plans on rank 0 %" PetscInt_FMT ", near candidate lists made %" PetscInt_FMT " and reused %" PetscInt_FMT " times, wide lists (grid) %" PetscInt_FMT " (margin now %g m) on rank 0\n", (double)sd->surf->dhat, (double)sd->C, (double)sd->opt.ccd_s, tris, halo, plans, sd->nbuild, sd->nreuse, sd->nwide, (double)sd->wmargin));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "self-contact on rank 0: energy/gradient passes %" PetscInt_FMT ", repeated queries answered from the last pass %" PetscInt_FMT ", mean pairs per wide list %g, per near list %g; CCDs over a swept broad phase %" PetscInt_FMT "\n", sd->nevals, sd->nhits, sd->nwide ? sd->widesum / sd->nwide : 0.0, sd->nbuild ? sd->nearsum / sd->nbuild : 0.0, sd->nswept));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -437,6 +508,7 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
   /* the candidate list's margin: pairs within 2 dhat, reused while no vertex moved dhat / 2 */
   sd->margin  = sd->surf->dhat;
   sd->wmargin = 4 * sd->margin;
+  sd->eplan   = -1;
   term->ops   = SelfOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
