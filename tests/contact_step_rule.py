@@ -5,7 +5,7 @@ judges the step Newton asked for, not a step cut short (issue 34):
   second one's direction is at roundoff, where neither Phi nor |g| can fall; the energy line search
   then fails, and newtonls takes a failed search on a step below -snes_stol |x| for convergence only
   if the search reports that step's length (it reported the last accepted one, so a 7 x 7 cloth
-  stopped with DIVERGED_LINE_SEARCH at step 4). Checked: 30 steps run, and the drop is implicit
+  stopped with DIVERGED_LINE_SEARCH at step 9-10). Checked: 30 steps run, and the drop is implicit
   Euler's under constant gravity, z_N = -g h^2 N (N + 1) / 2, so the potential at step N is
   N (N + 1) / 2 times that at step 1 (to 1e-9);
 - a cloth dropped on a ball with Newton-CG (the PD factor as preconditioner, Eisenstat-Walker
