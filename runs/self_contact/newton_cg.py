@@ -66,7 +66,9 @@ def main():
         path = os.path.join(HERE, "cost.csv")
         old = list(csv.DictReader(open(path)))
         ckeys = list(old[0])
-        new = [dict(r, vertices=r["n"] ** 2, triangles=2 * (r["n"] - 1) ** 2, solver="newton_chol", ok=1) for r in rows if r["opts"] == "chol"]
+        pairs = {(r["n"], r["ranks"]) for r in rows if r["opts"] == "chol" and r["self_contact"] == 0}  # cost.csv: with/without pairs only
+        new = [dict(r, vertices=r["n"] ** 2, triangles=2 * (r["n"] - 1) ** 2, solver="newton_chol", ok=1) for r in rows
+               if r["opts"] == "chol" and (r["n"], r["ranks"]) in pairs]
         done = {(str(r["n"]), str(r["ranks"])) for r in new}
         keep = [r for r in old if not (r["solver"] == "newton_chol" and (r["n"], r["ranks"]) in done)]
         with open(path, "w") as f:
