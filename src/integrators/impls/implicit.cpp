@@ -33,6 +33,7 @@ typedef struct {
   PetscBool              mg_levels_set;  /* GAMG's smoothers (-mg_levels_ksp_type) */
   PetscBool              sub_pc_set;     /* block Jacobi's blocks (-sub_pc_type) */
   PetscBool              pc_type_set;    /* the preconditioner (-pc_type) */
+  PetscBool              ksp_type_set;   /* the Krylov method (-ksp_type) */
   PetscBool              linesearch_set; /* the line search (-snes_linesearch_type) */
   PetscInt               icntl13;        /* MUMPS's ICNTL(13) (-mat_mumps_icntl_13; 1 unless set) */
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
@@ -380,6 +381,7 @@ static PetscErrorCode SNESUserChoices(PetscObject obj, PetscOptionItems *PetscOp
 
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-pc_type", &ie->pc_type_set));
+  PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-ksp_type", &ie->ksp_type_set));
   PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-snes_linesearch_type", &ie->linesearch_set));
   PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-mg_levels_ksp_type", &ie->mg_levels_set));
   PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-sub_pc_type", &ie->sub_pc_set));
@@ -425,17 +427,18 @@ static PetscErrorCode RefuseMinimizers(MSimIntegrator integ, ImplicitData *ie)
     }
     PetscCall(SNESIsMinimizer(snes, &minimizer));
     PetscCall(SNESGetType(snes, &type));
-    PetscCheck(!minimizer, integ->comm, PETSC_ERR_SUP, "-%ssnes_type %s with -msim_integrator %s is not supported: %s minimizes an energy, and the scheme has none (%s); use newtonls (GMRES by default, or -ksp_type preonly -pc_type lu)", prefix, type, integ->type, type, reason);
+    PetscCheck(!minimizer, integ->comm, PETSC_ERR_SUP, "-%ssnes_type %s with -msim_integrator %s is not supported: %s minimizes an energy, and the scheme has none (%s); use newtonls (MUMPS LU by default on one rank)", prefix, type, integ->type, type, reason);
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* The SNES with msim's defaults, which a user overrides with the usual options: Newton, msim's
    line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian;
-   for a scheme with no objective, no Phi: GMRES with ILU (block Jacobi-ILU in parallel) on its
-   nonsymmetric Jacobian and PETSc's l2 line search, which minimizes |r|^2 along the Newton step
-   by secant steps (bt, backtracking on |r|^2, stalled at a local minimum of |r| where the
-   Jacobian is nearly singular, step 103 of an 11 x 11 cloth at h = 1/30 s; l2 ran through). */
+   for a scheme with no objective, no Phi: on one rank MUMPS LU on its nonsymmetric Jacobian unless
+   a -ksp_type or -pc_type is given, else GMRES with ILU (block Jacobi-ILU in parallel),
+   and PETSc's l2 line search, which minimizes |r|^2 along the Newton step by secant steps (bt,
+   backtracking on |r|^2, stalled at a local minimum of |r| where the Jacobian is nearly singular,
+   step 103 of an 11 x 11 cloth at h = 1/30 s; l2 ran through). */
 static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ksp)
 {
   MSimSystem      sys = integ->sys;
@@ -488,6 +491,23 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
      relative tolerance's base, which StepStalled reads */
   PetscCall(SNESSetConvergenceHistory(ie->snes, NULL, NULL, PETSC_DECIDE, PETSC_TRUE));
   PetscCall(SNESSetFromOptions(ie->snes));
+#if defined(PETSC_HAVE_MUMPS)
+  if (discrete && sys->size == 1 && !ie->ksp_type_set && !ie->pc_type_set) {
+    /* the discrete gradient's Jacobian near the iterates its line search stops at is nearly
+       singular (the 31 x 31 cloth at h = 1/30 s: Newton took 36-773 iterations a step), where
+       GMRES with ILU left steps short and the energy drifted 1.76 J in 60 steps; MUMPS LU held it
+       to 1.2e-11 J (runs/energy_conserving): LU unless the user chose a KSP or PC, on one rank
+       (2 x GMRES-ILU's CPU on an 8-vertex chain and a 7 x 7 cloth, 200 steps). Not on several:
+       there MUMPS took 4 x the CPU of GMRES with block Jacobi-ILU on the chain (2 ranks), which
+       put tests/energy_conserving.py past its time limit. Set after the options so that -pc_type
+       alone (ILU, ...) keeps GMRES; the PC's own options are read again for the factor
+       (-pc_factor_mat_solver_type, -mat_mumps_*). */
+    PetscCall(KSPSetType(*ksp, KSPPREONLY));
+    PetscCall(PCSetType(pc, PCLU));
+    PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
+    PetscCall(PCSetFromOptions(pc));
+  }
+#endif
   if (discrete) PetscCall(RefuseMinimizers(integ, ie));
   /* before the barrier's checks: it takes the obstacles it serves as bounds out of the system's
      contact object for good, so -help's throwaway integrators must not make one */
@@ -708,7 +728,7 @@ static PetscErrorCode OpenFiles_Implicit(MSimIntegrator integ)
 }
 
 /* the scheme's history, for checkpoints, then v_{n-1} where the first iterate extrapolates with
-   it (-msim_implicit_guess extrapolate); a checkpoint written with the other guess has another
+   it (-msim_implicit_guess extrapolate, filtered); a checkpoint written with the other guess has another
    count, so a restart that toggles the option starts both up afresh */
 static PetscErrorCode GetHistory_Implicit(MSimIntegrator integ, PetscInt *n, Vec **history)
 {
