@@ -215,7 +215,10 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri
   if (closed) *closed = mo->closed;
 }
 
-PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+/* cube_bound: beyond the band, the band itself may stand in as a lower bound (see below); the
+   conservative advancement of MSimMeshObstacleSafeStep needs the true distance there (a constant
+   lower bound would advance by 0.9 dhat a step and cut a long move short) */
+static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9], bool cube_bound)
 {
   /* beyond the band around the surface's bounding box, the distance to the box is a lower bound
      of the distance to the surface (which lies in the box), and it is all the callers need there:
@@ -233,6 +236,21 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], Pe
     if (H)
       for (int k = 0; k < 9; k++) H[k] = 0;
     return db - mo->thickness;
+  }
+  /* inside the box but farther than the band from every triangle (a cloth's vertex above a ball,
+     not yet within its reach): no triangle meets the cube of half-width band around x, so the
+     distance is at least band, and band - thickness (= dhat, where the barrier, friction and the
+     contact force are zero) is a lower bound the callers can take as for the box above. A cube
+     query stops at its first hit and discards the tree's far boxes at once, where the closest-point
+     query must find the nearest triangle (90% of a draped cloth's run was that query). */
+  if (cube_bound && mo->band < PETSC_MAX_REAL) {
+    const PetscReal b = mo->band;
+    if (!mo->tree.do_intersect(K::Iso_cuboid_3(Point(x[0] - b, x[1] - b, x[2] - b), Point(x[0] + b, x[1] + b, x[2] + b)))) {
+      for (int c = 0; c < 3; c++) n[c] = db2 > 0 ? q[c] / std::sqrt(db2) : (c == 2);
+      if (H)
+        for (int k = 0; k < 9; k++) H[k] = 0;
+      return b - mo->thickness;
+    }
   }
   const Point pq(x[0], x[1], x[2]);
   const auto  hit = mo->has_last ? mo->tree.closest_point_and_primitive(pq, mo->last) : mo->tree.closest_point_and_primitive(pq);
@@ -259,6 +277,11 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], Pe
         for (int b = 0; b < 3; b++) H[3 * a + b] = sign * ((a == b) - n[a] * n[b] - (region == 1 ? e[a] * e[b] : 0.0)) / r;
   }
   return sign * r - mo->thickness;
+}
+
+PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+{
+  return Distance(mo, x, n, H, true);
 }
 
 /* Moller-Trumbore: the time t >= 0 at which o + t d meets T, edges and corners included (within
@@ -306,13 +329,14 @@ PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mo, const PetscReal x[3], co
     for (const auto &id : hit) th = PetscMin(th, SegmentHitTime(x, u, *id));
     return 0.8 * th < tmax ? 0.8 * th : PETSC_INFINITY;
   }
-  PetscReal d = d0;
-  for (int it = 0; it < 100 && d > 0.1 * d0; it++) {
+  const PetscReal d0x = Distance(mo, x, n, NULL, false);
+  PetscReal       d   = d0x;
+  for (int it = 0; it < 100 && d > 0.1 * d0x; it++) {
     const PetscReal dt = 0.9 * d / ulen;
     t += dt;
     if (t >= tmax) return PETSC_INFINITY;
     for (int c = 0; c < 3; c++) y[c] = x[c] + t * u[c];
-    d = MSimMeshObstacleDistance(mo, y, n, NULL);
+    d = Distance(mo, y, n, NULL, false);
   }
   return t;
 }
