@@ -34,6 +34,9 @@ CASES = [
     (["-msim_output_every", "0"], "-msim_output_every must be >= 1"),
     # values PETSc cannot convert: the line names the option
     (["-msim_dt", "abc"], "-msim_dt: 'abc' is not a number"),
+    # a numeric option with no value (PETSc would leave it unset and run on silently)
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-snes_pd_anderson"], "-snes_pd_anderson needs a value (an integer)"),
+    (["-msim_steps", "3", "-msim_dt"], "-msim_dt needs a value (a number)"),
     (["-msim_cloth_n", "2.5"], "-msim_cloth_n: '2.5' is not an integer"),
     (["-msim_integrator", "implicit_euler", "-msim_psd", "maybe"], "-msim_psd: 'maybe' is not true or false"),
     # numbers PETSc would take: infinities, NaN, integers past PetscInt; an item of a list

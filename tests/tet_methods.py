@@ -28,7 +28,7 @@ IMPLICIT = {
     "newton cg hypre": "-snes_type newtonls -ksp_type cg -pc_type hypre -ksp_rtol 1e-12",
     "pd": "-snes_type pd",
     "pd mumps": "-snes_type pd -pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps",
-    "pd anderson": "-snes_type pd -snes_pd_anderson",
+    "pd anderson": "-snes_type pd -snes_pd_anderson 5",
     "anderson-pd": "-snes_type anderson -npc_snes_type pd -npc_snes_max_it 1",
     "lbfgs": "-snes_type qn -snes_qn_scale_type jacobian",
     "trust region": "-snes_type ntr",

@@ -37,11 +37,14 @@ static PetscErrorCode MSimOptionsCheck(PetscOptionItems *PetscOptionsObject, con
 
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsFindPair(PetscOptionsObject->options, PetscOptionsObject->prefix, name, &value, &set));
-  if (!set || !value || !value[0]) PetscFunctionReturn(PETSC_SUCCESS); /* no value: PETSc says so */
+  if (!set) PetscFunctionReturn(PETSC_SUCCESS);
   const MPI_Comm    comm = PetscOptionsObject->comm;
-  const std::string all(value);
   /* the name as typed: with the options block's prefix (-pd_pc_msimllt_relax, not -pc_...) */
   const std::string typed = "-" + std::string(PetscOptionsObject->prefix ? PetscOptionsObject->prefix : "") + (name + 1);
+  /* PETSc leaves a numeric option given without a value unset, silently: "-snes_pd_anderson" alone
+     ran plain PD in the examples that meant Anderson */
+  PetscCheck(value && value[0], comm, PETSC_ERR_ARG_WRONG, "%s needs a value (%s)", typed.c_str(), integer ? (list ? "comma-separated integers" : "an integer") : (list ? "comma-separated numbers" : "a number"));
+  const std::string all(value);
   size_t            at = 0;
   while (true) {
     const size_t      comma = list ? all.find(',', at) : std::string::npos;
