@@ -81,19 +81,21 @@ void MSimBoxGrid::Query(const PetscReal *q, F &&f)
   for (int l = 0; l < (int)levels.size(); l++) {
     const Level &L = levels[l];
     if (L.begin == L.end) continue;
-    long long lo[3], hi[3];
-    double    ncell = 1;
-    /* a box overlapping q has its centre within q grown by the level's half extents */
+    long long lo[3] = {0, 0, 0}, hi[3] = {-1, -1, -1};
+    double    dlo[3], dhi[3], ncell = 1;
+    /* a box overlapping q has its centre within q grown by the level's half extents; the cell
+       range in double first (a trial point sent far or to NaN must not overflow the cast) */
     for (int c = 0; c < 3; c++) {
-      lo[c] = (long long)std::floor((q[c] - L.h[c]) / L.cell);
-      hi[c] = (long long)std::floor((q[3 + c] + L.h[c]) / L.cell);
-      ncell *= (double)(hi[c] - lo[c] + 1);
+      dlo[c] = std::floor((q[c] - L.h[c]) / L.cell);
+      dhi[c] = std::floor((q[3 + c] + L.h[c]) / L.cell);
+      ncell *= dhi[c] - dlo[c] + 1;
     }
-    if (ncell >= (double)(L.end - L.begin) || ncell > 1e6) { /* q spans the level (a box swept far): test its boxes */
+    if (!(ncell < (double)(L.end - L.begin)) || !(ncell <= 1e6)) { /* q spans the level (a box swept far), or is not finite: test its boxes */
       for (PetscInt e = L.begin; e < L.end; e++)
         if (test(&box[6 * e])) f(id[e]);
       continue;
     }
+    for (int c = 0; c < 3; c++) lo[c] = (long long)dlo[c], hi[c] = (long long)dhi[c];
     for (long long i = lo[0]; i <= hi[0]; i++)
       for (long long j = lo[1]; j <= hi[1]; j++)
         for (long long k = lo[2]; k <= hi[2]; k++) {

@@ -26,7 +26,9 @@ void MSimBoxGrid::Build(const std::vector<PetscReal> &boxes, PetscReal cell_size
     const PetscReal  side = PetscMax(x[3] - x[0], PetscMax(x[4] - x[1], x[5] - x[2]));
     int              l    = 0;
     while (l < MaxLevels() && levels[l].cell < side) l++;
-    if (l == MaxLevels() || !(side < PETSC_MAX_REAL)) {
+    bool far = false; /* a centre beyond the cells' integer keys (or not finite): tested by every query */
+    for (int q = 0; q < 3 && l < MaxLevels(); q++) far = far || !(std::fabs(0.5 * (x[q] + x[3 + q]) / levels[l].cell) < 1e15);
+    if (l == MaxLevels() || !(side < PETSC_MAX_REAL) || far) {
       large.push_back(b);
       continue;
     }

@@ -407,6 +407,10 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
     if (cached) phi0 = imp->pd_phi;
     else PetscCall(MSimImplicitObjective(imp, X0, &phi0));
     PetscCall(MSimImplicitObjective(imp, X, &phi));
+    /* the local step sums Phi in another order than MSimImplicitObjective: where the two differ
+       by roundoff near convergence, a cached Phi(x_k) a few ulp low would make every halving
+       fail; compare like with like before halving */
+    if (cached && !(phi <= phi0)) PetscCall(MSimImplicitObjective(imp, X0, &phi0));
     for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
       alpha *= 0.5;
       PetscCall(VecWAXPY(X, -alpha, D, X0));
