@@ -74,6 +74,22 @@ PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The blocks a spring (i, j) adds, in the one order the assembly map relies on: (i,i), (j,j), then
+   (i,j), (j,i) when both ends are free (a fixed end, eliminated, adds none of its own); off says an
+   off-diagonal block. The map's builder, the zero pattern and every assembly visit them through this. */
+template <class F>
+static inline void SpringBlocks(MSimSystem sys, PetscInt i, PetscInt j, F &&f)
+{
+  const PetscInt nfl = sys->nown + sys->nghost;
+  const bool     fi = i < nfl, fj = j < nfl;
+  if (fi) f(i, i, false);
+  if (fj) f(j, j, false);
+  if (fi && fj) {
+    f(i, j, true);
+    f(j, i, true);
+  }
+}
+
 /* Where the spring blocks land in an assembled AIJ matrix, so that later assemblies add straight
    into its value arrays instead of searching each row in MatSetValuesBlocked (39 ms -> a few ms
    for the 101 x 101 cloth's Jacobian). Blocks are listed in MSimSpringsForEach order: (i,i), (j,j),
@@ -117,7 +133,6 @@ static PetscErrorCode AssemblyMapBuild(MSimSystem sys, Mat A, AssemblyMap **out)
   const PetscInt *garray, *ia[2] = {NULL, NULL}, *ja[2] = {NULL, NULL};
   PetscInt        nr, nghostcols = 0;
   PetscBool       done;
-  const PetscInt  nfl = sys->nown + sys->nghost;
   AssemblyMap    *map = new AssemblyMap();
   PetscErrorCode  ierr = 0;
 
@@ -152,15 +167,7 @@ static PetscErrorCode AssemblyMapBuild(MSimSystem sys, Mat A, AssemblyMap **out)
     }
     map->part.push_back((char)q);
   };
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) {
-    const bool fi = i < nfl, fj = j < nfl;
-    if (fi) add_block(i, i);
-    if (fj) add_block(j, j);
-    if (fi && fj) {
-      add_block(i, j);
-      add_block(j, i);
-    }
-  });
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) { SpringBlocks(sys, i, j, [&](PetscInt r, PetscInt col, bool) { add_block(r, col); }); });
   map->diag.resize(3 * sys->nown);
   for (PetscInt r = 0; r < 3 * sys->nown; r++) {
     const PetscInt *lo = ja[0] + ia[0][r], *hi = ja[0] + ia[0][r + 1], *p = std::lower_bound(lo, hi, r);
@@ -200,7 +207,6 @@ static PetscErrorCode AssemblyMapAttach(MSimSystem sys, Mat A)
    the owned diagonal), then the map */
 static PetscErrorCode AssemblePattern(MSimSystem sys, Mat A)
 {
-  const PetscInt    nfl     = sys->nown + sys->nghost;
   const PetscScalar zero[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   PetscErrorCode    ierr    = 0;
 
@@ -210,15 +216,7 @@ static PetscErrorCode AssemblePattern(MSimSystem sys, Mat A)
     const PetscInt gr = sys->local_to_global[r], gc = sys->local_to_global[col];
     ierr = MatSetValuesBlocked(A, 1, &gr, 1, &gc, zero, ADD_VALUES);
   };
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) {
-    const bool fi = i < nfl, fj = j < nfl;
-    if (fi) add(i, i);
-    if (fj) add(j, j);
-    if (fi && fj) {
-      add(i, j);
-      add(j, i);
-    }
-  });
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) { SpringBlocks(sys, i, j, [&](PetscInt r, PetscInt col, bool) { add(r, col); }); });
   PetscCall(ierr);
   for (PetscInt i = 0; i < 3 * sys->nown; i++) {
     const PetscInt row = 3 * sys->rstart + i;
@@ -234,7 +232,6 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoeffici
 {
   const PetscScalar *x, *xn = NULL, *m;
   PetscScalar       *va[2] = {NULL, NULL};
-  const PetscInt     nfree_local = sys->nown + sys->nghost;
   PetscErrorCode     ierr        = 0;
   PetscContainer     container;
   AssemblyMap       *map = NULL;
@@ -286,14 +283,8 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoeffici
       const Vec3 n = (CMap3(xn + 3 * i) - CMap3(xn + 3 * j)).normalized();
       H += (c->damping * sys->damping) * (n * n.transpose());
     }
-    const bool fi = i < nfree_local, fj = j < nfree_local;
-    if (fi) add(i, i, H);
-    if (fj) add(j, j, H);
-    if (fi && fj) {
-      const Mat3 Hn = -H;
-      add(i, j, Hn);
-      add(j, i, Hn);
-    }
+    const Mat3 Hn = -H;
+    SpringBlocks(sys, i, j, [&](PetscInt r, PetscInt col, bool off) { add(r, col, off ? Hn : H); });
   });
   PetscCall(ierr);
   PetscCall(VecRestoreArrayRead(sys->xloc, &x));
