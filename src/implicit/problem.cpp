@@ -124,22 +124,16 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
   PetscBool feasible = PETSC_TRUE;
 
   PetscFunctionBeginUser;
-  if (imp->guess_type == MSIM_GUESS_EXTRAPOLATE) {
-    if (imp->vprev_valid) PetscCall(VecAXPBYPCZ(imp->Vstar, 2.0, -1.0, 0.0, V, imp->Vprev));
-    else {
+  if (imp->guess_type == MSIM_GUESS_EXTRAPOLATE || imp->guess_type == MSIM_GUESS_FILTERED) {
+    if (!imp->vprev_valid) { /* W = v_n + h a_e */
       PetscCall(VecCopy(V, imp->Vstar));
       PetscCall(MSimImplicitAddExternalAcceleration(imp, imp->h, imp->Vstar));
-    }
-    PetscCall(imp->scheme->ops.predict(imp->scheme, imp, V, imp->Vstar, X));
-  } else if (imp->guess_type == MSIM_GUESS_FILTERED) {
-    if (imp->vprev_valid) { /* W = v_n + A^-1 M (v_n - v_{n-1}) */
+    } else if (imp->guess_type == MSIM_GUESS_EXTRAPOLATE) PetscCall(VecAXPBYPCZ(imp->Vstar, 2.0, -1.0, 0.0, V, imp->Vprev));
+    else { /* W = v_n + A^-1 M (v_n - v_{n-1}) */
       PetscCall(VecWAXPY(imp->Vwork, -1.0, imp->Vprev, V));
       PetscCall(VecPointwiseMult(imp->Vwork, imp->Vwork, imp->sys->mass));
       PetscCall(MSimImplicitPDSolve(imp, imp->Vwork, NULL, imp->Vstar));
       PetscCall(VecAXPY(imp->Vstar, 1.0, V));
-    } else {
-      PetscCall(VecCopy(V, imp->Vstar));
-      PetscCall(MSimImplicitAddExternalAcceleration(imp, imp->h, imp->Vstar));
     }
     PetscCall(imp->scheme->ops.predict(imp->scheme, imp, V, imp->Vstar, X));
   } else if (imp->guess_type == MSIM_GUESS_INERTIAL) PetscCall(VecCopy(imp->Y, X));
@@ -192,8 +186,6 @@ PetscErrorCode MSimImplicitAddExternalAcceleration(MSimImplicit imp, PetscReal s
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The quadratic terms w/2 |x - c|^2 that ride on the inertia pass: the first one's (w, c) fused
-   into that pass (w = 0 and c = y without one); *next is the index to continue from. */
 PetscErrorCode MSimImplicitSetReference(MSimImplicit imp, Vec xref, PetscReal tref, PetscReal tx)
 {
   PetscFunctionBeginUser;
@@ -217,6 +209,8 @@ PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The quadratic terms w/2 |x - c|^2 that ride on the inertia pass: the first one's (w, c) fused
+   into that pass (w = 0 and c = y without one); *next is the index to continue from. */
 static PetscErrorCode FirstDiagonal(MSimImplicit imp, PetscReal *w, Vec *c, PetscInt *next)
 {
   PetscFunctionBeginUser;
