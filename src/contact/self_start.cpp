@@ -14,9 +14,7 @@
 #include <msim/private/selfcontactimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/errors.h>
-#include <array>
 #include <cmath>
-#include <unordered_map>
 
 namespace
 {
@@ -83,7 +81,8 @@ PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContac
     for (int k = 0; k < n; k++) o.ids[k] = (PetscReal)s->vid[v[k]];
     if (o.Worse(worst)) worst = o;
   };
-  /* triangles hashed into every cell (of their mean box size) their box grown by dhat overlaps */
+  /* the triangles' boxes grown by the gap, in the term's grid (each box binned once, by its centre,
+     at the level of its size: one large triangle costs no more than a small one) */
   std::vector<PetscReal> box(6 * nt);
   PetscReal              cell = 0;
   for (PetscInt t = 0; t < nt; t++) {
@@ -94,37 +93,12 @@ PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContac
       cell += (b[3 + c] - b[c]) / (3.0 * nt);
     }
   }
-  cell = PetscMax(cell, PETSC_SMALL);
-  auto key = [&](const std::array<long long, 3> &i) { return ((unsigned long long)(i[0] & 0x1FFFFF) << 42) | ((unsigned long long)(i[1] & 0x1FFFFF) << 21) | (unsigned long long)(i[2] & 0x1FFFFF); };
-  auto cellof = [&](const PetscReal *p) { return std::array<long long, 3>{(long long)std::floor(p[0] / cell), (long long)std::floor(p[1] / cell), (long long)std::floor(p[2] / cell)}; };
-  std::unordered_map<unsigned long long, std::vector<PetscInt>> grid;
-  for (PetscInt t = 0; t < nt; t++) {
-    const std::array<long long, 3> a = cellof(&box[6 * t]), z = cellof(&box[6 * t + 3]);
-    for (long long i = a[0]; i <= z[0]; i++)
-      for (long long j = a[1]; j <= z[1]; j++)
-        for (long long k = a[2]; k <= z[2]; k++) grid[key({i, j, k})].push_back(t);
-  }
-  std::vector<PetscInt> stamp(nt, -1);
-  PetscInt              nquery = 0;
+  MSimBoxGrid grid;
+  grid.Build(box, PetscMax(cell, PETSC_SMALL));
   /* f(t) once for every triangle whose grown box overlaps the box [lo, hi] */
   auto query = [&](const PetscReal *lo, const PetscReal *hi, auto &&f) {
-    const std::array<long long, 3> a = cellof(lo), z = cellof(hi);
-    nquery++;
-    for (long long i = a[0]; i <= z[0]; i++)
-      for (long long j = a[1]; j <= z[1]; j++)
-        for (long long k = a[2]; k <= z[2]; k++) {
-          auto it = grid.find(key({i, j, k}));
-          if (it == grid.end()) continue;
-          for (PetscInt t : it->second) {
-            const PetscReal *b  = &box[6 * t];
-            bool             in = stamp[t] != nquery;
-            for (int c = 0; c < 3; c++) in = in && lo[c] <= b[3 + c] && hi[c] >= b[c];
-            if (in) {
-              stamp[t] = nquery;
-              f(t);
-            }
-          }
-        }
+    const PetscReal q[6] = {lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]};
+    grid.Query(q, f);
   };
   /* point-triangle pairs */
   for (PetscInt v = 0; v < (PetscInt)s->vid.size(); v++)
