@@ -6,7 +6,12 @@
    joined to that one by the tet's edge springs: ghosts or fixed slots like any spring end; a tet
    whose edge is no spring gets its ghost all the same). Forces on ghost slots go to their owners
    with one reverse scatter. The explicit force, the energies, the Gershgorin bound, the spectrum's
-   K and the implicit term 'volume' (src/implicit/terms/volume.cpp) all call these. */
+   K and the implicit term 'volume' (src/implicit/terms/volume.cpp) all call these.
+   With kv = 0 (-msim_volume_stiffness 0: the inversion barrier alone) the term is zero on every
+   tet above J = jhat, and the energy, gradient and Hessian passes skip the tets that the safe
+   radii of the last reference (kept by a gradient pass for max_step) prove above jhat: the same
+   sums as a pass over every tet, at the cost of one pass over the slots and the few tets near
+   the barrier. */
 #pragma once
 #include <msim/system.h>
 

@@ -12,15 +12,72 @@ static msim::TetMaterial Material(MSimSystem sys)
   return {sys->tets.kv, sys->tets.kappa, sys->tets.jhat};
 }
 
+/* Whether max_step and the passes have a reference: X's local slots at an earlier gradient pass
+   (xref), each tet's g and L there (gl) and each slot's least safe radius^2 (r2slot) */
+static bool HasReference(MSimSystem sys)
+{
+  const MSimTets &T = sys->tets;
+  return T.gl.size() == 2 * T.V0.size() && T.xref.size() == (size_t)(3 * sys->nloc) && T.r2slot.size() == (size_t)sys->nloc;
+}
+
+/* Whether a pass may skip tets: the barrier alone (kv = 0), where psi, psi' and psi'' are zero for
+   J >= jhat, and a reference. */
+static bool CanSkip(MSimSystem sys)
+{
+  const MSimTets &T = sys->tets;
+  return T.kv == 0 && T.kappa > 0 && !T.noskip && HasReference(sys);
+}
+
+/* The tets that the reference does not prove safe, in increasing order (T.active), given m2, each
+   local slot's squared motion bound from the reference. A tet is safe (J > jhat all along) when
+   its 4 slots' largest m2 is within its safe radius (msim::TetWithinSafeRadius); the tets at or
+   below jhat at the reference (T.inside) never are. A slot with m2 below r2slot, the least
+   radius^2 of its other tets (taken a little short of the test's bound), passes that test for all
+   of them, so only the tets of the other slots are met (a bit per tet, read in order: no sort)
+   and tested: one pass over the slots and a few tets, instead of a pass over every tet. Returns
+   how many of the tets kept were above jhat at the reference (drift: the reference is getting
+   old). */
+static size_t ActiveTets(MSimSystem sys)
+{
+  MSimTets       &T  = sys->tets;
+  const double   *m2 = T.m2.data(), *gl = T.gl.data(), *r2 = T.r2slot.data();
+  const PetscInt *sl = T.slot.data();
+  uint64_t       *bit = T.mark.data();
+  size_t          drifted = 0;
+
+  for (PetscInt c : T.inside) bit[c >> 6] |= (uint64_t)1 << (c & 63);
+  for (PetscInt s = 0; s < sys->nloc; s++) {
+    if (m2[s] < r2[s]) continue;
+    for (PetscInt k = T.s2t_ptr[s]; k < T.s2t_ptr[s + 1]; k++) bit[T.s2t[k] >> 6] |= (uint64_t)1 << (T.s2t[k] & 63);
+  }
+  T.active.clear();
+  for (size_t w = 0; w < T.mark.size(); w++) {
+    for (uint64_t b = bit[w]; b; b &= b - 1) {
+      const PetscInt  c  = (PetscInt)(64 * w + __builtin_ctzll(b));
+      const PetscInt *q4 = sl + 4 * c;
+      if (gl[2 * c] > 0) { /* not inside: the tet's own test */
+        if (msim::TetWithinSafeRadius(std::max(std::max(m2[q4[0]], m2[q4[1]]), std::max(m2[q4[2]], m2[q4[3]])), gl[2 * c], gl[2 * c + 1])) continue;
+        drifted++;
+      }
+      T.active.push_back(c);
+    }
+    bit[w] = 0;
+  }
+  return drifted;
+}
+
 /* f(c, x[4]) for every tet of this rank at X (t: the fixed slots' time). xloc gets X's owned rows
    too (a copy, cheap next to the tets), so that each vertex is read from one array, without a
-   branch per vertex in the per-iteration passes. */
+   branch per vertex in the per-iteration passes. With skip (CanSkip), only the tets the reference
+   does not prove safe (ActiveTets with m2 = |x_s - xref_s|^2): J > jhat at the others, where the
+   barrier alone is zero, with its gradient and Hessian. Where more than 1 tet in 32 that the
+   reference had above jhat is no longer skipped, the next gradient pass takes a new reference. */
 template <class F>
-static PetscErrorCode ForEachTet(MSimSystem sys, PetscReal t, Vec X, F &&f)
+static PetscErrorCode ForEachTet(MSimSystem sys, PetscReal t, Vec X, F &&f, bool skip = false)
 {
   const PetscScalar *xo;
   PetscScalar       *xl;
-  const MSimTets    &T = sys->tets;
+  MSimTets          &T  = sys->tets;
   const PetscInt    *sl = T.slot.data();
 
   PetscFunctionBeginUser;
@@ -29,10 +86,22 @@ static PetscErrorCode ForEachTet(MSimSystem sys, PetscReal t, Vec X, F &&f)
   PetscCall(VecGetArrayRead(X, &xo));
   PetscCall(VecGetArray(sys->xloc, &xl));
   PetscCall(PetscArraycpy(xl, xo, 3 * sys->nown));
-  for (size_t c = 0; c < T.V0.size(); c++) {
-    const double *x[4] = {xl + 3 * sl[4 * c], xl + 3 * sl[4 * c + 1], xl + 3 * sl[4 * c + 2], xl + 3 * sl[4 * c + 3]};
+  auto one = [&](size_t c) {
+    const PetscInt *q4   = sl + 4 * c;
+    const double   *x[4] = {xl + 3 * q4[0], xl + 3 * q4[1], xl + 3 * q4[2], xl + 3 * q4[3]};
     f(c, x);
-  }
+  };
+  if (skip) {
+    const double *xr = T.xref.data();
+    T.m2.resize(sys->nloc);
+    for (PetscInt s = 0; s < sys->nloc; s++) {
+      const double d0 = xl[3 * s] - xr[3 * s], d1 = xl[3 * s + 1] - xr[3 * s + 1], d2 = xl[3 * s + 2] - xr[3 * s + 2];
+      T.m2[s]         = d0 * d0 + d1 * d1 + d2 * d2;
+    }
+    if (128 * ActiveTets(sys) > T.V0.size()) T.refresh = true;
+    for (PetscInt c : T.active) one(c);
+  } else
+    for (size_t c = 0; c < T.V0.size(); c++) one(c);
   PetscCall(VecRestoreArray(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(X, &xo));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -49,7 +118,8 @@ PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal modulus)
      so the term stiffens uniform compression by 15% and the explicit limit little; the barrier,
      not kv, keeps tets from inverting */
   if (T.kv < 0) T.kv = 0.1 * modulus;
-  if (T.kappa < 0) T.kappa = T.kv;
+  /* the barrier alone (kv = 0) keeps the stiffness kv would have had by default */
+  if (T.kappa < 0) T.kappa = T.kv > 0 ? T.kv : 0.1 * modulus;
   PetscCheck(T.kv >= 0 && T.kappa >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_volume_stiffness and -msim_volume_kappa must be >= 0 Pa (got %g, %g)", (double)T.kv, (double)T.kappa);
   if (T.kv == 0 && T.kappa == 0) {
     T.ntet = 0; /* nothing to compute */
@@ -83,6 +153,34 @@ static PetscErrorCode KeepReference(MSimSystem sys)
   PetscCall(VecGetArrayRead(sys->xloc, &xl));
   PetscCall(PetscArraycpy(T.xref.data(), xl, 3 * sys->nloc));
   PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
+  if (T.s2t_ptr.size() != (size_t)(sys->nloc + 1)) { /* the slots' tets, once */
+    T.s2t_ptr.assign(sys->nloc + 1, 0);
+    for (PetscInt q : T.slot) T.s2t_ptr[q + 1]++;
+    for (PetscInt s = 0; s < sys->nloc; s++) T.s2t_ptr[s + 1] += T.s2t_ptr[s];
+    std::vector<PetscInt> next(T.s2t_ptr.begin(), T.s2t_ptr.end() - 1);
+    T.s2t.resize(T.slot.size());
+    for (size_t c = 0; c < T.V0.size(); c++)
+      for (int q = 0; q < 4; q++) T.s2t[next[T.slot[4 * c + q]]++] = (PetscInt)c;
+    T.mark.assign((T.V0.size() + 63) / 64, 0);
+  }
+  /* each slot's least radius^2 over its tets above jhat: r^2 < min(L / 100, g^2 / (2.78 L)^2),
+     taken short by 1e-9 so that m2 below it passes msim::TetWithinSafeRadius despite the roundoff
+     of the division; the others (g <= 0, or NaN) are always computed (inside); slots of no such
+     tet never bound anything */
+  T.r2slot.assign(sys->nloc, PETSC_INFINITY);
+  T.inside.clear();
+  for (size_t c = 0; c < T.V0.size(); c++) {
+    const double g = T.gl[2 * c], L = T.gl[2 * c + 1];
+    if (!(g > 0 && L > 0)) {
+      T.inside.push_back((PetscInt)c);
+      continue;
+    }
+    const double r2 = std::min(0.01 * L, g * g / (7.7284 * L * L)) * (1 - 1e-9);
+    for (int q = 0; q < 4; q++) {
+      double &r = T.r2slot[T.slot[4 * c + q]];
+      r         = std::min(r, r2);
+    }
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -92,10 +190,12 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
   const msim::TetMaterial m = Material(sys);
   PetscScalar            *f = NULL, *fl = NULL;
   PetscReal               local = 0;
-  /* an implicit gradient pass with the barrier also keeps each tet's safe radius at X, so that
-     max_step from (near) X skips the tets no vertex motion of the step can bring to jhat; only
-     when max_step asked for it (T.refresh): an old reference stays valid, only less tight */
-  const bool radii = F && !clamp && T.kappa > 0 && T.refresh;
+  /* a gradient pass with the barrier also keeps each tet's safe radius at X, so that max_step
+     from (near) X skips the tets no vertex motion of the step can bring to jhat (and, with the
+     barrier alone, so do the passes); only when max_step or a pass asked for it (T.refresh): an
+     old reference stays valid, only less tight. Such a pass computes every tet. */
+  const bool radii = F && T.kappa > 0 && T.refresh;
+  const bool skip  = !radii && CanSkip(sys);
   PetscReal *gl    = NULL;
 
   PetscFunctionBeginUser;
@@ -113,12 +213,18 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
     T.refresh = false;
   }
   PetscCall(ForEachTet(sys, t, X, [&](size_t c, const double *const x[4]) {
-    double       g[12], psi = 0, dpsi = 0;
+    double       g[12] = {0}, psi = 0, dpsi = 0; /* g: set where F is (the compiler cannot tell) */
     const double V0 = T.V0[c]; /* > 0 */
-    const double J  = (F ? msim::TetVolumeGradient(x, g) : msim::TetSignedVolume(x[0], x[1], x[2], x[3])) * T.iV0[c];
+    /* a reference pass of the barrier alone computes every tet's J, and dJ/dx only below jhat */
+    const bool   lazy = gl && m.kv == 0;
+    const double J    = (F && !lazy ? msim::TetVolumeGradient(x, g) : msim::TetSignedVolume(x[0], x[1], x[2], x[3])) * T.iV0[c];
     if (gl) {
       gl[2 * c]     = 6 * V0 * (J - m.jhat); /* msim::TetSafeGap, V0 > 0 */
       gl[2 * c + 1] = msim::TetEdgeSquares(x);
+    }
+    if (lazy) {
+      if (J >= m.jhat) return; /* psi = psi' = 0 (clamp or not) */
+      if (F) msim::TetVolumeGradient(x, g);
     }
     /* clamp (the explicit force): J held at jhat/100 or more in the barrier, so that an inverted
        tet is pushed back by a finite force instead of none (psi is +inf there) */
@@ -132,7 +238,7 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
       double *fs = fl + 3 * T.slot[4 * c + q];
       for (int k = 0; k < 3; k++) fs[k] += coef * g[3 * q + k];
     }
-  }));
+  }, skip));
   if (F) {
     for (PetscInt i = 0; i < 3 * sys->nown; i++) f[i] += fl[i];
     PetscCall(VecRestoreArray(sys->floc, &fl));
@@ -141,14 +247,14 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
     PetscCall(MSimSystemGhostsAdd(sys, sys->floc, F));
   }
   if (e) *e += local;
-  PetscCall(PetscLogFlops(150.0 * T.V0.size()));
+  PetscCall(PetscLogFlops((skip ? 15.0 : 150.0) * T.V0.size()));
   PetscCall(PetscLogEventEnd(MSIM_Volume, X, F, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, PetscReal w, PetscBool psd, Mat J)
 {
-  const MSimTets         &T   = sys->tets;
+  const MSimTets         &T   = sys->tets; /* a skipped tet's block is zero (kv = 0, J > jhat) */
   const msim::TetMaterial m   = Material(sys);
   const PetscInt          nfl = sys->nown + sys->nghost;
   PetscErrorCode          ierr = PETSC_SUCCESS;
@@ -170,7 +276,7 @@ PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, Petsc
     for (int a = 0; a < 12; a++)
       for (int b = 0; b < 12; b++) blk[12 * a + b] = w * H(a, b);
     ierr = MatSetValues(J, 12, idx, 12, idx, blk, ADD_VALUES);
-  }));
+  }, CanSkip(sys)));
   PetscCall(ierr);
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
@@ -182,7 +288,8 @@ PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, Petsc
    from the last gradient pass (xref, gl), m_s = |x_s - xref_s| + amax |y_s| bounds how far each
    local slot gets from the reference along X - a Y, a in [0, amax]; a tet whose 4 slots all stay
    within its safe radius keeps J > jhat on the whole segment (msim::TetWithinSafeRadius): it
-   neither inverts nor meets the barrier, so its root is beyond amax and it is skipped. */
+   neither inverts nor meets the barrier, so its root is beyond amax and it is skipped (the others
+   found by ActiveTets). */
 PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha, PetscBool *barrier)
 {
   MSimTets          &T = sys->tets;
@@ -190,7 +297,7 @@ PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y
   PetscScalar       *xl, *yl;
   const PetscReal    amax = *alpha / 0.8;
   PetscReal          r[2] = {*alpha, 1}; /* the step, and 1 while no tet may meet the barrier */
-  const bool         ref  = T.gl.size() == 2 * T.V0.size() && T.xref.size() == (size_t)(3 * sys->nloc);
+  const bool         ref  = HasReference(sys);
   const PetscInt    *sl   = T.slot.data();
   PetscInt           exact = 0;
 
@@ -224,9 +331,11 @@ PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y
       T.m2[s]         = mv * mv;
     }
   }
-  for (size_t c = 0; c < T.V0.size(); c++) {
+  if (ref) (void)ActiveTets(sys); /* its drift is not max_step's rule: exact below */
+  const size_t ncheck = ref ? T.active.size() : T.V0.size();
+  for (size_t k = 0; k < ncheck; k++) {
+    const size_t    c  = ref ? (size_t)T.active[k] : k;
     const PetscInt *q4 = sl + 4 * c;
-    if (ref && msim::TetWithinSafeRadius(std::max(std::max(T.m2[q4[0]], T.m2[q4[1]]), std::max(T.m2[q4[2]], T.m2[q4[3]])), T.gl[2 * c], T.gl[2 * c + 1])) continue;
     const double *x[4] = {xl + 3 * q4[0], xl + 3 * q4[1], xl + 3 * q4[2], xl + 3 * q4[3]};
     const double *y[4] = {yl + 3 * q4[0], yl + 3 * q4[1], yl + 3 * q4[2], yl + 3 * q4[3]};
     /* the barrier's 0.8 (IPC's CCD filter, as the obstacles): the line search starts short of

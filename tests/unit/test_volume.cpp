@@ -29,10 +29,11 @@ static PetscErrorCode TestKernels(void)
 {
   std::mt19937                           gen(7);
   std::uniform_real_distribution<double> u(-1, 1);
-  const msim::TetMaterial                m = {3.0, 2.0, 0.6};
-
   PetscFunctionBeginUser;
-  for (int trial = 0; trial < 6; trial++) {
+  /* trials 6..11: the barrier alone (kv 0), inside its reach only (zero beyond) */
+  for (int trial = 0; trial < 12; trial++) {
+    const msim::TetMaterial m = {trial < 6 ? 3.0 : 0.0, 2.0, 0.6};
+    if (trial >= 6 && trial % 2) continue;
     /* a rest tet, then a deformed one with J in (0, jhat) for even trials (the barrier acts) */
     Vec12 X0, x;
     X0 << 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1;
@@ -317,12 +318,133 @@ static PetscErrorCode TestSkip(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The barrier alone (-msim_volume_stiffness 0) on a perturbed box where some tets are inside the
+   barrier's reach (jhat 0.9 against a perturbation of 0.012 m on 0.1 m edges) and most are not,
+   at any rank count:
+   - a gradient pass takes the reference; then at X + dX, random dX from well within the safe
+     radii to beyond them, the passes that skip the tets the reference proves above jhat (energy
+     alone, energy and gradient, Hessian) give what the passes over every tet give (T.noskip) to
+     roundoff: the skipped tets are zero there;
+   - through the implicit problem, its passes skipping: the Jacobian against finite differences of
+     g, and g against finite differences of Phi;
+   - max_step along a long random direction: no tet inverted at X - alpha Y, one flat at
+     alpha / 0.8. */
+static PetscErrorCode TestBarrierAlone(void)
+{
+  TestSim      s;
+  MSimImplicit imp;
+  Mat          H, Hn;
+  Vec          G, Gn, Xs, dX, Y, Z;
+  PetscInt     below = 0, n, bad, skipped_any = 0;
+  PetscReal    alpha, err, nrm;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate("-msim_scene box -msim_box_n 4,3,3 -msim_box_size 0.4,0.3,0.3 -msim_young 1e5 -msim_density 1000 -msim_fix_plane x_min -msim_perturb 0.012 -msim_volume -msim_volume_stiffness 0 -msim_volume_jhat 0.9 -msim_integrator implicit_euler", &s));
+  MSimTets &T = s.sys->tets;
+  n           = T.ntet;
+  /* kappa's default with kv 0: a tenth of the springs' modulus (1e5 Pa here), not kv */
+  CHECK(T.kv == 0 && PetscAbsReal(T.kappa - 1e4) <= 1e-6 * 1e4, "barrier alone: kv %g, kappa %g (expected 0 and 1e4 Pa)", (double)T.kv, (double)T.kappa);
+  PetscCall(MSimImplicitCreate(s.sys, &imp));
+  PetscCall(MSimImplicitSetPSD(imp, PETSC_FALSE));
+  PetscCall(VecSet(s.V, 0.1));
+  PetscCall(MSimImplicitBeginStep(imp, 0.0, 0.01, s.X, s.V));
+  PetscCall(VecDuplicate(s.X, &G));
+  PetscCall(VecDuplicate(s.X, &Gn));
+  PetscCall(VecDuplicate(s.X, &Xs));
+  PetscCall(VecDuplicate(s.X, &dX));
+  PetscCall(VecDuplicate(s.X, &Y));
+  PetscCall(VecDuplicate(s.X, &Z));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &H));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &Hn));
+  T.refresh = true;
+  PetscCall(MSimImplicitResidual(imp, s.X, G)); /* the gradient pass takes the reference */
+  CHECK(T.gl.size() == 2 * T.V0.size() && T.r2slot.size() == (size_t)s.sys->nloc, "no reference after the gradient pass");
+  for (size_t c = 0; c < T.V0.size() && T.gl.size() == 2 * T.V0.size(); c++) below += T.gl[2 * c] <= 0;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &below, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+  NOTE("barrier alone: %d of %d tets below jhat at X\n", (int)below, (int)n);
+  CHECK(below > 0 && below < n / 2, "%d of %d tets below jhat: the mix the skip needs is missing", (int)below, (int)n);
+  for (int k = 0; k < 5; k++) {
+    const PetscReal amp = std::pow(10.0, -6.0 + k); /* 1e-6 .. 1e-2 m */
+    PetscReal       e_skip = 0, e_all = 0, e_only = 0, dg, gn, dh, hn, r[3];
+    PetscInt        computed;
+    PetscCall(SetRandom(dX, -amp, amp));
+    PetscCall(VecWAXPY(Xs, 1.0, dX, s.X));
+    /* skipping passes (the reference kept: refresh off) */
+    T.noskip  = false;
+    T.refresh = false;
+    PetscCall(VecZeroEntries(G));
+    PetscCall(MSimSystemVolumeGradient(s.sys, imp->step.tx, Xs, 1.0, G, &e_skip, PETSC_FALSE));
+    computed  = (PetscInt)T.active.size();
+    T.refresh = false;
+    PetscCall(MSimSystemVolumeGradient(s.sys, imp->step.tx, Xs, 0.0, NULL, &e_only, PETSC_FALSE));
+    PetscCall(MatZeroEntries(H));
+    PetscCall(MSimSystemVolumeHessian(s.sys, imp->step.tx, Xs, 1.0, PETSC_FALSE, H));
+    /* every tet */
+    T.noskip  = true;
+    T.refresh = false;
+    PetscCall(VecZeroEntries(Gn));
+    PetscCall(MSimSystemVolumeGradient(s.sys, imp->step.tx, Xs, 1.0, Gn, &e_all, PETSC_FALSE));
+    PetscCall(MatZeroEntries(Hn));
+    PetscCall(MSimSystemVolumeHessian(s.sys, imp->step.tx, Xs, 1.0, PETSC_FALSE, Hn));
+    T.noskip = false;
+    r[0]     = e_skip;
+    r[1]     = e_only;
+    r[2]     = e_all;
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, r, 3, MPIU_REAL, MPIU_SUM, PETSC_COMM_WORLD));
+    PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &computed, 1, MPIU_INT, MPI_SUM, PETSC_COMM_WORLD));
+    PetscCall(VecNorm(Gn, NORM_2, &gn));
+    PetscCall(VecAXPY(G, -1.0, Gn));
+    PetscCall(VecNorm(G, NORM_2, &dg));
+    PetscCall(MatNorm(Hn, NORM_FROBENIUS, &hn));
+    PetscCall(MatAXPY(Hn, -1.0, H, UNKNOWN_NONZERO_PATTERN));
+    PetscCall(MatNorm(Hn, NORM_FROBENIUS, &dh));
+    NOTE("  |dX| <= %.0e m: %d of %d tets computed; energy %.15e (skipping) %.15e (energy alone) %.15e (every tet); gradient differs by %.1e, Hessian by %.1e relative\n", (double)amp, (int)computed, (int)n, (double)r[0], (double)r[1], (double)r[2], (double)(dg / gn), (double)(dh / hn));
+    if (computed < n) skipped_any++;
+    CHECK(r[2] > 0 && PetscAbsReal(r[0] - r[2]) <= 1e-14 * r[2] && PetscAbsReal(r[1] - r[2]) <= 1e-14 * r[2], "|dX| <= %g: energies %.17g, %.17g skipping, %.17g over every tet", (double)amp, (double)r[0], (double)r[1], (double)r[2]);
+    CHECK(gn > 0 && dg <= 1e-14 * gn, "|dX| <= %g: the skipping gradient differs by %g relative", (double)amp, (double)(dg / gn));
+    CHECK(hn > 0 && dh <= 1e-14 * hn, "|dX| <= %g: the skipping Hessian differs by %g relative", (double)amp, (double)(dh / hn));
+    CHECK(computed >= below, "|dX| <= %g: %d tets computed, fewer than the %d below jhat", (double)amp, (int)computed, (int)below);
+  }
+  CHECK(skipped_any >= 3, "the skip left out tets at only %d of 5 sizes: not tested", (int)skipped_any);
+  /* finite differences through the problem, whose passes skip (from the reference at X) */
+  {
+    Mat J;
+    PetscCall(MSimSystemCreateMatrix(s.sys, &J));
+    T.refresh = true;
+    PetscCall(MSimImplicitResidual(imp, s.X, G)); /* a fresh reference at X */
+    PetscCall(MSimImplicitJacobian(imp, s.X, J));
+    PetscCall(SetRandom(dX, -1e-3, 1e-3));
+    PetscCall(JacobianFDError(imp, J, s.X, dX, 1e-7, &err, &nrm));
+    NOTE("barrier alone: Jacobian vs finite differences of g: relative error %.2e (%d tets computed in the last pass)\n", (double)(err / nrm), (int)T.active.size());
+    CHECK(err <= 1e-6 * nrm, "barrier alone: Jacobian off by %g relative", (double)(err / nrm));
+    PetscReal gd, fd;
+    PetscCall(ObjectiveFDError(imp, s.X, dX, 1e-4, &gd, &fd));
+    NOTE("barrier alone: g . d %.10e vs dPhi/de %.10e\n", (double)gd, (double)fd);
+    CHECK(std::abs(gd - fd) <= 1e-6 * std::abs(gd), "barrier alone: g is not the gradient of Phi");
+    PetscCall(MatDestroy(&J));
+  }
+  /* max_step is the full term's (the skip changes nothing there) */
+  PetscCall(SetRandom(Y, -1.0, 1.0));
+  alpha = 1;
+  PetscCall(MSimImplicitMaxStep(imp, s.X, Y, &alpha));
+  PetscCall(VecWAXPY(Z, -alpha, Y, s.X));
+  PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+  NOTE("barrier alone: max_step %.6f, %d tets inverted there\n", (double)alpha, (int)bad);
+  CHECK(alpha < 1 && bad == 0, "barrier alone: max_step %g leaves %d tets inverted (or the direction tests nothing)", (double)alpha, (int)bad);
+  PetscCall(VecWAXPY(Z, -alpha / 0.8 * (1 + 1e-9), Y, s.X));
+  PetscCall(MSimSystemVolumeCountInverted(s.sys, imp->step.tx, Z, &bad));
+  CHECK(bad >= 1, "barrier alone: at max_step / 0.8 no tet is flat");
+  PetscCall(MSimDestroy(&G, &Gn, &Xs, &dX, &Y, &Z, &H, &Hn, &imp, &s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode TestVolume(void)
 {
   PetscFunctionBeginUser;
   PetscCall(TestKernels());
   PetscCall(TestProblem());
   PetscCall(TestSkip());
+  PetscCall(TestBarrierAlone());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -7,6 +7,7 @@
 #include <msim/ghost_exchange.h>
 #include <msim/exchange.h>
 #include <vector>
+#include <cstdint>
 #include <string>
 
 /* Owned springs. Endpoints are local vertex slots: [0, nown) owned (also the rows of the rank's
@@ -52,6 +53,16 @@ typedef struct {
      (3 per local slot) and each tet's g and L there (msim::TetWithinSafeRadius); m2: work */
   std::vector<PetscReal> xref, gl, m2;
   bool                   refresh = true; /* the next implicit gradient pass takes a new reference */
+  /* barrier alone (kv = 0): the energy, gradient and Hessian passes skip the tets the reference
+     proves above jhat (zero there); noskip: every tet computed (the unit test's comparison) */
+  bool                   noskip = false;
+  /* the skip's slot filter (src/springs/volume.cpp's ActiveTets): per local slot the least safe
+     radius^2 of its tets above jhat at the reference, the tets at or below it there (inside), the
+     slots' tets (CSR: s2t[s2t_ptr[s] .. s2t_ptr[s+1]]), and work (a bit per tet met, the tets
+     not proven safe) */
+  std::vector<PetscReal> r2slot;
+  std::vector<PetscInt>  inside, s2t_ptr, s2t, active;
+  std::vector<uint64_t>  mark;
 } MSimTets;
 
 struct _n_MSimSystem {

@@ -7,7 +7,9 @@
    right-hand side (lagged, as the obstacles' barrier), the PD matrix unchanged, and the global step
    shortened by max_step and halved until Phi does not rise (src/implicit/pd_steps.cpp) - not
    Bouaziz's volume projection with a weight in the matrix. Schemes whose unknown is not x_{n+1}
-   (midpoint, Newmark) are refused while the barrier is on, as the obstacles' are. */
+   (midpoint, Newmark) are refused while the barrier is on, as the obstacles' are. With kv = 0
+   (the barrier alone) every pass skips the tets the safe radii prove above jhat (msim/volume.h),
+   and PD's Phi check (pd_check) is asked for only where some tet may come below jhat. */
 #include <msim/implicit.h>
 #include <msim/volume.h>
 #include <msim/private/systemimpl.h>
