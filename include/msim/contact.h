@@ -22,6 +22,9 @@ PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscRea
 void           MSimMeshObstacleDestroy(MSimMeshObstacle *mesh);
 /* points farther than band from the surface are taken as outside without the inside test */
 void MSimMeshObstacleSetBand(MSimMeshObstacle mesh, PetscReal band);
+/* the band's queries from the candidate cache (default) or, PETSC_FALSE, from the tree at every
+   query: both give the same answers (tests/unit/test_mesh_obstacle.cpp compares them) */
+void MSimMeshObstacleSetCache(MSimMeshObstacle mesh, PetscBool use);
 /* file name, triangles, closed (every edge in two triangles: the cloth stays outside) */
 void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *ntri, PetscBool *closed);
 /* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,

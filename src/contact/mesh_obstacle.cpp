@@ -21,11 +21,17 @@
      2021, "Codimensional IPC", additive CCD without the additive part): the distance is
      1-Lipschitz, so moving by 0.9 d/|u| along u can never reach the shell; repeat until the step
      is covered or the gap is a tenth of the start's. The segment x -> x + t u then neither
-     crosses the surface nor enters the shell. */
+     crosses the surface nor enters the shell.
+   - Candidate cache (MeshCell below): the band's queries (distance, side, safe step) read the
+     triangles near a grid cell's centre, collected once per cell, instead of the tree at every
+     evaluation; the answers are exactly the tree's (the arguments are at MeshCell). */
 #include <msim/contact.h>
 #include <msim/mesh.h>
 #include <msim/errors.h>
+#include <msim/log.h>
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <map>
 #include <string>
 #include <vector>
@@ -56,7 +62,35 @@ struct _n_MSimMeshObstacle {
   Tree::Point_and_primitive_id last;
   bool                         has_last = false;
   std::vector<Primitive::Id>   near; /* the cube query's triangles (kept: no allocation per query) */
+  /* the candidate cache (MeshCell): cells of width cw from the origin org, keyed by their integer
+     coordinates (21 bits each) in an open-addressing table of slots (a power of two, half full at
+     most; std::unordered_map's node per cell and division per lookup were a fifth of a draped
+     cloth's run, and a lookup is a cache miss: a slot holds what the queries read); a cell's
+     candidates are pool[off, off + n), the triangles within band + smax of its centre (smax: the
+     cell's half-diagonal) sorted by their distance dc to the centre; ref indexes refs (~0: none) */
+  struct Candidate {
+    const Triangle *T;
+    PetscReal       dc;
+  };
+  struct Slot {
+    uint64_t key; /* ~0: empty */
+    uint32_t off, n, ref;
+  };
+  struct Ref {
+    PetscReal x[3]; /* a point of the cell whose side a ray has settled */
+    bool      inside;
+  };
+  bool                   use_cells = true; /* MSimMeshObstacleSetCache (tests compare both) */
+  PetscReal              cw = 0, smax = 0, org[3];
+  std::vector<Slot>      slots;
+  size_t                 ncells = 0;
+  uint64_t               last_key = ~(uint64_t)0; /* the last lookup (a safe step asks twice) */
+  size_t                 last_slot = 0;
+  std::vector<Candidate> pool;
+  std::vector<Ref>       refs;
 };
+
+static PetscLogEvent MSIM_MeshCells; /* a cell's candidates collected (the cache's rebuilds) */
 
 /* closest point p on triangle (a, b, c) to x; region 0 face, 1 edge (e its unit direction), 2 vertex */
 static void ClosestOnTriangle(const PetscReal x[3], const Triangle &T, PetscReal p[3], int *region, PetscReal e[3])
@@ -120,11 +154,13 @@ static bool RayHits(const PetscReal o[3], const PetscReal d[3], const Triangle &
   return true;
 }
 
-/* a closed surface: x inside by the parity of a ray's crossings, retried on a degenerate ray */
-static bool Inside(MSimMeshObstacle mo, const PetscReal x[3])
+/* a closed surface: x inside by the parity of a ray's crossings, retried on a degenerate ray;
+   *ok false when all six rays were degenerate (x on the surface, to roundoff) */
+static bool Inside(MSimMeshObstacle mo, const PetscReal x[3], bool *ok = NULL)
 {
   static const PetscReal dirs[6][3] = {
     {0.5773, 0.5774, 0.5775}, {-0.2673, 0.5345, 0.8018}, {0.8729, -0.2182, 0.4364}, {-0.4082, -0.8165, 0.4082}, {0.3015, 0.3015, -0.9045}, {-0.7071, 0.0, -0.7071}};
+  if (ok) *ok = true;
   for (int c = 0; c < 3; c++)
     if (x[c] < mo->lo[c] || x[c] > mo->hi[c]) return false;
   for (const auto &d : dirs) {
@@ -136,7 +172,170 @@ static bool Inside(MSimMeshObstacle mo, const PetscReal x[3])
     for (const auto &id : hit) count += RayHits(x, d, *id, &degenerate);
     if (!degenerate) return count % 2 == 1;
   }
+  if (ok) *ok = false;
   return false; /* six degenerate rays: a point on the surface itself, which distance 0 refuses anyway */
+}
+
+/* The segment o -> o + d (|d| = dl) crosses T in its interior; *degenerate when the crossing is
+   within roundoff of an edge, a vertex or an end of the segment (lentol: a length), or the segment
+   runs nearly in T's plane: there the count may be wrong and the caller asks a ray instead */
+static bool SegmentCrosses(const PetscReal o[3], const PetscReal d[3], PetscReal dl, const Triangle &T, PetscReal lentol, bool *degenerate)
+{
+  PetscReal e1[3], e2[3], s[3], pv[3], qv[3];
+  for (int k = 0; k < 3; k++) e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], s[k] = o[k] - T[0][k];
+  pv[0] = d[1] * e2[2] - d[2] * e2[1], pv[1] = d[2] * e2[0] - d[0] * e2[2], pv[2] = d[0] * e2[1] - d[1] * e2[0];
+  const PetscReal det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
+  const PetscReal n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const PetscReal nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  if (std::abs(det) <= 1e-10 * nn * dl) {
+    *degenerate = true;
+    return false;
+  }
+  const PetscReal u = (s[0] * pv[0] + s[1] * pv[1] + s[2] * pv[2]) / det;
+  qv[0] = s[1] * e1[2] - s[2] * e1[1], qv[1] = s[2] * e1[0] - s[0] * e1[2], qv[2] = s[0] * e1[1] - s[1] * e1[0];
+  const PetscReal v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) / det, t = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
+  const PetscReal tol = 1e-9, tl = lentol / dl;
+  if (u < -tol || v < -tol || u + v > 1 + tol) return false;
+  if (t < -tl || t > 1 + tl) return false;
+  if (t < tl || t > 1 - tl || u < tol || v < tol || u + v > 1 - tol) {
+    *degenerate = true;
+    return false;
+  }
+  return true;
+}
+
+/* The candidate cache. The band's queries come from the vertices near the surface, at every
+   energy, gradient and safe-step evaluation, each of which asked the tree for the triangles meeting
+   a box (its traversal from the root, 40% of a draped cloth's run) and cast a ray for the side.
+   Space is cut into cells of width cw (a quarter of the band); the first query in a cell collects,
+   once, the triangles within R = band + smax of its centre c (smax = the cell's half-diagonal, so
+   |x - c| <= smax for every x of the cell), with their distances dc to c, sorted by dc. The cell
+   plays the reference position of a per-vertex cache, shared by every vertex that passes through
+   it (the queries carry a position, not a vertex, so the cache is keyed by place), and a vertex
+   "moves more than the margin" when it enters another cell. Memory: the cells visited (near the
+   surface: the callers ask only within band of its box) times their candidates, in a hash map;
+   cleared when the pool passes 2^22 candidates (a cloth that wanders over a large surface).
+   Why the answers are exact, with s = |x - c| <= smax:
+   - nearest: a triangle T within band of x is within band + s <= R of c (dist(c, T) <= |c - x| +
+     dist(x, T)), so it is a candidate; and every T has dist(x, T) >= dc(T) - s (the same
+     inequality the other way), so once dc - s exceeds the nearest distance found so far (or band,
+     before one is found within band) no later candidate is nearer or within band. The nearest
+     within band is the tree's cube query's (only the tie between triangles at the same distance
+     may go to another triangle with the same point, distance and normal).
+   - side: the cell's reference point ref got its side from a ray (as without the cache). x is on
+     ref's side unless the segment ref -> x crosses the closed surface, and an odd number of
+     crossings (each through a triangle's interior) means the other side. Every point of the
+     segment is within max(|ref - c|, |x - c|) <= smax of c (a ball is convex), so only candidates
+     with dc up to that can cross it. A degenerate crossing (near an edge, a vertex or the segment's
+     ends, or along a triangle's plane) sends x to its own ray, as does any x within roundoff of the
+     surface (1e-9 of its diameter, where a ray's answer is roundoff too); a ref is only taken
+     farther than that. The argument is geometric: it holds for any move, so it needs neither the
+     barrier nor the line search to keep vertices outside.
+   - safe step: when the move's box lies within R of c, every triangle meeting the box is a
+     candidate with dc up to the box's farthest point from c; those candidates go through CGAL's
+     own triangle-box test, the one the tree applies to its leaves, so the triangles tested for a
+     crossing are the tree query's, and the hit time is the same minimum. */
+/* a cell as the queries see it: its centre, its candidates pool[off, off + n) and its slot */
+struct MeshCellT {
+  PetscReal c[3];
+  size_t    off, n, slot;
+};
+
+/* the key's slot in the table: its own, or the empty one where it would go (Fibonacci hashing,
+   linear probing) */
+static size_t HashSlot(MSimMeshObstacle mo, uint64_t key)
+{
+  const size_t mask = mo->slots.size() - 1;
+  size_t       s    = (size_t)((key * 0x9E3779B97F4A7C15ull) >> 32) & mask;
+  while (mo->slots[s].key != key && mo->slots[s].key != ~(uint64_t)0) s = (s + 1) & mask;
+  return s;
+}
+
+static void ClearCells(MSimMeshObstacle mo)
+{
+  mo->slots.assign(1024, {~(uint64_t)0, 0, 0, 0});
+  mo->ncells   = 0;
+  mo->last_key = ~(uint64_t)0;
+  mo->pool.clear();
+  mo->refs.clear();
+}
+
+/* x's cell (collected on its first query); false outside the grid, where the tree answers */
+static bool MeshCell(MSimMeshObstacle mo, const PetscReal x[3], MeshCellT *C)
+{
+  const int64_t nmax = ((int64_t)1 << 21) - 1;
+  int64_t       ijk[3];
+  uint64_t      key = 0;
+  for (int c = 0; c < 3; c++) {
+    const PetscReal f = std::floor((x[c] - mo->org[c]) / mo->cw);
+    if (!(f >= 0 && f <= (PetscReal)nmax)) return false; /* outside the grid (or not finite) */
+    ijk[c] = (int64_t)f;
+    key |= (uint64_t)ijk[c] << (21 * c);
+    C->c[c] = mo->org[c] + ((PetscReal)ijk[c] + 0.5) * mo->cw;
+  }
+  size_t slot = key == mo->last_key ? mo->last_slot : HashSlot(mo, key);
+  if (mo->slots[slot].key != key) { /* a new cell: its candidates */
+    PetscCallAbort(PETSC_COMM_SELF, PetscLogEventBegin(MSIM_MeshCells, 0, 0, 0, 0));
+    if (mo->pool.size() > ((size_t)1 << 22) || mo->ncells > ((size_t)1 << 21)) ClearCells(mo); /* a cloth wandering over a large surface: start afresh */
+    if (2 * (mo->ncells + 1) > mo->slots.size()) { /* keep the table at most half full */
+      std::vector<_n_MSimMeshObstacle::Slot> old;
+      old.swap(mo->slots);
+      mo->slots.assign(2 * old.size(), {~(uint64_t)0, 0, 0, 0});
+      for (const auto &o : old)
+        if (o.key != ~(uint64_t)0) mo->slots[HashSlot(mo, o.key)] = o;
+    }
+    slot = HashSlot(mo, key);
+    const PetscReal R = mo->band + mo->smax, slack = 1e-9 * (mo->diam + R);
+    const size_t    off = mo->pool.size();
+    mo->near.clear();
+    mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(C->c[0] - R - slack, C->c[1] - R - slack, C->c[2] - R - slack), Point(C->c[0] + R + slack, C->c[1] + R + slack, C->c[2] + R + slack)), std::back_inserter(mo->near));
+    for (const auto &id : mo->near) {
+      PetscReal p[3], e[3], dc = 0;
+      int       region;
+      ClosestOnTriangle(C->c, *id, p, &region, e);
+      for (int c = 0; c < 3; c++) dc += (C->c[c] - p[c]) * (C->c[c] - p[c]);
+      dc = std::sqrt(dc);
+      if (dc <= R + slack) mo->pool.push_back({&*id, dc});
+    }
+    std::sort(mo->pool.begin() + off, mo->pool.end(), [](const _n_MSimMeshObstacle::Candidate &a, const _n_MSimMeshObstacle::Candidate &b) { return a.dc < b.dc || (a.dc == b.dc && a.T < b.T); });
+    mo->slots[slot] = {key, (uint32_t)off, (uint32_t)(mo->pool.size() - off), ~(uint32_t)0};
+    mo->ncells++;
+    PetscCallAbort(PETSC_COMM_SELF, PetscLogEventEnd(MSIM_MeshCells, 0, 0, 0, 0));
+  }
+  mo->last_key = key, mo->last_slot = slot;
+  C->off = mo->slots[slot].off, C->n = mo->slots[slot].n, C->slot = slot;
+  return true;
+}
+
+/* the side of x (in cell C, at distance r from the surface) by the argument above */
+static bool CellInside(MSimMeshObstacle mo, const MeshCellT &C, const PetscReal x[3], PetscReal r)
+{
+  const PetscReal tol = 1e-9 * mo->diam;
+  const uint32_t  ri  = mo->slots[C.slot].ref;
+  if (r <= tol) return Inside(mo, x);
+  if (ri != ~(uint32_t)0) {
+    const _n_MSimMeshObstacle::Ref &ref = mo->refs[ri];
+    PetscReal                       d[3], dl = 0, sx = 0, sr = 0;
+    for (int c = 0; c < 3; c++) {
+      d[c] = x[c] - ref.x[c];
+      dl += d[c] * d[c], sx += (x[c] - C.c[c]) * (x[c] - C.c[c]), sr += (ref.x[c] - C.c[c]) * (ref.x[c] - C.c[c]);
+    }
+    if (dl == 0) return ref.inside;
+    dl = std::sqrt(dl);
+    const PetscReal reach = std::sqrt(PetscMax(sx, sr)) + tol;
+    bool            degenerate = false;
+    int             count      = 0;
+    for (size_t k = C.off; k < C.off + C.n && mo->pool[k].dc <= reach && !degenerate; k++) count += SegmentCrosses(ref.x, d, dl, *mo->pool[k].T, tol, &degenerate);
+    if (!degenerate) return ref.inside != (count % 2 == 1);
+    return Inside(mo, x);
+  }
+  bool       ok;
+  const bool in = Inside(mo, x, &ok);
+  if (ok) {
+    mo->slots[C.slot].ref = (uint32_t)mo->refs.size();
+    mo->refs.push_back({{x[0], x[1], x[2]}, in});
+  }
+  return in;
 }
 
 static PetscErrorCode ReadOnRankZero(const char file[], std::vector<PetscReal> &x, std::vector<PetscInt> &tri)
@@ -161,6 +360,7 @@ PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscRea
   PetscMPIInt            rank;
 
   PetscFunctionBeginUser;
+  if (!MSIM_MeshCells) PetscCall(PetscLogEventRegister("MSimMeshCells", MSIM_CLASSID, &MSIM_MeshCells));
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   PetscCall(MSimCallOnRankZero(comm, [&]() { return ReadOnRankZero(file, x, tri); }));
   n[0] = (PetscInt)x.size(), n[1] = (PetscInt)tri.size();
@@ -207,6 +407,20 @@ void MSimMeshObstacleDestroy(MSimMeshObstacle *mesh)
 void MSimMeshObstacleSetBand(MSimMeshObstacle mo, PetscReal band)
 {
   mo->band = band;
+  ClearCells(mo);
+  if (!(band > 0 && band < PETSC_MAX_REAL)) return;
+  /* cells of a quarter of the band (half-diagonal 0.43 band): 51 x 51 PD-10 on the 20,480-triangle
+     ball, runs/contact/README.md), wider where the box over 2^21 cells would not fit the keys */
+  PetscReal ext = 0;
+  for (int c = 0; c < 3; c++) ext = PetscMax(ext, mo->hi[c] - mo->lo[c]);
+  mo->cw = PetscMax(0.25 * band, (ext + 2 * band) / (PetscReal)(((int64_t)1 << 21) - 8));
+  mo->smax = 0.5 * std::sqrt(3.0) * mo->cw;
+  for (int c = 0; c < 3; c++) mo->org[c] = mo->lo[c] - band - mo->cw;
+}
+
+void MSimMeshObstacleSetCache(MSimMeshObstacle mo, PetscBool use)
+{
+  mo->use_cells = use ? true : false;
 }
 
 void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri, PetscBool *closed)
@@ -248,20 +462,30 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
   PetscReal  p[3], e[3] = {0, 0, 0}, r = 0;
   int        region;
   const Triangle *T = NULL;
+  MeshCellT       cell, *C = NULL; /* the cache's cell of x, where the cube query is answered from it */
   if (cube_bound && mo->band < PETSC_MAX_REAL) {
     const PetscReal b = mo->band;
-    PetscReal       best = PETSC_MAX_REAL;
-    mo->near.clear();
-    mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(x[0] - b, x[1] - b, x[2] - b), Point(x[0] + b, x[1] + b, x[2] + b)), std::back_inserter(mo->near));
-    for (const auto &id : mo->near) {
+    PetscReal       best = PETSC_MAX_REAL, rbest = b;
+    auto            consider = [&](const Triangle &Tk) {
       PetscReal pk[3], ek[3] = {0, 0, 0}, rk = 0;
       int       regk;
-      ClosestOnTriangle(x, *id, pk, &regk, ek);
+      ClosestOnTriangle(x, Tk, pk, &regk, ek);
       for (int c = 0; c < 3; c++) rk += (x[c] - pk[c]) * (x[c] - pk[c]);
       if (rk < best) {
-        best = rk, T = &*id, region = regk;
+        best = rk, T = &Tk, region = regk, rbest = PetscMin(b, std::sqrt(rk));
         for (int c = 0; c < 3; c++) p[c] = pk[c], e[c] = ek[c];
       }
+    };
+    if (mo->use_cells && MeshCell(mo, x, &cell)) C = &cell;
+    if (C) { /* the candidates by their distance to the centre, while they can still be nearer */
+      PetscReal s = 0;
+      for (int c = 0; c < 3; c++) s += (x[c] - C->c[c]) * (x[c] - C->c[c]);
+      s = std::sqrt(s) - 1e-12 * (mo->diam + b); /* roundoff on the safe side: look a little further */
+      for (size_t k = C->off; k < C->off + C->n && mo->pool[k].dc - s <= rbest; k++) consider(*mo->pool[k].T);
+    } else {
+      mo->near.clear();
+      mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(x[0] - b, x[1] - b, x[2] - b), Point(x[0] + b, x[1] + b, x[2] + b)), std::back_inserter(mo->near));
+      for (const auto &id : mo->near) consider(*id);
     }
     if (!T || best > b * b) {
       for (int c = 0; c < 3; c++) n[c] = db2 > 0 ? q[c] / std::sqrt(db2) : (c == 2);
@@ -279,7 +503,7 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
   }
   for (int c = 0; c < 3; c++) q[c] = x[c] - p[c], r += q[c] * q[c];
   r = std::sqrt(r);
-  const PetscReal sign = mo->closed && r <= mo->band && Inside(mo, x) ? -1.0 : 1.0;
+  const PetscReal sign = mo->closed && r <= mo->band && (C ? CellInside(mo, *C, x, r) : Inside(mo, x)) ? -1.0 : 1.0;
   if (r > 0)
     for (int c = 0; c < 3; c++) n[c] = sign * q[c] / r;
   else { /* on the surface: the triangle's normal */
@@ -338,12 +562,28 @@ PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mo, const PetscReal x[3], co
     /* the candidates: every triangle meeting the move's box, widened by roundoff (a move through
        an edge or a vertex shared by several triangles, where an inexact ray-triangle predicate can
        miss them all: the centre of a cloth falling on a box's diagonal edge went through) */
-    std::vector<Primitive::Id> hit;
-    PetscReal                  th = PETSC_INFINITY, lo[3], hi[3];
-    const PetscReal            te = PetscMin(tmax, 2 * (mo->diam + d0) / ulen), eps = 1e-9 * (mo->diam + te * ulen);
+    PetscReal       th = PETSC_INFINITY, lo[3], hi[3];
+    const PetscReal te = PetscMin(tmax, 2 * (mo->diam + d0) / ulen), eps = 1e-9 * (mo->diam + te * ulen);
     for (int c = 0; c < 3; c++) lo[c] = PetscMin(x[c], x[c] + te * u[c]) - eps, hi[c] = PetscMax(x[c], x[c] + te * u[c]) + eps;
-    mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(lo[0], lo[1], lo[2]), Point(hi[0], hi[1], hi[2])), std::back_inserter(hit));
-    for (const auto &id : hit) th = PetscMin(th, SegmentHitTime(x, u, *id));
+    const K::Iso_cuboid_3 box(Point(lo[0], lo[1], lo[2]), Point(hi[0], hi[1], hi[2]));
+    MeshCellT             cell, *C = mo->use_cells && mo->band < PETSC_MAX_REAL && MeshCell(mo, x, &cell) ? &cell : NULL;
+    PetscReal             far = 0;
+    if (C) { /* the box's farthest corner from the centre: the cell answers if within R of it */
+      for (int c = 0; c < 3; c++) {
+        const PetscReal f = PetscMax(std::abs(lo[c] - C->c[c]), std::abs(hi[c] - C->c[c]));
+        far += f * f;
+      }
+      far = std::sqrt(far) + 1e-9 * (mo->diam + mo->band);
+      if (far > mo->band + mo->smax) C = NULL;
+    }
+    if (C) {
+      for (size_t k = C->off; k < C->off + C->n && mo->pool[k].dc <= far; k++)
+        if (CGAL::do_intersect(box, *mo->pool[k].T)) th = PetscMin(th, SegmentHitTime(x, u, *mo->pool[k].T));
+    } else {
+      std::vector<Primitive::Id> hit;
+      mo->tree.all_intersected_primitives(box, std::back_inserter(hit));
+      for (const auto &id : hit) th = PetscMin(th, SegmentHitTime(x, u, *id));
+    }
     return 0.8 * th < tmax ? 0.8 * th : PETSC_INFINITY;
   }
   const PetscReal d0x = Distance(mo, x, n, NULL, false);

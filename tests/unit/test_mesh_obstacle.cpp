@@ -1,0 +1,231 @@
+/* The mesh obstacle's candidate cache (src/contact/mesh_obstacle.cpp, MeshCell) against the tree
+   query it replaces and against brute force over every triangle. Random walks of points near a
+   closed non-convex surface (examples/meshes/bunny.off, 3,674 triangles) and an open one
+   (tests/data/meshes/sheet.obj), with moves from 1e-5 to 2 bands long (so a point stays in its cell,
+   crosses into the next or jumps far, and crosses the surface), and with thickness 0 and 0.3 band:
+   - the cached distance, normal and Hessian equal the tree path's (MSimMeshObstacleSetCache off) to
+     roundoff;
+   - the distance equals brute force's: the nearest of all triangles (the closest point computed
+     here by another method: the plane's foot if inside the triangle, else the nearest of the three
+     edges), signed by the parity of a ray's crossings counted over all triangles, where within the
+     band; the band itself (the documented lower bound) beyond it;
+   - the safe step of random moves from outside points equals the tree path's exactly;
+   - the cache is reused: far fewer rebuilds (the MSimMeshCells event) than queries.
+   Each rank walks its own points (the queries are local): the same checks at 1 and 2 ranks. */
+#include "harness.h"
+#include <msim/contact.h>
+#include <random>
+#include <vector>
+#include <array>
+
+typedef std::array<double, 3> V3;
+
+static V3     Sub(const V3 &a, const V3 &b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+static double Dot(const V3 &a, const V3 &b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+static V3     Cross(const V3 &a, const V3 &b) { return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]}; }
+
+/* squared distance from x to the segment [a, b] */
+static double SegmentDistance2(const V3 &x, const V3 &a, const V3 &b)
+{
+  const V3     ab = Sub(b, a), ax = Sub(x, a);
+  const double t = std::min(1.0, std::max(0.0, Dot(ax, ab) / Dot(ab, ab)));
+  const V3     q = {a[0] + t * ab[0] - x[0], a[1] + t * ab[1] - x[1], a[2] + t * ab[2] - x[2]};
+  return Dot(q, q);
+}
+
+/* squared distance from x to the triangle: the plane's foot if it lies inside, else the edges */
+static double TriangleDistance2(const V3 &x, const V3 &a, const V3 &b, const V3 &c)
+{
+  const V3     n = Cross(Sub(b, a), Sub(c, a));
+  const double nn = Dot(n, n), h = Dot(Sub(x, a), n) / nn;
+  const V3     f = {x[0] - h * n[0], x[1] - h * n[1], x[2] - h * n[2]};
+  const double wa = Dot(Cross(Sub(b, f), Sub(c, f)), n), wb = Dot(Cross(Sub(c, f), Sub(a, f)), n), wc = Dot(Cross(Sub(a, f), Sub(b, f)), n);
+  if (wa >= 0 && wb >= 0 && wc >= 0) return h * h * nn;
+  return std::min({SegmentDistance2(x, a, b), SegmentDistance2(x, b, c), SegmentDistance2(x, c, a)});
+}
+
+struct Surface {
+  std::vector<V3>                 v;
+  std::vector<std::array<int, 3>> t;
+  double                          lo[3], hi[3], diam;
+};
+
+/* OBJ ("v x y z", "f i j k") or OFF, as the two files here are written */
+static PetscErrorCode ReadSurface(const char *path, Surface *s)
+{
+  FILE *f;
+  char  line[512];
+
+  PetscFunctionBeginUser;
+  f = fopen(path, "r");
+  PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot open %s", path);
+  if (strstr(path, ".off")) {
+    int nv, nt, ne;
+    PetscCheck(fgets(line, sizeof(line), f) && fscanf(f, "%d %d %d", &nv, &nt, &ne) == 3, PETSC_COMM_SELF, PETSC_ERR_FILE_READ, "%s: bad header", path);
+    s->v.resize(nv), s->t.resize(nt);
+    for (auto &p : s->v) PetscCheck(fscanf(f, "%lf %lf %lf", &p[0], &p[1], &p[2]) == 3, PETSC_COMM_SELF, PETSC_ERR_FILE_READ, "%s: bad vertex", path);
+    for (auto &q : s->t) {
+      int k;
+      PetscCheck(fscanf(f, "%d %d %d %d", &k, &q[0], &q[1], &q[2]) == 4 && k == 3, PETSC_COMM_SELF, PETSC_ERR_FILE_READ, "%s: bad face", path);
+    }
+  } else {
+    while (fgets(line, sizeof(line), f)) {
+      V3                 p;
+      std::array<int, 3> q;
+      if (sscanf(line, "v %lf %lf %lf", &p[0], &p[1], &p[2]) == 3) s->v.push_back(p);
+      else if (sscanf(line, "f %d %d %d", &q[0], &q[1], &q[2]) == 3) s->t.push_back({q[0] - 1, q[1] - 1, q[2] - 1});
+    }
+  }
+  fclose(f);
+  for (int c = 0; c < 3; c++) s->lo[c] = 1e300, s->hi[c] = -1e300;
+  for (const auto &p : s->v)
+    for (int c = 0; c < 3; c++) s->lo[c] = std::min(s->lo[c], p[c]), s->hi[c] = std::max(s->hi[c], p[c]);
+  s->diam = std::sqrt((s->hi[0] - s->lo[0]) * (s->hi[0] - s->lo[0]) + (s->hi[1] - s->lo[1]) * (s->hi[1] - s->lo[1]) + (s->hi[2] - s->lo[2]) * (s->hi[2] - s->lo[2]));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* brute force: the distance to the nearest triangle; *side -1 inside (odd crossings of a ray over
+   all triangles), 1 outside, 0 undecided (every ray tried passed within 1e-7 of an edge) */
+static double BruteForce(const Surface &s, const V3 &x, bool closed, int *side)
+{
+  double best = 1e300;
+  for (const auto &q : s.t) best = std::min(best, TriangleDistance2(x, s.v[q[0]], s.v[q[1]], s.v[q[2]]));
+  *side = 1;
+  if (!closed) return std::sqrt(best);
+  const V3 dirs[3] = {{0.2672612419, 0.5345224838, 0.8017837257}, {-0.6666666667, 0.3333333333, 0.6666666667}, {0.4082482905, -0.8164965809, -0.4082482905}};
+  *side = 0;
+  for (const V3 &d : dirs) {
+    int  count = 0;
+    bool clear = true;
+    for (const auto &q : s.t) { /* the ray x + t d, t > 0, against the triangle by barycentric volumes */
+      const V3 &a = s.v[q[0]], &b = s.v[q[1]], &c = s.v[q[2]];
+      const V3  n = Cross(Sub(b, a), Sub(c, a));
+      const double dn = Dot(d, n);
+      if (std::abs(dn) < 1e-9 * std::sqrt(Dot(n, n))) continue; /* parallel: no crossing */
+      const double t = Dot(Sub(a, x), n) / dn;
+      if (t <= 0) continue;
+      const V3     p = {x[0] + t * d[0], x[1] + t * d[1], x[2] + t * d[2]};
+      const double wa = Dot(Cross(Sub(b, p), Sub(c, p)), n) / Dot(n, n), wb = Dot(Cross(Sub(c, p), Sub(a, p)), n) / Dot(n, n), wc = 1 - wa - wb;
+      if (std::min({wa, wb, wc}) > 1e-7) count++;
+      else if (std::min({wa, wb, wc}) > -1e-7) clear = false;
+    }
+    if (clear) {
+      *side = count % 2 ? -1 : 1;
+      break;
+    }
+  }
+  return std::sqrt(best);
+}
+
+static PetscErrorCode Walks(const char *path, double band_frac, double thick_frac, PetscMPIInt rank)
+{
+  Surface          s;
+  MSimMeshObstacle mo;
+  std::mt19937     gen(11 + 7 * rank);
+  std::uniform_real_distribution<double> U(0, 1);
+  std::normal_distribution<double>       N(0, 1);
+  PetscInt         nq = 0, nbad_tree = 0, nbad_bf = 0, nbad_step = 0, nbf = 0, nsteps = 0, nside = 0, nlow = 0;
+  double           worst_tree = 0, worst_bf = 0;
+  PetscLogEvent      ev;
+  PetscEventPerfInfo before, after;
+
+  PetscFunctionBeginUser;
+  PetscCall(ReadSurface(path, &s));
+  const double band = band_frac * s.diam, thick = thick_frac * band;
+  PetscCall(MSimMeshObstacleCreate(PETSC_COMM_WORLD, path, thick, &mo));
+  PetscBool closed;
+  MSimMeshObstacleInfo(mo, NULL, NULL, &closed);
+  MSimMeshObstacleSetBand(mo, band);
+  PetscCall(PetscLogEventGetId("MSimMeshCells", &ev));
+  PetscCall(PetscLogEventGetPerfInfo(0, ev, &before));
+  for (int walk = 0; walk < 24; walk++) {
+    /* start on a random triangle, offset along its normal by up to 1.5 bands either way */
+    const auto  &q = s.t[(size_t)(U(gen) * s.t.size()) % s.t.size()];
+    double       w0 = U(gen), w1 = U(gen);
+    if (w0 + w1 > 1) w0 = 1 - w0, w1 = 1 - w1;
+    const V3     n  = Cross(Sub(s.v[q[1]], s.v[q[0]]), Sub(s.v[q[2]], s.v[q[0]]));
+    const double nl = std::sqrt(Dot(n, n)), off = (2 * U(gen) - 1) * 1.5 * band;
+    V3           x;
+    for (int c = 0; c < 3; c++) x[c] = s.v[q[0]][c] + w0 * (s.v[q[1]][c] - s.v[q[0]][c]) + w1 * (s.v[q[2]][c] - s.v[q[0]][c]) + off * n[c] / nl;
+    for (int step = 0; step < 120; step++) {
+      /* the next point: a random direction, log-uniform length in [1e-5, 2] bands */
+      const V3     dir = {N(gen), N(gen), N(gen)};
+      const double len = band * std::pow(10.0, -5 + 5.3 * U(gen)) / std::sqrt(Dot(dir, dir));
+      V3           y;
+      for (int c = 0; c < 3; c++) y[c] = x[c] + len * dir[c];
+      double nc[3], nt[3], Hc[9], Ht[9];
+      MSimMeshObstacleSetCache(mo, PETSC_TRUE);
+      const double dc = MSimMeshObstacleDistance(mo, y.data(), nc, Hc);
+      MSimMeshObstacleSetCache(mo, PETSC_FALSE);
+      const double dt = MSimMeshObstacleDistance(mo, y.data(), nt, Ht);
+      nq++;
+      /* the tree path: the same answer to roundoff (the Hessian scales as 1/r) */
+      double err = std::abs(dc - dt) / band;
+      const double r = std::abs(dt + thick);
+      for (int c = 0; c < 3; c++) err = std::max(err, std::abs(nc[c] - nt[c]));
+      for (int k = 0; k < 9; k++) err = std::max(err, std::abs(Hc[k] - Ht[k]) * std::max(r, 1e-300));
+      worst_tree = std::max(worst_tree, err);
+      if (err > 1e-10) nbad_tree++;
+      /* brute force */
+      int          side;
+      const double rb = BruteForce(s, y, closed, &side);
+      if (rb < band * (1 - 1e-9) && rb > 1e-7 * s.diam && side != 0) {
+        const double e = std::abs(dc - (side * rb - thick)) / band;
+        worst_bf = std::max(worst_bf, e);
+        if (e > 1e-10) nbad_bf++;
+        nbf++;
+        nside += side < 0;
+      } else if (rb > band * (1 + 1e-9)) {
+        /* beyond the band a lower bound: the distance to the surface's box where that exceeds the
+           band, else the band (less the thickness, as every distance) */
+        double db = 0;
+        for (int c = 0; c < 3; c++) {
+          const double e = y[c] < s.lo[c] ? s.lo[c] - y[c] : (y[c] > s.hi[c] ? y[c] - s.hi[c] : 0.0);
+          db += e * e;
+        }
+        db = std::sqrt(db);
+        if (std::abs(dc - ((db > band ? db : band) - thick)) > 1e-12 * band) nbad_bf++;
+        nlow++;
+      }
+      /* the safe step of a random move from an outside point */
+      if (dc > 0) {
+        const V3     ud  = {N(gen), N(gen), N(gen)};
+        const double ul  = band * std::pow(10.0, -3 + 3.5 * U(gen)) / std::sqrt(Dot(ud, ud));
+        const double u[3] = {ul * ud[0], ul * ud[1], ul * ud[2]};
+        MSimMeshObstacleSetCache(mo, PETSC_TRUE);
+        const double sc = MSimMeshObstacleSafeStep(mo, y.data(), u, 1.0);
+        MSimMeshObstacleSetCache(mo, PETSC_FALSE);
+        const double st = MSimMeshObstacleSafeStep(mo, y.data(), u, 1.0);
+        if (!(sc == st || (std::abs(sc - st) <= 1e-12 * std::abs(st)))) nbad_step++;
+        nsteps++;
+      }
+      /* keep near the surface: a point beyond 3 bands starts over from where it was */
+      if (rb < 3 * band) x = y;
+    }
+  }
+  PetscCall(PetscLogEventGetPerfInfo(0, ev, &after));
+  const PetscInt rebuilds = after.count - before.count;
+  NOTE("%s (band %.3g, thickness %.3g): %d queries, %d against brute force within the band (%d inside), %d beyond it, %d safe steps, %d cell rebuilds on rank 0; worst |cached - tree| %.2e, |cached - brute force| %.2e (in bands)\n", path, band, thick, (int)nq, (int)nbf, (int)nside, (int)nlow, (int)nsteps, (int)rebuilds, worst_tree, worst_bf);
+  CHECK(nbad_tree == 0, "%s: %d of %d cached queries differ from the tree's (worst %.3e)", path, (int)nbad_tree, (int)nq, worst_tree);
+  CHECK(nbad_bf == 0, "%s: %d cached queries differ from brute force (worst %.3e)", path, (int)nbad_bf, worst_bf);
+  CHECK(nbf > nq / 4, "%s: only %d of %d queries within the band were checked against brute force", path, (int)nbf, (int)nq);
+  CHECK(!closed || nside > nbf / 10, "%s: only %d of %d checked points were inside: the side is not exercised", path, (int)nside, (int)nbf);
+  CHECK(nbad_step == 0, "%s: %d of %d cached safe steps differ from the tree's", path, (int)nbad_step, (int)nsteps);
+  CHECK(rebuilds > 0 && rebuilds < nq / 2, "%s: %d cell rebuilds for %d cached queries (and as many safe steps): the cache is not reused", path, (int)rebuilds, (int)nq);
+  MSimMeshObstacleDestroy(&mo);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Body(void)
+{
+  PetscMPIInt rank;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  PetscCall(Walks(MSIM_SOURCE_DIR "/examples/meshes/bunny.off", 0.02, 0.0, rank));
+  PetscCall(Walks(MSIM_SOURCE_DIR "/examples/meshes/bunny.off", 0.02, 0.3, rank));
+  PetscCall(Walks(MSIM_SOURCE_DIR "/tests/data/meshes/sheet.obj", 0.05, 0.0, rank));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+MSIM_TEST_MAIN(Body)
