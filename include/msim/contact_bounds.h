@@ -15,11 +15,18 @@ typedef struct _n_MSimContactBounds *MSimContactBounds;
 /* Reads -msim_contact_bounds; with it, or with a VI -snes_type, takes every obstacle out of the
    barrier's list as bounds (an obstacle that is not an axis-aligned plane or box, or one that
    moves, is refused in one line), sets -snes_type vinewtonrsls where the SNES is not a VI
-   already, and PETSc's backtracking line search on Phi (which projects onto the bounds) unless
-   -snes_linesearch_type is given. *b = NULL when bounds are not used. Collective. */
+   already, and PETSc's l2 line search (which projects onto the bounds) unless
+   -snes_linesearch_type is given (vinewtonssls: not msim's shell search, refused in one line;
+   its KSP and objective: src/integrators/impls/implicit.cpp). *b = NULL when bounds are not used.
+   Collective. */
 PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBounds *b);
 /* The step's bounds from the state Xn at its start (boxes: the face each vertex is nearest) */
 PetscErrorCode MSimContactBoundsBeginStep(MSimContactBounds b, Vec Xn);
+/* After the solve: X onto the bounds, *moved where it was past one anywhere (collective).
+   vinewtonrsls keeps every iterate inside them; vinewtonssls reaches them only to its tolerance
+   (a vertex 5.9e-11 m inside the table at |phi| <= 1.4e-10), and no vertex may ever be past a
+   bound: the projection moves a vertex by that much, and the caller evaluates g again. */
+PetscErrorCode MSimContactBoundsProject(MSimContactBounds b, Vec X, PetscBool *moved);
 /* After the solve: the reactions from the residual F at X (F / h2 at the active bounds), and
    *residual, |F| over the components with no active bound (the VI's own residual) */
 PetscErrorCode MSimContactBoundsEndStep(MSimContactBounds b, Vec X, Vec F, PetscReal h2, PetscReal *residual);

@@ -37,6 +37,7 @@ typedef struct {
   PetscBool              linesearch_set; /* the line search (-snes_linesearch_type) */
   PetscInt               icntl13;        /* MUMPS's ICNTL(13) (-mat_mumps_icntl_13; 1 unless set) */
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
+  PetscBool              semismooth;     /* -snes_type vinewtonssls: no objective, a nonsymmetric Jacobian */
   Vec                    history[MSIM_SCHEME_MAX_WORK + 1]; /* what a checkpoint carries (GetHistory_Implicit) */
 } ImplicitData;
 
@@ -349,8 +350,8 @@ static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(MSimSystemCreateMatrix(sys, &ie->J));
-  if (ie->imp->scheme->no_objective) {
-    /* a discrete gradient's Jacobian is not symmetric */
+  if (ie->imp->scheme->no_objective || ie->semismooth) {
+    /* a discrete gradient's Jacobian is not symmetric, nor the semismooth one (SetUpSemismooth) */
     PetscCall(MatSetOption(ie->J, MAT_SYMMETRY_ETERNAL, PETSC_FALSE));
     PetscCall(MatSetOption(ie->J, MAT_SYMMETRIC, PETSC_FALSE));
   }
@@ -432,6 +433,30 @@ static PetscErrorCode RefuseMinimizers(MSimIntegrator integ, ImplicitData *ie)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* vinewtonssls (the semismooth Newton of PETSc's VI solvers, with obstacles as bounds) solves the
+   Fischer-Burmeister reformulation phi(x) = 0 of the bounds and g, one equation per component,
+   whose Jacobian is diag(Db) J + diag(Da): J's rows scaled where a bound is near, so nonsymmetric.
+   CG with ICC, msim's default for J, broke down on it (DIVERGED_ITS at 10,000 iterations, step 11
+   of the table drop, tests/contact_bounds_table.py): GMRES with ILU (block Jacobi-ILU in
+   parallel) unless the user chose a -ksp_type or -pc_type. And no objective: its Newton direction
+   descends for the method's merit |phi|^2, not for Phi, and PETSc's line searches use an objective
+   wherever one is set (l2 on Phi, flat to roundoff at 1.2442e-4 J along the whole search, halved
+   or stretched the step at random: 50 iterations ending at |phi| = 3e-9, steps 11-12); without
+   one they work on |phi|^2, which falls to 0 with no roundoff floor. (SNESSetObjective(NULL) does
+   not unset one in PETSc 3.18, so CreateSNES sets it only after the type is known.) */
+static PetscErrorCode SetUpSemismooth(ImplicitData *ie, PetscMPIInt size, KSP ksp)
+{
+  PC pc;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESVINEWTONSSLS, &ie->semismooth));
+  if (!ie->semismooth) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(KSPGetPC(ksp, &pc));
+  if (!ie->ksp_type_set) PetscCall(KSPSetType(ksp, KSPGMRES));
+  if (!ie->pc_type_set && size == 1) PetscCall(PCSetType(pc, PCILU));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The SNES with msim's defaults, which a user overrides with the usual options: Newton, msim's
    line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian;
    for a scheme with no objective, no Phi: on one rank MUMPS LU on its nonsymmetric Jacobian unless
@@ -451,7 +476,6 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   PetscCall(SNESCreate(integ->comm, &ie->snes));
   PetscCall(PetscObjectAddOptionsHandler((PetscObject)ie->snes, SNESUserChoices, NULL, ie));
   PetscCall(SNESSetFunction(ie->snes, ie->G, FormFunction, ie->imp));
-  if (!discrete) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
   PetscCall(SNESGetDM(ie->snes, &dm));
   PetscCall(MSimImplicitPDCompose(ie->imp, dm));
   PetscCall(SNESSetType(ie->snes, SNESNEWTONLS));
@@ -491,6 +515,8 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
      relative tolerance's base, which StepStalled reads */
   PetscCall(SNESSetConvergenceHistory(ie->snes, NULL, NULL, PETSC_DECIDE, PETSC_TRUE));
   PetscCall(SNESSetFromOptions(ie->snes));
+  PetscCall(SetUpSemismooth(ie, sys->size, *ksp));
+  if (!discrete && !ie->semismooth) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
 #if defined(PETSC_HAVE_MUMPS)
   if (discrete && sys->size == 1 && !ie->ksp_type_set && !ie->pc_type_set) {
     /* the discrete gradient's Jacobian near the iterates its line search stops at is nearly
@@ -644,6 +670,11 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
      result: do it here for the monitor */
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
   if (reason == SNES_CONVERGED_ITS) PetscCall(SNESComputeFunction(ie->snes, X, F));
+  if (ie->bounds) {
+    PetscBool moved;
+    PetscCall(MSimContactBoundsProject(ie->bounds, X, &moved));
+    if (moved) PetscCall(SNESComputeFunction(ie->snes, X, F));
+  }
   PetscCall(VecNorm(F, NORM_2, &integ->residual));
   if (ie->bounds) PetscCall(MSimContactBoundsEndStep(ie->bounds, X, F, ie->imp->step.h2, &integ->residual)); /* reactions; |g| off the active bounds */
   {
