@@ -38,7 +38,7 @@ struct _n_MSimIntegrator {
   PetscReal         phi;      /* implicit: Phi at the step's result, when want_phi (else 0) */
   PetscBool         want_phi; /* set by the time loop when a monitor prints Phi */
   PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
-  char              failure[96]; /* why, in the solver's words (" (-snes_type qn: DIVERGED_LINE_SEARCH)") */
+  char              failure[256]; /* why, in the solver's words (" (-snes_type qn: DIVERGED_LINE_SEARCH)") */
   /* steps whose solver stopped at its iteration cap short of the tolerance it was given (a
      fixed iteration count, asked for with zero tolerances or -snes_pd_fixed, is not counted),
      and that tolerance in words, for the warning at the end of the run */

@@ -24,6 +24,7 @@ typedef struct {
   PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
   PetscBool              psd_set;        /* -msim_psd given */
   MSimLineSearchCtx      ls;
+  PetscReal              ls_cut;         /* the last pre-check's cut of PETSc's search direction (1: none) */
   PetscBool              check_saddle;   /* -msim_check_saddle */
   PetscBool              inertia;        /* Newton's PC is MUMPS LDL^T of the exact Hessian: its inertia is known */
   PetscBool              inertia_correction; /* -msim_inertia_correction */
@@ -185,6 +186,7 @@ static PetscErrorCode LineSearchPreCheckMaxStep(SNESLineSearch ls, Vec X, Vec Y,
   PetscFunctionBeginUser;
   PetscCall(VecNorm(Y, NORM_2, &ie->ls.dxnorm));
   PetscCall(MSimImplicitMaxStep(ie->imp, X, Y, &alpha));
+  ie->ls_cut = PetscMin(alpha, 1); /* the search's lambda is of the cut Y: StepStalled multiplies */
   *changed = (PetscBool)(alpha < 1);
   if (*changed) PetscCall(VecScale(Y, alpha));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -555,6 +557,19 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
          barrier, backtracking on Phi unless the user chose a search */
       PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESQN, &qn));
       if (qn && !ie->linesearch_set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+      {
+        /* a user's l2 or cp: their secant steps take lambda up to the search's maxstep (1e8),
+           past 1, the pre-check's feasible step: l2 passed the 41 x 41 fold's 6 crossing
+           triangle pairs through each other in one step (examples/cloth_fold.opts with its
+           start check off), where the CCD had cut the step. So lambda <= 1 for them (bt reads
+           maxstep as a length in metres, and never extrapolates: left alone). */
+        PetscBool secant;
+        PetscReal steptol, maxstep, rtol, atol, ltol;
+        PetscInt  maxits;
+        PetscCall(PetscObjectTypeCompareAny((PetscObject)ls, &secant, SNESLINESEARCHL2, SNESLINESEARCHCP, ""));
+        PetscCall(SNESLineSearchGetTolerances(ls, &steptol, &maxstep, &rtol, &atol, &ltol, &maxits));
+        if (secant) PetscCall(SNESLineSearchSetTolerances(ls, steptol, PetscMin(maxstep, 1.0), rtol, atol, ltol, maxits));
+      }
       break;
     }
   if (ie->conv) PetscCall(MSimConvergenceMonitorAttach(ie->conv, ie->snes, ConvergenceEval, ie));
@@ -612,7 +627,12 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitData *ie, Vec X)
    Newton's step was. A surface whose elements start crossing or touching (locked by the barrier)
    ended every step so after one iteration, |g| frozen at 0.77 of |g0| and the cloth at rest
    (examples/cloth_fold.opts at 41 x 41), counted as converged. -msim_step_atol's rule is the
-   user's: a step it accepted (the Newton step asked for below it) is not a stall. */
+   user's: a step it accepted (the Newton step asked for below it) is not a stall.
+   The cut is the search's lambda for msim's energy search, which asks max_step itself; PETSc's
+   searches (bt, l2, cp) get Newton's direction already cut by the pre-check
+   (LineSearchPreCheckMaxStep), and their lambda is of the cut direction: bt ends on -snes_stol
+   with lambda = 1 when the cut direction is below -snes_stol |x|, so the locked cloth's steps
+   passed as converged with bt until the pre-check's cut was counted here too. */
 static PetscErrorCode StepStalled(ImplicitData *ie, SNESConvergedReason reason, PetscReal residual, PetscBool *stalled, PetscReal *lambda, PetscReal *target)
 {
   SNESLineSearch   ls;
@@ -632,13 +652,14 @@ static PetscErrorCode StepStalled(ImplicitData *ie, SNESConvergedReason reason, 
   if (!(residual > *target)) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESGetLineSearch(ie->snes, &ls));
   PetscCall(SNESLineSearchGetLambda(ls, lambda));
+  *lambda *= ie->ls_cut;
   if (!(*lambda < 1)) PetscFunctionReturn(PETSC_SUCCESS);
-  if (ie->step_atol > 0) { /* the rule judges the step asked for: the search's direction */
+  if (ie->step_atol > 0) { /* the rule judges the step asked for: the search's direction before the pre-check's cut */
     Vec       Y;
     PetscReal ynorm;
     PetscCall(SNESGetSolutionUpdate(ie->snes, &Y));
     PetscCall(VecNorm(Y, NORM_2, &ynorm));
-    if (ynorm < ie->step_atol) PetscFunctionReturn(PETSC_SUCCESS);
+    if (ynorm < ie->step_atol * ie->ls_cut) PetscFunctionReturn(PETSC_SUCCESS);
   }
   *stalled = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -657,6 +678,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv, integ->step, integ->first_step));
   if (ie->bounds) PetscCall(MSimContactBoundsBeginStep(ie->bounds, X)); /* from x_n */
   PetscCall(MSimImplicitGuess(ie->imp, V, X));
+  ie->ls_cut = 1;
   PetscCall(SNESSolve(ie->snes, NULL, X));
   PetscCall(SNESGetConvergedReason(ie->snes, &reason));
   PetscCall(SNESGetIterationNumber(ie->snes, &its));
@@ -708,7 +730,10 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   }
   else if (reason < 0) {
     integ->failed = PETSC_TRUE;
-    PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
+    /* a PETSc search (bt) that failed on a direction the pre-check had cut: the stall above, but
+       on a cut direction still longer than -snes_stol |x| */
+    if (reason == SNES_DIVERGED_LINE_SEARCH && ie->ls_cut < 1) PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: %s on a direction cut to %g of Newton's by a contact barrier's largest feasible step: elements locked against each other, crossing or touching at the start?)", type, SNESConvergedReasons[reason], (double)ie->ls_cut));
+    else PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
   }
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
   PetscCall(MSimImplicitEndStep(ie->imp, X, V));
