@@ -52,6 +52,10 @@ PetscErrorCode SNESCreate_NTR(SNES snes);
    0 for other types; either pointer may be NULL) */
 PetscErrorCode SNESNTRGetCounts(SNES snes, PetscInt *rejected, PetscInt *negative);
 
+/* y = (A kron I3) x - b (b may be NULL) for a scalar AIJ matrix A on Vecs of interleaved x, y, z:
+   one pass on one rank; elsewhere through the MAIJ *maij (made on first use, the caller's). */
+PetscErrorCode MSimMatMultInterleaved3(Mat A, Mat *maij, Vec x, Vec b, Vec y);
+
 /* Registers "pd", "ntr" and "msimllt" once. */
 PetscErrorCode MSimSolversRegisterAll(void);
 
@@ -68,6 +72,12 @@ typedef struct {
   PetscErrorCode (*rhs)(void *ctx, Vec x, Vec rhs, PetscReal *phi);
   /* builds and factors the global step's matrix (else the first global_solve does) */
   PetscErrorCode (*setup)(void *ctx);
+  /* y = (A kron I3) x - b (b NULL: 0) with A as the last local step left it (contact may
+     reweight it): with b = rhs(x) it is Phi's gradient, for -snes_pd_lbfgs */
+  PetscErrorCode (*apply)(void *ctx, Vec x, Vec b, Vec y);
+  /* the largest alpha in (0, 1] for which x - alpha d stays inside every term's feasible set
+     (contact and volume barriers; 1 where no term has one), for steps global_solve does not make */
+  PetscErrorCode (*max_step)(void *ctx, Vec x, Vec d, PetscReal *alpha);
   void *ctx;
 } MSimPDProblem;
 /* If snes, or its nonlinear preconditioner, is of type pd: set its problem's global step up now,

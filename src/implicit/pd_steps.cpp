@@ -422,6 +422,23 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* y = (A kron I3) x - b for PD + L-BFGS's gradient */
+static PetscErrorCode PDProblemApply(void *ctx, Vec x, Vec b, Vec y)
+{
+  MSimImplicit imp = (MSimImplicit)ctx;
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDSetUp(imp));
+  PetscCall(MSimMatMultInterleaved3(imp->A, &imp->A3, x, b, y));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDProblemMaxStep(void *ctx, Vec X, Vec D, PetscReal *alpha)
+{
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitMaxStep((MSimImplicit)ctx, X, D, alpha));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode PDProblemSetUp(void *ctx)
 {
   PetscFunctionBeginUser;
@@ -438,6 +455,8 @@ PetscErrorCode MSimImplicitPDCompose(MSimImplicit imp, DM dm)
   imp->pd.rhs          = PDProblemRHS;
   imp->pd.global_solve = PDProblemGlobal;
   imp->pd.setup        = PDProblemSetUp;
+  imp->pd.apply        = PDProblemApply;
+  imp->pd.max_step     = PDProblemMaxStep;
   imp->pd.ctx          = imp;
   PetscCall(PetscContainerCreate(imp->sys->comm, &c));
   PetscCall(PetscContainerSetPointer(c, &imp->pd));

@@ -5,9 +5,13 @@
    increases. Options: -snes_max_it (10 is Liu et al.'s setting), -snes_atol/-snes_rtol on |g|,
    -snes_pd_fixed to run exactly max_it iterations without evaluating g, -snes_pd_anderson m for
    Anderson acceleration with an energy safeguard (Peng et al. 2018): PETSc's own
-   -snes_type anderson -npc_snes_type pd composes too, but has no safeguard, so its Phi can rise. */
+   -snes_type anderson -npc_snes_type pd composes too, but has no safeguard, so its Phi can rise.
+   -snes_pd_lbfgs m: L-BFGS with the PD matrix as its initial Hessian (Liu et al. 2017), fused with
+   PD's steps so that an iteration costs a PD iteration and a product with A (pd_lbfgs.cpp). */
 #include <msim/solvers.h>
 #include "anderson.h"
+#include "pd_lbfgs.h"
+#include <msim/log.h>
 #include <msim/petsc_compat.h>
 #include <msim/options.h>
 #include <msim/registry.h>
@@ -20,6 +24,8 @@ PETSC_EXTERN PetscErrorCode SNESCreate_Shell(SNES); /* exported by PETSc, declar
 typedef struct {
   PetscBool fixed;    /* -snes_pd_fixed */
   PetscInt  anderson; /* -snes_pd_anderson */
+  PetscInt  lbfgs;    /* -snes_pd_lbfgs */
+  PetscReal gamma_max; /* -snes_pd_lbfgs_scale_max */
 } SNESPDOptions;
 
 static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *PetscOptionsObject, void *ctx)
@@ -33,6 +39,11 @@ static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *Pe
   PetscCall(PetscOptionsBool("-snes_pd_fixed", "SNES pd: run exactly -snes_max_it iterations, no residual evaluations", NULL, o->fixed, &o->fixed, NULL));
   PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, o->anderson, &o->anderson, NULL));
   PetscCheck(o->anderson >= 0, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_anderson must be >= 0 (got %" PetscInt_FMT ")", o->anderson);
+  PetscCall(MSimOptionsInt("-snes_pd_lbfgs", "SNES pd: L-BFGS with m pairs and the PD matrix as initial Hessian, Armijo-safeguarded on Phi (0: plain PD)", NULL, o->lbfgs, &o->lbfgs, NULL));
+  PetscCall(PetscOptionsReal("-snes_pd_lbfgs_scale_max", "SNES pd: L-BFGS scales its initial Hessian A^-1 by s^T A s / s^T y of the newest pair, kept in [1, this] (1: unscaled)", NULL, o->gamma_max, &o->gamma_max, NULL));
+  PetscCheck(o->gamma_max >= 1, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_lbfgs_scale_max must be >= 1 (got %g)", (double)o->gamma_max);
+  PetscCheck(o->lbfgs >= 0, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_lbfgs must be >= 0 (got %" PetscInt_FMT ")", o->lbfgs);
+  PetscCheck(!(o->lbfgs > 0 && o->anderson > 0), PetscObjectComm(obj), PETSC_ERR_ARG_INCOMP, "-snes_pd_lbfgs and -snes_pd_anderson cannot be used together: choose one");
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -45,6 +56,7 @@ static PetscErrorCode SNESPDGetOptions(SNES snes, SNESPDOptions **o)
   PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDOptions", (PetscObject *)&c));
   if (!c) {
     PetscCall(PetscNew(o));
+    (*o)->gamma_max = 3; /* runs/speed_accuracy/README.md: on the benchmark cloth (newmark, 5 pairs, 10 iterations) 2.3 cm from RK4 at 0.2 s, unscaled 3.6 cm, at 2, 5, 100: 2.5, 2.7, 3.1 cm */
     PetscCall(PetscContainerCreate(PetscObjectComm((PetscObject)snes), &c));
     PetscCall(PetscContainerSetPointer(c, *o));
     PetscCall(PetscContainerSetUserDestroy(c, PetscContainerUserDestroyDefault));
@@ -52,6 +64,45 @@ static PetscErrorCode SNESPDGetOptions(SNES snes, SNESPDOptions **o)
     PetscCall(PetscContainerDestroy(&c));
     PetscCall(PetscObjectAddOptionsHandler((PetscObject)snes, SNESPDSetFromOptions, NULL, *o));
   } else PetscCall(PetscContainerGetPointer(c, (void **)o));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode SNESPDLBFGSDestroyContainer(void *ctx)
+{
+  MSimPDLBFGS *st = (MSimPDLBFGS *)ctx;
+  PetscFunctionBeginUser;
+  PetscCall(MSimPDLBFGSDestroy(st));
+  delete st;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* L-BFGS's state lives with the SNES (made on its first solve, freed with it): its pairs carry
+   over to the next time step's solve, where the Hessian they sample has changed little (the
+   inertia term's y_n cancels in y = g_{k+1} - g_k) */
+static PetscErrorCode SNESPDGetLBFGS(SNES snes, MSimPDProblem *pd, Vec X, PetscInt m, PetscReal gamma_max, MSimPDLBFGS **st)
+{
+  PetscContainer c;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDLBFGS", (PetscObject *)&c));
+  if (c) {
+    PetscCall(PetscContainerGetPointer(c, (void **)st));
+    PetscInt n, nst;
+    PetscCall(VecGetLocalSize(X, &n));
+    PetscCall(VecGetLocalSize((*st)->G, &nst));
+    if ((*st)->lb.m == m && (*st)->pd == pd && n == nst) {
+      (*st)->gamma_max = gamma_max;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDLBFGS", NULL)); /* another m: a new state */
+  }
+  *st = new MSimPDLBFGS();
+  PetscCall(MSimPDLBFGSCreate(pd, X, m, gamma_max, *st));
+  PetscCall(PetscContainerCreate(PetscObjectComm((PetscObject)snes), &c));
+  PetscCall(PetscContainerSetPointer(c, *st));
+  PetscCall(PetscContainerSetUserDestroy(c, SNESPDLBFGSDestroyContainer));
+  PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDLBFGS", (PetscObject)c));
+  PetscCall(PetscContainerDestroy(&c));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -92,23 +143,30 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   MSimPDProblem      *pd;
   Vec                 F, rhs, G = NULL;
   PetscReal           atol, rtol, stol, fnorm = 0, fnorm0 = 0, phi = 0, phi_new;
-  PetscInt            maxit, maxf, k, m, fallbacks = 0;
+  PetscInt            maxit, maxf, k, m, lm, fallbacks = 0;
   PetscBool           fixed, accelerated;
   SNESPDOptions      *opts;
   SNESConvergedReason reason = SNES_CONVERGED_ITERATING;
   MSimAnderson        aa;
+  MSimPDLBFGS        *lbp = NULL;
+  static PetscLogEvent lbfgs_event = 0;
 
   PetscFunctionBeginUser;
   PetscCall(SNESPDGetProblem(snes, &pd));
   PetscCall(SNESPDGetOptions(snes, &opts));
   fixed = opts->fixed;
   m     = opts->anderson;
+  lm    = opts->lbfgs;
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
   PetscCall(SNESGetFunction(snes, &F, NULL, NULL));
   PetscCall(VecDuplicate(X, &rhs));
   if (m > 0) {
     PetscCall(VecDuplicate(X, &G));
     PetscCall(MSimAndersonCreate(X, m, &aa));
+  }
+  if (lm > 0) {
+    if (!lbfgs_event) PetscCall(PetscLogEventRegister("MSimPDLBFGS", MSIM_CLASSID, &lbfgs_event));
+    PetscCall(SNESPDGetLBFGS(snes, pd, X, lm, opts->gamma_max, &lbp));
   }
   PetscCall(SNESSetIterationNumber(snes, 0));
   if (!fixed) {
@@ -120,8 +178,19 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   PetscCall(SNESMonitor(snes, 0, fnorm));
   /* with Anderson, rhs always holds the local step at the current X and phi its Phi */
   if (m > 0 && reason == SNES_CONVERGED_ITERATING) PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi));
+  if (lm > 0 && reason == SNES_CONVERGED_ITERATING) {
+    PetscCall(MSimPDLBFGSBegin(lbp, X));
+    PetscCall(PetscInfo(snes, "pd: L-BFGS iteration 0 Phi %.17g\n", (double)lbp->phi));
+  }
   for (k = 1; k <= maxit && reason == SNES_CONVERGED_ITERATING; k++) {
-    if (!m) {
+    if (lm > 0) {
+      /* the event holds the whole iteration (its sweep, local step and product are logged
+         inside it too): against MSimPDLocal + MSimPDGlobal it is L-BFGS's cost over PD's */
+      PetscCall(PetscLogEventBegin(lbfgs_event, X, 0, 0, 0));
+      PetscCall(MSimPDLBFGSIterate(lbp, X));
+      PetscCall(PetscLogEventEnd(lbfgs_event, X, 0, 0, 0));
+      PetscCall(PetscInfo(snes, "pd: L-BFGS iteration %" PetscInt_FMT " Phi %.17g\n", k, (double)lbp->phi));
+    } else if (!m) {
       PetscCall((*pd->rhs)(pd->ctx, X, rhs, NULL));      /* local step */
       PetscCall((*pd->global_solve)(pd->ctx, rhs, X, X)); /* global step */
     } else {
@@ -141,7 +210,10 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
     }
     PetscCall(SNESSetIterationNumber(snes, k));
     if (!fixed) {
-      PetscCall(SNESComputeFunction(snes, X, F));
+      /* L-BFGS has g = A x - rhs(x) at X already: it is the SNES function (the same sum, so
+         the same |g| to roundoff) */
+      if (lm > 0) PetscCall(VecCopy(lbp->G, F));
+      else PetscCall(SNESComputeFunction(snes, X, F));
       PetscCall(VecNorm(F, NORM_2, &fnorm));
       PetscCheck(!PetscIsInfOrNanReal(fnorm), PetscObjectComm((PetscObject)snes), PETSC_ERR_FP, "pd: the residual is not finite");
       if (fnorm <= atol) reason = SNES_CONVERGED_FNORM_ABS;
@@ -152,9 +224,12 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   if (reason == SNES_CONVERGED_ITERATING) reason = fixed ? SNES_CONVERGED_ITS : SNES_DIVERGED_MAX_IT;
   PetscCall(SNESSetConvergedReason(snes, reason));
   if (m > 0) {
-    PetscCall(PetscInfo(snes, "pd: Anderson(%" PetscInt_FMT ") fell back to the plain PD step %" PetscInt_FMT " times\n", m, fallbacks));
+    PetscCall(PetscInfo(snes, "pd: Anderson(%" PetscInt_FMT ") so far: fell back to the plain PD step %" PetscInt_FMT " times\n", m, fallbacks));
     PetscCall(MSimAndersonDestroy(&aa));
     PetscCall(VecDestroy(&G));
+  }
+  if (lm > 0) {
+    PetscCall(PetscInfo(snes, "pd: L-BFGS(%" PetscInt_FMT ") so far: fell back to the plain PD step %" PetscInt_FMT " times, %" PetscInt_FMT " steps shortened by a feasible set, %" PetscInt_FMT " by a backtrack, %" PetscInt_FMT " pairs of negative curvature skipped\n", lm, lbp->fallbacks, lbp->cut, lbp->backtracks, lbp->lb.skipped));
   }
   PetscCall(VecDestroy(&rhs));
   PetscFunctionReturn(PETSC_SUCCESS);
