@@ -162,6 +162,13 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
 
     PetscCall(MSimIntegratorStep(integ, t0, X, V));
+    if (n == 1) {
+      /* the energy the contact barriers held at the start (known once the first step began),
+         which pairs that start within the contact distance release as kinetic energy: part of
+         the start's energy, as a checkpoint then carries it (a restarted run has E0 from it) */
+      E0 += integ->barrier_energy0;
+      scale += integ->barrier_energy0;
+    }
     solver_failed = integ->failed; /* the implicit solver gave up on this step */
     if (solver_failed) bad = PETSC_TRUE;
     if (check && !bad) {
@@ -218,6 +225,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, integ->steps, integ->tolerance));
   if (integ->stalled_steps)
     PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, integ->steps, integ->stall));
+  if (integ->barrier_energy0 > scale - integ->barrier_energy0)
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: the contact barriers held %g J at the start, %g x the scene's energy scale %g J: elements that start within the contact distance (-msim_self_contact_start_gap below it, or a vertex near an obstacle) spring apart and turn it into kinetic energy; a start resting in contact needs its gaps near that distance, or a smaller -msim_self_contact_distance\n", (double)integ->barrier_energy0, (double)(integ->barrier_energy0 / (scale - integ->barrier_energy0)), (double)(scale - integ->barrier_energy0)));
   PetscCall(MSimViewFinal(sys, info->t, X));
   PetscCall(MSimMonitorDestroy(sys->comm, &mon));
   PetscCall(MSimOutputDestroy(&out));

@@ -53,5 +53,11 @@ struct _n_MSimIntegrator {
      had negative pivots, i.e. to a saddle point of Phi, not a minimum, and the most negative
      eigenvalues seen there (the inertia comes free with the factorization) */
   PetscInt          saddle_steps, saddle_negative;
+  /* the energy (J) the contact barriers held at the start of this run's first step, which the
+     system's potential does not count: pairs that start within the contact distance (a start
+     resting in contact, -msim_self_contact_start_gap below it) spring apart and release it as
+     kinetic energy, so the divergence check counts it in the start's energy (set at step 1 by
+     the implicit integrators; 0 where there is none, and in a restarted run, whose E0 has it) */
+  PetscReal         barrier_energy0;
   PetscBool         help_listing; /* a throwaway instance made only so -help lists its options */
 };
