@@ -13,6 +13,14 @@
    It omits the closest points' motion (a surface's curvature), the part IPC's projection keeps
    only where it is positive anyway; Newton then converges linearly near tangential sliding, and
    the line search keeps every iterate feasible whatever the Hessian. Given for -msim_psd 0 too.
+   Duplicates: a contact whose closest features are an edge or a vertex is as close to every
+   triangle and edge around them, so the pairs' barriers counted it several times (a vertex above
+   a flat sheet's edge 1 + 1 + its own edges, above a vertex up to 19 times) and the barrier's
+   strength depended on the mesh at the contact. The point-edge and point-point pairs of those
+   features join the sum with weights that make every contact count once (Collect, WeightPE,
+   WeightPP: convergent IPC's inclusion-exclusion), tests/unit/test_self_features.cpp.
+   Summation order: the terms are summed in the order of their vertices' input ids, and the CCD's
+   answer depends on the step alone, so a checkpoint's restart repeats the run bit for bit.
    Simplification: no mollifier for nearly parallel edge-edge pairs (IPC's e_k): the distance is
    still exact there, only its Hessian jumps, which the line search tolerates.
    max_step: additive CCD over the pairs whose boxes swept along the step overlap, reduced over
@@ -29,6 +37,17 @@
 #include <msim/private/implicitimpl.h>
 #include <algorithm>
 #include <cmath>
+
+/* One term of the energy within dhat (Collect): a pair's kind (PT, EE, or the point-edge PE and
+   point-point PP that duplicate their closest features), its 4 local vertices (PE: p, p, e0, e1;
+   PP: p, p, q, q: the edge-edge distance with a degenerate edge), their input ids (the summation
+   order), squared distance, closest points' weights and the term's weight c */
+enum { KIND_PT = 0, KIND_EE = 1, KIND_PE = 2, KIND_PP = 3 };
+struct SelfTerm {
+  std::array<PetscInt, 4> gid;
+  PetscInt                kind, v[4];
+  PetscReal               s, w[4], c;
+};
 
 typedef struct {
   MSimSelfContactOptions opt;
@@ -72,6 +91,14 @@ typedef struct {
   PetscInt               nevals, nhits;
   PetscLogDouble         widesum, nearsum; /* pairs over all wide and near lists made */
   PetscInt               nswept;        /* CCDs that needed a swept broad phase */
+  /* the local surface's connectivity, per halo plan: each local vertex's neighbours along edges
+     and its triangles (CSR) */
+  std::vector<PetscInt>  nbr_off, nbr, vtri_off, vtri;
+  PetscInt               cplan;
+  /* one evaluation's terms within dhat, sorted by their vertices' input ids, and the duplicate
+     features' candidates (kind, 4 vertices) */
+  std::vector<SelfTerm>                act;
+  std::vector<std::array<PetscInt, 5>> sub;
 } SelfData;
 
 /* f(ee, v[4]) for each pair this rank computes whose boxes overlap: within dhat of each other at
@@ -101,14 +128,16 @@ static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, 
     }
     grid.Build(sd->boxes, PetscMax(n ? extent / n : 1.0, PETSC_SMALL));
   };
+  /* every pair with a vertex in the rank's block (and one free): the rank computes a pair whose
+     least input id is its own (Collect), and also the point-edge and point-point terms of the
+     pair's features whose least id is (their owner may not own the pair itself) */
   auto mine = [&](const PetscInt *v) {
-    PetscInt low = PETSC_MAX_INT;
-    bool     moving = false;
+    bool touches = false, moving = false;
     for (int k = 0; k < 4; k++) {
-      low    = PetscMin(low, s->vid[v[k]]);
-      moving = moving || s->gnum[v[k]] >= 0;
+      touches = touches || (s->vid[v[k]] >= s->dstart && s->vid[v[k]] < s->dstart + s->dcount);
+      moving  = moving || s->gnum[v[k]] >= 0;
     }
-    return moving && low >= s->dstart && low < s->dstart + s->dcount;
+    return moving && touches;
   };
 
   PetscFunctionBeginUser;
@@ -305,6 +334,154 @@ static PetscReal PairDistance2(const std::vector<PetscReal> &x, PetscBool ee, co
   return ee ? MSimEdgeEdgeDistance2(p0, p1, p2, p3, w) : MSimPointTriangleDistance2(p0, p1, p2, p3, w);
 }
 
+/* The local surface's connectivity (once per halo plan): neighbours along edges and triangles of
+   each local vertex. A vertex's star is complete wherever a term within dhat that the rank owns
+   needs it: the elements around a term's vertices are within dhat of an own element, so in the
+   halo (self_surface.cpp keeps every element within dhat + margin of the rank's own). */
+static void Connect(SelfData *sd)
+{
+  MSimSelfSurface s  = sd->surf;
+  const PetscInt  nv = (PetscInt)s->vid.size(), ne = (PetscInt)s->edge.size() / 2, nt = (PetscInt)s->tri.size() / 3;
+  if (sd->cplan == s->nplans) return;
+  auto csr = [&](const std::vector<PetscInt> &el, int per, PetscInt n, bool other, std::vector<PetscInt> &off, std::vector<PetscInt> &adj) {
+    off.assign(nv + 1, 0);
+    for (PetscInt k = 0; k < per * n; k++) off[el[k] + 1]++;
+    for (PetscInt v = 0; v < nv; v++) off[v + 1] += off[v];
+    adj.resize(off[nv]);
+    std::vector<PetscInt> at(off.begin(), off.end() - 1);
+    for (PetscInt k = 0; k < n; k++)
+      for (int q = 0; q < per; q++) adj[at[el[per * k + q]]++] = other ? el[per * k + 1 - q] : k;
+  };
+  csr(s->edge, 2, ne, true, sd->nbr_off, sd->nbr);
+  csr(s->tri, 3, nt, false, sd->vtri_off, sd->vtri);
+  sd->cplan = s->nplans;
+}
+
+static inline bool TriHas(const SelfData *sd, PetscInt t, PetscInt v)
+{
+  const PetscInt *tv = &sd->surf->tri[3 * t];
+  return tv[0] == v || tv[1] == v || tv[2] == v;
+}
+
+static inline bool Adjacent(const SelfData *sd, PetscInt p, PetscInt q)
+{
+  for (PetscInt k = sd->nbr_off[p]; k < sd->nbr_off[p + 1]; k++)
+    if (sd->nbr[k] == q) return true;
+  return false;
+}
+
+/* The weights that count each contact once (inclusion-exclusion over the features' stars, as the
+   "improved max approximator" of convergent IPC, Li et al. 2023): a vertex p whose closest feature
+   on the other part of the surface is an edge e is as close to each triangle on e and, when its
+   own edges leave it away from the surface, each edge-edge pair (a at p, e) is as close too: the
+   pairs' barriers would count that contact 1 + 1 + |edges at p| times, where a contact inside a
+   face counts once. With every vertex-disjoint pair of features in the energy at weight c, and c
+   chosen so that the weights of the pairs that contain a given closest pair of features (the
+   pairs whose distance is that pair's) sum to 1, every contact counts once, whatever features
+   are closest: c = 1 for point-triangle and edge-edge pairs (their contacts: a vertex against a
+   face's inside, two edges crossing), and below, solving W = 1 from the top down, for a point p
+   against an edge e and a point p against a point q. Each term stays C1 (a barrier of a squared
+   distance to a convex set), so their weighted sum does, at every weight. */
+static PetscReal WeightPE(const SelfData *sd, PetscInt p, PetscInt e0, PetscInt e1)
+{
+  PetscInt n = 0;
+  for (PetscInt k = sd->vtri_off[e0]; k < sd->vtri_off[e0 + 1]; k++) /* triangles on e without p */
+    if (TriHas(sd, sd->vtri[k], e1) && !TriHas(sd, sd->vtri[k], p)) n++;
+  for (PetscInt k = sd->nbr_off[p]; k < sd->nbr_off[p + 1]; k++) /* edges at p that miss e */
+    if (sd->nbr[k] != e0 && sd->nbr[k] != e1) n++;
+  return (PetscReal)(1 - n);
+}
+
+static PetscReal WeightPP(const SelfData *sd, PetscInt p, PetscInt q)
+{
+  PetscReal n = 0;
+  for (PetscInt k = sd->vtri_off[q]; k < sd->vtri_off[q + 1]; k++) n += !TriHas(sd, sd->vtri[k], p); /* (p, triangle at q) */
+  for (PetscInt k = sd->vtri_off[p]; k < sd->vtri_off[p + 1]; k++) n += !TriHas(sd, sd->vtri[k], q); /* (q, triangle at p) */
+  for (PetscInt k = sd->nbr_off[q]; k < sd->nbr_off[q + 1]; k++)                                    /* (p, edge at q) */
+    if (sd->nbr[k] != p) n += WeightPE(sd, p, q, sd->nbr[k]);
+  for (PetscInt k = sd->nbr_off[p]; k < sd->nbr_off[p + 1]; k++) /* (q, edge at p) */
+    if (sd->nbr[k] != q) n += WeightPE(sd, q, p, sd->nbr[k]);
+  for (PetscInt k = sd->nbr_off[p]; k < sd->nbr_off[p + 1]; k++) /* (edge at p, edge at q), disjoint */
+    for (PetscInt l = sd->nbr_off[q]; l < sd->nbr_off[q + 1]; l++) n += sd->nbr[k] != q && sd->nbr[l] != p && sd->nbr[k] != sd->nbr[l];
+  return 1 - n;
+}
+
+/* The terms within dhat at sd->x that this rank computes, into sd->act, sorted by their vertices'
+   input ids (then kind): the sums over them do not depend on the order the candidate lists hold
+   their pairs in, which depends on where the lists were made (a restart makes them elsewhere),
+   so a restarted run repeats the uninterrupted one bit for bit. A term is the rank's when its
+   least input id is in the rank's block. With dup, also the point-edge and point-point terms
+   (weights above): every one within dhat is a feature pair of a point-triangle or edge-edge pair
+   within dhat (the triangle or the edges containing its features are at most as far), so they
+   are derived from those pairs, not kept in the lists (the CCD has no use for them: a point
+   reaches an edge or a point only through the triangles and edges around it). A point-edge pair
+   none of whose super-pairs exists (p's edges and e's triangles all touch e or p: a collapsed
+   neighbourhood, no contact) is left out, as before; point-point pairs of neighbours too. */
+static PetscErrorCode Collect(SelfData *sd, PetscBool dup)
+{
+  MSimSelfSurface s   = sd->surf;
+  const PetscReal dh2 = s->dhat * s->dhat;
+  auto            own = [&](const PetscInt *v) {
+    PetscInt low    = PETSC_MAX_INT;
+    bool     moving = false;
+    for (int k = 0; k < 4; k++) {
+      low    = PetscMin(low, s->vid[v[k]]);
+      moving = moving || s->gnum[v[k]] >= 0;
+    }
+    return moving && low >= s->dstart && low < s->dstart + s->dcount;
+  };
+  auto add = [&](PetscInt kind, const PetscInt *v, PetscReal s2, const PetscReal *w, PetscReal c) {
+    SelfTerm t;
+    t.kind = kind;
+    t.s    = s2;
+    t.c    = c;
+    for (int k = 0; k < 4; k++) t.v[k] = v[k], t.w[k] = w[k], t.gid[k] = s->vid[v[k]];
+    sd->act.push_back(t);
+  };
+
+  PetscFunctionBeginUser;
+  sd->act.clear();
+  sd->sub.clear();
+  if (dup) Connect(sd);
+  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
+    PetscReal       w[4];
+    const PetscReal s2 = PairDistance2(sd->x, ee, v, w);
+    if (s2 >= dh2) return;
+    if (own(v)) add(ee ? KIND_EE : KIND_PT, v, s2, w, 1.0);
+    if (!dup) return;
+    /* only the feature pairs within dhat (most pairs' closest points lie inside their elements,
+       away from the features), so that the sort below sees few */
+    auto keep = [&](const std::array<PetscInt, 5> &q) {
+      PetscReal wq[4];
+      if (PairDistance2(sd->x, PETSC_TRUE, &q[1], wq) < dh2) sd->sub.push_back(q);
+    };
+    auto pe = [&](PetscInt p, PetscInt a, PetscInt b) { keep({KIND_PE, p, p, PetscMin(a, b), PetscMax(a, b)}); };
+    auto pp = [&](PetscInt p, PetscInt q) { keep({KIND_PP, PetscMin(p, q), PetscMin(p, q), PetscMax(p, q), PetscMax(p, q)}); };
+    if (!ee) {
+      pe(v[0], v[1], v[2]), pe(v[0], v[1], v[3]), pe(v[0], v[2], v[3]);
+      pp(v[0], v[1]), pp(v[0], v[2]), pp(v[0], v[3]);
+    } else {
+      pe(v[0], v[2], v[3]), pe(v[1], v[2], v[3]), pe(v[2], v[0], v[1]), pe(v[3], v[0], v[1]);
+      pp(v[0], v[2]), pp(v[0], v[3]), pp(v[1], v[2]), pp(v[1], v[3]);
+    }
+  }));
+  if (dup) {
+    std::sort(sd->sub.begin(), sd->sub.end());
+    sd->sub.erase(std::unique(sd->sub.begin(), sd->sub.end()), sd->sub.end());
+    for (const std::array<PetscInt, 5> &q : sd->sub) {
+      const PetscInt *v = &q[1];
+      PetscReal       w[4];
+      if (!own(v) || (q[0] == KIND_PP && Adjacent(sd, v[0], v[2]))) continue;
+      const PetscReal s2 = PairDistance2(sd->x, PETSC_TRUE, v, w);
+      if (s2 >= dh2) continue;
+      const PetscReal c = q[0] == KIND_PE ? WeightPE(sd, v[0], v[2], v[3]) : WeightPP(sd, v[0], v[2]);
+      if (c != 0) add(q[0], v, s2, w, c);
+    }
+  }
+  std::sort(sd->act.begin(), sd->act.end(), [](const SelfTerm &a, const SelfTerm &b) { return a.gid != b.gid ? a.gid < b.gid : a.kind < b.kind; });
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The local energy and gradient at the gathered positions sd->x, into eeval and geval, unless the
    last evaluation was at the same positions (and halo plan) */
 static PetscErrorCode Evaluate(SelfData *sd)
@@ -321,24 +498,25 @@ static PetscErrorCode Evaluate(SelfData *sd)
   sd->geval.assign(sd->x.size(), 0);
   sd->npairs = 0;
   sd->dmin   = PETSC_INFINITY;
-  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
-    PetscReal w[4], b, db, d2b, r[3] = {0, 0, 0};
-    const PetscReal s = PairDistance2(sd->x, ee, v, w);
-    if (s >= dh2) return;
-    if (s <= 0) local = PETSC_INFINITY;
-    else {
-      MSimBarrier(s, dh2, &b, &db, &d2b);
-      local += sd->C * b;
+  PetscCall(Collect(sd, PETSC_TRUE));
+  for (const SelfTerm &t : sd->act) {
+    PetscReal b, db, d2b, r[3] = {0, 0, 0};
+    if (t.s <= 0) local = PETSC_INFINITY;
+    else if (local < PETSC_INFINITY) {
+      MSimBarrier(t.s, dh2, &b, &db, &d2b);
+      local += sd->C * t.c * b;
     }
     /* the gradient as Newton's: at a distance clamped away from 0 */
-    if (s < PETSC_SMALL * dh2) MSimBarrier(PETSC_SMALL * dh2, dh2, &b, &db, &d2b);
+    MSimBarrier(PetscMax(t.s, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
     for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) r[c] += w[k] * sd->x[3 * v[k] + c];
+      for (int c = 0; c < 3; c++) r[c] += t.w[k] * sd->x[3 * t.v[k] + c];
     for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) sd->geval[3 * v[k] + c] += 2 * sd->C * db * w[k] * r[c];
-    sd->npairs++;
-    sd->dmin = PetscMin(sd->dmin, std::sqrt(s));
-  }));
+      for (int c = 0; c < 3; c++) sd->geval[3 * t.v[k] + c] += 2 * sd->C * t.c * db * t.w[k] * r[c];
+    if (t.kind <= KIND_EE) {
+      sd->npairs++;
+      sd->dmin = PetscMin(sd->dmin, std::sqrt(t.s));
+    }
+  }
   sd->eeval = local;
   sd->xeval = sd->x;
   sd->eplan = sd->surf->nplans;
@@ -372,7 +550,7 @@ static PetscErrorCode AddGradient(MSimImplicitTerm term, Vec X, Vec G, PetscReal
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool, Mat J)
+static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, Mat J)
 {
   SelfData        *sd  = (SelfData *)term->data;
   MSimSelfSurface  s   = sd->surf;
@@ -382,23 +560,29 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool, Mat 
   PetscFunctionBeginUser;
   PetscCall(MSimSelfSurfaceGather(s, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
   PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
-  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
-    PetscReal   w[4], b, db, d2b, r[3] = {0, 0, 0};
+  PetscCall(Collect(sd, PETSC_TRUE));
+  /* psd: each term's block projected on its own: a term of weight c < 0 (a duplicate's
+     correction) is negative semidefinite and projects to 0, so the sum is PSD and, at a contact
+     that several pairs share, as stiff as the former sum of those pairs' blocks (Newton-CG then
+     takes shorter steps there). Without psd (a direct solver with inertia correction), the
+     weighted sum: where the duplicates coincide (their r and w agree) it is one barrier's block,
+     the Hessian of the energy the gradient differentiates */
+  for (const SelfTerm &t : sd->act) {
+    PetscReal   b, db, d2b, r[3] = {0, 0, 0};
     PetscInt    idx[12];
     PetscScalar H[144];
-    const PetscReal s2 = PairDistance2(sd->x, ee, v, w);
-    if (s2 >= dh2 || ierr) return;
-    MSimBarrier(PetscMax(s2, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
-    const PetscReal lambda = sd->C * PetscMax(0.0, 4 * d2b * s2 + 2 * db) / PetscMax(s2, PETSC_SMALL * dh2);
-    if (lambda == 0) return;
+    if ((psd && t.c <= 0) || ierr) continue;
+    MSimBarrier(PetscMax(t.s, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
+    const PetscReal lambda = sd->C * t.c * PetscMax(0.0, 4 * d2b * t.s + 2 * db) / PetscMax(t.s, PETSC_SMALL * dh2);
+    if (lambda == 0) continue;
     for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) r[c] += w[k] * sd->x[3 * v[k] + c];
+      for (int c = 0; c < 3; c++) r[c] += t.w[k] * sd->x[3 * t.v[k] + c];
     for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) idx[3 * k + c] = s->gnum[v[k]] >= 0 ? 3 * s->gnum[v[k]] + c : -1;
+      for (int c = 0; c < 3; c++) idx[3 * k + c] = s->gnum[t.v[k]] >= 0 ? 3 * s->gnum[t.v[k]] + c : -1;
     for (int i = 0; i < 12; i++)
-      for (int j = 0; j < 12; j++) H[12 * i + j] = lambda * w[i / 3] * w[j / 3] * r[i % 3] * r[j % 3];
+      for (int j = 0; j < 12; j++) H[12 * i + j] = lambda * t.w[i / 3] * t.w[j / 3] * r[i % 3] * r[j % 3];
     ierr = MatSetValues(J, 12, idx, 12, idx, H, ADD_VALUES);
-  }));
+  }
   PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
   PetscCall(ierr);
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
@@ -427,33 +611,34 @@ static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscRea
   };
   /* A long step (PD's global step ignores the barrier; Newton's first trial) leaves the lists'
      reach, and a swept broad phase over the whole motion is then the costliest query. First the
-     part a0 of the motion that keeps the vertices within margin / 2 of a list (Reach): no pair
-     outside it can touch before a0, so when one of its pairs stops the motion within a0 that is a
-     safe step (conservative like any ACCD answer; PD's lagged barrier proposes huge
-     steps that a close pair cuts to almost nothing). Otherwise the whole motion. */
-  auto part = [&](const std::vector<PetscInt> &list, const std::vector<PetscReal> &xref, PetscReal margin, PetscInt plan, bool sorted, PetscReal &tm) {
-    PetscReal am = 0;
-    tm           = 1;
-    if (plan != sd->surf->nplans || xref.size() != sd->x.size()) return am;
-    const PetscReal r0 = Reach(xref, sd->x, NULL, 0), ru = Reach(sd->x, sd->x, &sd->u, a);
-    if (r0 > 0.5 * margin) return am;
-    /* Reach grows by at most the motion's own spread times the step: a first guess, halved until
-       it checks */
-    am = ru > 0 ? PetscMin(a, a * (0.5 * margin - r0) / ru) : a;
-    for (int it = 0; it < 8 && Reach(xref, sd->x, &sd->u, am) > 0.5 * margin; it++) am *= 0.5;
-    const PetscReal rho = Reach(xref, sd->x, &sd->u, am); /* with r0, bounds the reach over [0, am] (convex) */
-    if (rho > 0.5 * margin) return (am = 0);
-    auto         f = ccd(am, tm);
-    const size_t n = sorted ? WideCCDPrefix(sd, PetscMax(r0, rho)) : list.size();
-    for (size_t k = 0; k < n; k += 5)
-      if (!PairApart(sd->x, &sd->u, am, (PetscBool)list[k], &list[k + 1], 0.0)) f((PetscBool)list[k], &list[k + 1]);
-    return am;
-  };
-  /* the near list first (a close pair cuts most long steps), then the wide one */
-  PetscReal t0, a0 = part(sd->cand, sd->xlist, sd->margin, sd->plan, false, t0);
-  if (!(a0 > 0 && (t0 < 1 || a0 == a))) a0 = part(sd->wide, sd->xwide, sd->wmargin, sd->wplan, true, t0);
-  if (a0 > 0 && (t0 < 1 || a0 == a)) t = a0 * t0 / a;
-  else PetscCall(ForEachPair(sd, sd->x, &sd->u, a, ccd(a, t)));
+     part am of the motion in which no vertex moves more than dhat / 4 (less the shared motion,
+     Reach): two elements then come closer by at most dhat / 2, so only the pairs within dhat at x
+     can touch before am, and when one of them stops the motion within am that is a safe step
+     (conservative like any ACCD answer; PD's lagged barrier proposes huge steps that a close pair
+     cuts to almost nothing). Otherwise the whole motion. am and the pairs within dhat depend on x,
+     u and a only, not on where the lists were made, so neither does the answer (a restart repeats
+     the run bit for bit); either list holds every pair within dhat at x while it is valid. */
+  const PetscReal dhat = sd->surf->dhat, rc = 0.25 * dhat, ru = Reach(sd->x, sd->x, &sd->u, a);
+  PetscReal       am   = ru > rc ? a * (rc / ru) : a;
+  bool            done = false;
+  for (int it = 0; it < 8 && Reach(sd->x, sd->x, &sd->u, am) > rc; it++) am *= 0.5; /* roundoff */
+  if (am > 0 && Reach(sd->x, sd->x, &sd->u, am) <= rc) {
+    const std::vector<PetscInt> *list = NULL;
+    size_t                       n    = 0;
+    if (sd->plan == sd->surf->nplans && sd->xlist.size() == sd->x.size() && Reach(sd->xlist, sd->x, NULL, 0) <= 0.5 * sd->margin) list = &sd->cand, n = sd->cand.size();
+    else if (sd->wplan == sd->surf->nplans && sd->xwide.size() == sd->x.size()) {
+      const PetscReal rw = Reach(sd->xwide, sd->x, NULL, 0);
+      if (rw <= 0.5 * sd->wmargin) list = &sd->wide, n = WidePrefix(sd, dhat + 2 * rw);
+    }
+    if (list) {
+      PetscReal t0 = 1, w[4];
+      auto      f  = ccd(am, t0);
+      for (size_t k = 0; k < n; k += 5)
+        if (!PairApart(sd->x, NULL, 0, (PetscBool)(*list)[k], &(*list)[k + 1], dhat) && PairDistance2(sd->x, (PetscBool)(*list)[k], &(*list)[k + 1], w) < dhat * dhat) f((PetscBool)(*list)[k], &(*list)[k + 1]);
+      if (t0 < 1 || am == a) t = am * t0 / a, done = true;
+    }
+  }
+  if (!done) PetscCall(ForEachPair(sd, sd->x, &sd->u, a, ccd(a, t)));
   PetscCall(PetscLogEventEnd(MSIM_SelfCCD, 0, 0, 0, 0));
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &t, 1, MPIU_REAL, MPIU_MIN, term->imp->sys->comm));
   *alpha = a * t;
@@ -509,6 +694,7 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
   sd->margin  = sd->surf->dhat;
   sd->wmargin = 4 * sd->margin;
   sd->eplan   = -1;
+  sd->cplan   = -1;
   term->ops   = SelfOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -521,20 +707,24 @@ PetscErrorCode MSimSelfContactGetPairs(MSimImplicitTerm term, PetscReal t, Vec X
   PetscFunctionBeginUser;
   pairs.clear();
   PetscCall(MSimSelfSurfaceGather(sd->surf, t, X, NULL, 0, sd->x, NULL));
-  PetscCall(ForEachPair(sd, sd->x, NULL, 0, [&](PetscBool ee, const PetscInt *v) {
+  /* the point-triangle and edge-edge pairs only, each at its own barrier's force: the friction
+     term's Hessian is exact and PSD only with positive forces (not done: the duplicates' weights
+     there, so friction still counts a contact at a shared edge or vertex once per pair) */
+  PetscCall(Collect(sd, PETSC_FALSE));
+  for (const SelfTerm &t : sd->act) {
     MSimSelfContactPair p;
     PetscReal           b, db, d2b, r[3] = {0, 0, 0};
-    const PetscReal     s = PairDistance2(sd->x, ee, v, p.w);
-    if (s >= dh2 || s <= 0) return;
-    MSimBarrier(s, dh2, &b, &db, &d2b);
-    const PetscReal d = std::sqrt(s);
+    if (t.s <= 0) continue;
+    MSimBarrier(t.s, dh2, &b, &db, &d2b);
+    const PetscReal d = std::sqrt(t.s);
     for (int k = 0; k < 4; k++) {
-      p.gnum[k] = sd->surf->gnum[v[k]];
-      for (int c = 0; c < 3; c++) r[c] += p.w[k] * sd->x[3 * v[k] + c];
+      p.w[k]    = t.w[k];
+      p.gnum[k] = sd->surf->gnum[t.v[k]];
+      for (int c = 0; c < 3; c++) r[c] += t.w[k] * sd->x[3 * t.v[k] + c];
     }
     for (int c = 0; c < 3; c++) p.n[c] = r[c] / d;
     p.force = 2 * sd->C * PetscAbsReal(db) * d;
     pairs.push_back(p);
-  }));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
