@@ -18,6 +18,8 @@ DIVERGED_LINEAR_SOLVE (CG on its nonsymmetric Fischer-Burmeister Jacobian, then 
 rather than on its merit |phi|^2: src/integrators/impls/implicit.cpp, SetUpSemismooth):
 - the same three checks (50 steps, no vertex inside in any frame, some vertex on the top face,
   which the semismooth solve reaches only to its tolerance: 1.4e-10 on |phi|, far inside 1e-9);
+- its defaults: l2 (on |phi|^2) and GMRES, not CG (-snes_view); msim's shell search, which
+  works on Phi, is refused in one line;
 - the two solvers solve the same variational inequality each step, so their frames agree: at step
   20, past the landing (steps 11-15), within 1e-4 m, 1e-3 of the cloth's 0.1 m spring (far above
   the solves' tolerances, far below any difference of solution: a vertex held on another face is
@@ -74,6 +76,8 @@ def main():
             rsls = drop(tmp, "vinewtonrsls", [], np_, check)
             if np_ == 1:
                 reference = rsls
+            elif reference is None:  # run alone at --np 2: the 1-rank reference here too
+                reference = drop(tmp, "vinewtonrsls", [], 1, check)
             ssls = drop(tmp, "vinewtonssls", ["-snes_type", "vinewtonssls"], np_, check)
             if reference and ssls:
                 frame = mt.frames(ssls)[20]
@@ -85,6 +89,15 @@ def main():
             types = [l.split(":", 1)[1].strip() for l in r.stdout.splitlines() if l.strip().startswith("type:")]
             check(r.returncode == 0 and "vinewtonrsls" in types and "basic" in types and "bt" not in types,
                   f"np={np_}: -msim_contact_bounds -snes_linesearch_type basic: the SNES and line search types {types[:2]}")
+            r = mt.run(MSIM, BASE + ["-msim_steps", "1", "-snes_type", "vinewtonssls", "-snes_view"], np_)
+            types = [l.split(":", 1)[1].strip() for l in r.stdout.splitlines() if l.strip().startswith("type:")]
+            check(r.returncode == 0 and types[:3] == ["vinewtonssls", "l2", "gmres"] and "cg" not in types,
+                  f"np={np_}: vinewtonssls's defaults: l2 search, GMRES ({types[:4]})")
+            out = os.path.join(tmp, f"shell_{np_}")
+            r = mt.run(MSIM, BASE + ["-msim_steps", "1", "-snes_type", "vinewtonssls", "-snes_linesearch_type", "shell", "-msim_output", out], np_)
+            err = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(err) == 1 and "not -snes_linesearch_type shell" in err[0] and not os.path.exists(out),
+                  f"np={np_}: vinewtonssls with msim's shell search (on Phi) is refused in one line, nothing written ({err})")
     sys.exit(check.exit_code())
 
 
