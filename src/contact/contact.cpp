@@ -321,6 +321,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->fr_xn      = NULL;
   ct->fr_t = ct->fr_tx = ct->fr_h = 0;
   ct->psd_curvature = PETSC_TRUE;
+  ct->pd_refactor    = 4; /* runs/contact/README.md: 21 -> 7 factorizations on the 101 x 101 drape, the same monitor */
+  ct->pc_pd_weight   = PETSC_FALSE;
   PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
   PetscCall(PetscContainerSetPointer(container, ct));
   PetscCall(PetscContainerSetUserDestroy(container, ContactDestroy));
@@ -365,7 +367,9 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
-  PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal, set (and A refactored) when that set changes; 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
+  PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal (A refactored per -msim_contact_pd_refactor); 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
+  PetscCall(MSimOptionsReal("-msim_contact_pd_refactor", "PD with -msim_contact_pd_weight: keep the factor until some vertex's wanted diagonal (A's plus the barrier's weight, taken once per step) is off the factored one by more than this factor; 0: refactor whenever the set of vertices within dhat changes", NULL, ct->pd_refactor, &ct->pd_refactor, NULL));
+  PetscCall(PetscOptionsBool("-msim_contact_pc_pd_weight", "Newton with -msim_pc_pd: the PD factor preconditioning CG includes the barrier's weights (taken at every Jacobian, refactored by -msim_contact_pd_refactor's rule)", NULL, ct->pc_pd_weight, &ct->pc_pd_weight, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
   PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
   PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing: tangential speed (m/s) below which friction acts as static (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
@@ -374,6 +378,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCheck(ct->kappa >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_kappa must be >= 0 (got %g)", (double)ct->kappa);
   PetscCheck(ct->kc >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_stiffness must be >= 0 (got %g)", (double)ct->kc);
   PetscCheck(ct->mu >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction must be >= 0 (got %g)", (double)ct->mu);
+  PetscCheck(ct->pd_refactor == 0 || ct->pd_refactor >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor must be 0 or >= 1 (got %g)", (double)ct->pd_refactor);
   PetscCheck(ct->eps_v > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be > 0 (got %g)", (double)ct->eps_v);
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);

@@ -156,6 +156,16 @@ static PetscErrorCode PDReweight(MSimImplicit imp, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Newton-CG with the PD factor as its preconditioner (-msim_contact_pc_pd_weight): the obstacles'
+   Hessian passes each Jacobian's X here, so that the factor takes the barrier's weights there and
+   is refactored by the same rule as PD's own (-msim_contact_pd_refactor) */
+PetscErrorCode MSimImplicitPDReweight(MSimImplicit imp, Vec X)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PDReweight(imp, X));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* rhs = M y + the diagonal terms' w c + the other terms' local steps at X; with phi, also Phi(X)
    (the projections are optimal, so the PD energy equals Phi). The terms start what they need
    (the ghost exchange) before the inertia pass, so it travels meanwhile. */
@@ -340,6 +350,7 @@ PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
   PC pc;
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitPDSetUp(imp));
+  imp->pd_pc = PETSC_TRUE;
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCSetType(pc, PCSHELL));
   PetscCall(PCShellSetContext(pc, imp));

@@ -201,6 +201,7 @@ struct _n_MSimImplicit {
   Vec        pdb, pdx;        /* one column of the right-hand side and of the solution */
   PetscInt   pd_lits;         /* Krylov iterations of the PD solves in the current step */
   PetscInt   nfactor;         /* numeric factorizations done by the PD solves */
+  PetscBool  pd_pc;           /* the PD factor preconditions a SNES's linear solves (MSimImplicitPDSetPC) */
   Vec        rhs;
   /* Phi at the last local step's X (the Vec of that id, at that state; id 0: none), where the
      global step's check starts */
@@ -216,3 +217,6 @@ PetscErrorCode MSimImplicitSetReference(MSimImplicit imp, Vec xref, PetscReal tr
 /* the sum of the diagonal terms' weights w (each term w/2 |x - c|^2), for the Jacobian's and PD's
    diagonals */
 PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w);
+/* PD's weights of state-dependent terms (contact) taken at X, A refactored where they changed
+   (pd_steps.cpp); for Newton's Jacobian with the PD factor as preconditioner */
+PetscErrorCode MSimImplicitPDReweight(MSimImplicit imp, Vec X);

@@ -13,9 +13,10 @@
    without the reduction, so that the first iterate is cut vertex by vertex (a common alpha froze
    the whole cloth when one vertex reached the ball). PD (-msim_contact_pd_weight): each vertex
    within dhat gets w_v = beta h^2 kappa m b''(d) on the PD matrix's diagonal, computed at the
-   first local step of each time step and taken when the set of such vertices changed (A is then
-   refactored, and only then), and the right-hand side w_v x_v minus the barrier's gradient, so
-   each global step is X - A^-1 g(X); the step is then shortened by max_step where it would cross
+   first local step of each time step and taken when some vertex's diagonal is off the factored
+   one by more than a factor (-msim_contact_pd_refactor, default 4; 0: when the set of such
+   vertices changed; A is then refactored, and only then), and the right-hand side w_v x_v minus
+   the barrier's gradient, so each global step is X - A^-1 g(X); the step is then shortened by max_step where it would cross
    an obstacle and halved until Phi does not rise (pd_steps.cpp). A constant factor (contact in
    the right-hand side only, -msim_contact_pd_weight 0, or as a projection in the local step) was
    measured against this in runs/contact/README.md: none both converges and keeps the cloth out.
@@ -121,6 +122,10 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  /* Newton-CG on the PD factor: without the barrier's stiffness the factor is a poor preconditioner
+     of the contact vertices' stiff blocks (20 unconverged iterations a step on the ball); with it,
+     refactored by PD's rule (runs/contact/README.md) */
+  if (ct->pc_pd_weight && ct->pd_weight && term->imp->pd_pc) PetscCall(MSimImplicitPDReweight(term->imp, X));
   const PetscReal w = term->imp->step.h2 * ct->kappa;
   PetscCall(ForEachNear(term, ct, X, PETSC_TRUE, [&](PetscInt v, PetscReal d, const PetscReal *n, const PetscReal *H, PetscReal m) {
     PetscReal   b, db, d2b;
@@ -152,9 +157,9 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
 }
 
 /* PD's weights: w_v = beta h^2 kappa m_v sum_o b''(d_vo) on the diagonal of A for each vertex
-   within dhat of an obstacle at the first local step of a time step, taken when the set of such
-   vertices changed (and only then, so the
-   factor is kept while the contact set is); zero elsewhere. Whether the set changed is decided over
+   within dhat of an obstacle at the first local step of a time step, taken when
+   -msim_contact_pd_refactor's test says the factored ones are too far off (and only then, so the
+   factor is kept while they are close); zero elsewhere. Whether the set changed is decided over
    all ranks (pd_steps.cpp reduces the flag), so every rank takes its new weights when A is
    reassembled, not only the ranks whose own vertices changed: a rank that kept its old weights
    while another's set changed gave A, and so a fixed-iteration PD step, that depended on the
@@ -164,6 +169,7 @@ typedef struct {
   std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
   PetscBool              pending; /* next holds weights not yet taken */
   PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
+  Vec                    diag = NULL; /* A's diagonal, for -msim_contact_pd_refactor's test */
 } PDWeights;
 
 static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBool *changed)
@@ -178,8 +184,10 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
   /* once per time step, at its first local step (the same on every rank): the weights only speed
      the iteration up (the right-hand side makes each global step X - A^-1 g(X) whatever they
      are), and a refactorization costs about 5 PD iterations of the 101 x 101 cloth in CPU time
-     (runs/contact/README.md) */
-  if (pw->t == term->imp->step.t) PetscFunctionReturn(PETSC_SUCCESS);
+     (runs/contact/README.md). Newton's preconditioner (-msim_contact_pc_pd_weight) takes them at
+     every Jacobian instead: taken once per step, at the first iterate, they left CG's directions
+     so poor that the 101 x 101 drape diverged at step 20 */
+  if (pw->t == term->imp->step.t && !term->imp->pd_pc) PetscFunctionReturn(PETSC_SUCCESS);
   pw->t = term->imp->step.t;
   std::vector<PetscReal> w(sys->nown, 0.0);
   const PetscReal        h2k = term->imp->step.h2 * ct->kappa;
@@ -189,8 +197,29 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     w[v] += h2k * m * d2b;
   }));
   PetscBool same = (PetscBool)(pw->w.size() == w.size());
-  for (size_t v = 0; same && v < w.size(); v++) same = (PetscBool)((w[v] > 0) == (pw->w[v] > 0));
-  if (!same) *changed = PETSC_TRUE;
+  if (ct->pd_refactor > 0 && same && term->imp->A) {
+    /* lazy (-msim_contact_pd_refactor r): the factor's weights only speed the iteration up, and a
+       vertex whose factored diagonal A_vv is within a factor r of the wanted one converges nearly
+       as fast (too low a weight overshoots by up to the ratio, too high a one slows the vertex by
+       it): refactor when some vertex within dhat (wanted or factored) is further off. A fraction
+       of such vertices allowed off instead never refactored: the few vertices nearest the ball,
+       whose b'' dwarfs the springs' diagonal, are the ones that need it (runs/contact/README.md). */
+    const PetscReal    r = ct->pd_refactor;
+    const PetscScalar *a;
+    PetscBool          off = PETSC_FALSE;
+    if (!pw->diag) PetscCall(MatCreateVecs(term->imp->A, &pw->diag, NULL));
+    PetscCall(MatGetDiagonal(term->imp->A, pw->diag));
+    PetscCall(VecGetArrayRead(pw->diag, &a));
+    for (size_t v = 0; !off && v < w.size(); v++) {
+      const PetscReal have = PetscRealPart(a[v]), want = have - pw->w[v] + w[v];
+      off = (PetscBool)(want > r * have || have > r * want);
+    }
+    PetscCall(VecRestoreArrayRead(pw->diag, &a));
+    if (off) *changed = PETSC_TRUE; /* reduced over the ranks by the caller */
+  } else {
+    for (size_t v = 0; same && v < w.size(); v++) same = (PetscBool)((w[v] > 0) == (pw->w[v] > 0));
+    if (!same) *changed = PETSC_TRUE;
+  }
   pw->next.swap(w);
   pw->pending = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -240,6 +269,7 @@ static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, Pet
 static PetscErrorCode Destroy_Obstacles(MSimImplicitTerm term)
 {
   PetscFunctionBeginUser;
+  if (term->data) PetscCall(VecDestroy(&((PDWeights *)term->data)->diag));
   delete (PDWeights *)term->data;
   term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
