@@ -84,6 +84,11 @@ struct _n_MSimMeshObstacle {
   PetscReal              cw = 0, smax = 0, org[3];
   std::vector<Slot>      slots;
   size_t                 ncells = 0;
+  /* coarse cells of 8^3 cells, n = 1 where some triangle is within band of the coarse cell (the
+     others are answered without a cell: most of a falling cloth's cells were empty, and they filled
+     the table that every query reads) */
+  std::vector<Slot>      cslots;
+  size_t                 ncoarse = 0;
   uint64_t               last_key = ~(uint64_t)0; /* the last lookup (a safe step asks twice) */
   size_t                 last_slot = 0;
   std::vector<Candidate> pool;
@@ -235,7 +240,8 @@ static bool SegmentCrosses(const PetscReal o[3], const PetscReal d[3], PetscReal
      candidate with dc up to the box's farthest point from c; those candidates go through CGAL's
      own triangle-box test, the one the tree applies to its leaves, so the triangles tested for a
      crossing are the tree query's, and the hit time is the same minimum. */
-/* a cell as the queries see it: its centre, its candidates pool[off, off + n) and its slot */
+/* a cell as the queries see it: its centre, its candidates pool[off, off + n) and its slot
+   (~0 in an empty coarse cell: no candidates, no side, and the safe step asks the tree) */
 struct MeshCellT {
   PetscReal c[3];
   size_t    off, n, slot;
@@ -243,18 +249,30 @@ struct MeshCellT {
 
 /* the key's slot in the table: its own, or the empty one where it would go (Fibonacci hashing,
    linear probing) */
-static size_t HashSlot(MSimMeshObstacle mo, uint64_t key)
+static size_t HashSlot(const std::vector<_n_MSimMeshObstacle::Slot> &slots, uint64_t key)
 {
-  const size_t mask = mo->slots.size() - 1;
+  const size_t mask = slots.size() - 1;
   size_t       s    = (size_t)((key * 0x9E3779B97F4A7C15ull) >> 32) & mask;
-  while (mo->slots[s].key != key && mo->slots[s].key != ~(uint64_t)0) s = (s + 1) & mask;
+  while (slots[s].key != key && slots[s].key != ~(uint64_t)0) s = (s + 1) & mask;
   return s;
+}
+
+/* room for one more key in a table kept at most half full */
+static void HashGrow(std::vector<_n_MSimMeshObstacle::Slot> &slots, size_t count)
+{
+  if (2 * (count + 1) <= slots.size()) return;
+  std::vector<_n_MSimMeshObstacle::Slot> old;
+  old.swap(slots);
+  slots.assign(2 * old.size(), {~(uint64_t)0, 0, 0, 0});
+  for (const auto &o : old)
+    if (o.key != ~(uint64_t)0) slots[HashSlot(slots, o.key)] = o;
 }
 
 static void ClearCells(MSimMeshObstacle mo)
 {
   mo->slots.assign(1024, {~(uint64_t)0, 0, 0, 0});
-  mo->ncells   = 0;
+  mo->cslots.assign(1024, {~(uint64_t)0, 0, 0, 0});
+  mo->ncells = mo->ncoarse = 0;
   mo->last_key = ~(uint64_t)0;
   mo->pool.clear();
   mo->refs.clear();
@@ -265,27 +283,39 @@ static bool MeshCell(MSimMeshObstacle mo, const PetscReal x[3], MeshCellT *C)
 {
   const int64_t nmax = ((int64_t)1 << 21) - 1;
   int64_t       ijk[3];
-  uint64_t      key = 0;
+  uint64_t      key = 0, ckey = 0;
   for (int c = 0; c < 3; c++) {
     const PetscReal f = std::floor((x[c] - mo->org[c]) / mo->cw);
     if (!(f >= 0 && f <= (PetscReal)nmax)) return false; /* outside the grid (or not finite) */
     ijk[c] = (int64_t)f;
     key |= (uint64_t)ijk[c] << (21 * c);
+    ckey |= (uint64_t)(ijk[c] >> 3) << (21 * c);
     C->c[c] = mo->org[c] + ((PetscReal)ijk[c] + 0.5) * mo->cw;
   }
-  size_t slot = key == mo->last_key ? mo->last_slot : HashSlot(mo, key);
-  if (mo->slots[slot].key != key) { /* a new cell: its candidates */
+  const PetscReal slack = 1e-9 * (mo->diam + mo->band + mo->smax);
+  size_t          slot  = key == mo->last_key ? mo->last_slot : HashSlot(mo->slots, key);
+  if (mo->slots[slot].key != key) {
+    /* the coarse cell: no triangle meets its box widened by band (a triangle within band of x meets
+       the cube of half-width band around x, inside that box) means none is within band of x */
+    size_t cs = HashSlot(mo->cslots, ckey);
+    if (mo->cslots[cs].key != ckey) {
+      PetscReal lo[3], hi[3];
+      for (int c = 0; c < 3; c++) lo[c] = mo->org[c] + (PetscReal)((ijk[c] >> 3) << 3) * mo->cw - mo->band - slack, hi[c] = lo[c] + 8 * mo->cw + 2 * (mo->band + slack);
+      HashGrow(mo->cslots, mo->ncoarse);
+      cs              = HashSlot(mo->cslots, ckey);
+      mo->cslots[cs] = {ckey, 0, mo->tree.do_intersect(K::Iso_cuboid_3(Point(lo[0], lo[1], lo[2]), Point(hi[0], hi[1], hi[2]))) ? 1u : 0u, 0};
+      mo->ncoarse++;
+    }
+    if (!mo->cslots[cs].n) {
+      C->off = C->n = 0, C->slot = ~(size_t)0;
+      return true;
+    }
+    /* a new cell: its candidates */
     PetscCallAbort(PETSC_COMM_SELF, PetscLogEventBegin(MSIM_MeshCells, 0, 0, 0, 0));
     if (mo->pool.size() > ((size_t)1 << 22) || mo->ncells > ((size_t)1 << 21)) ClearCells(mo); /* a cloth wandering over a large surface: start afresh */
-    if (2 * (mo->ncells + 1) > mo->slots.size()) { /* keep the table at most half full */
-      std::vector<_n_MSimMeshObstacle::Slot> old;
-      old.swap(mo->slots);
-      mo->slots.assign(2 * old.size(), {~(uint64_t)0, 0, 0, 0});
-      for (const auto &o : old)
-        if (o.key != ~(uint64_t)0) mo->slots[HashSlot(mo, o.key)] = o;
-    }
-    slot = HashSlot(mo, key);
-    const PetscReal R = mo->band + mo->smax, slack = 1e-9 * (mo->diam + R);
+    HashGrow(mo->slots, mo->ncells);
+    slot              = HashSlot(mo->slots, key);
+    const PetscReal R = mo->band + mo->smax;
     const size_t    off = mo->pool.size();
     mo->near.clear();
     mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(C->c[0] - R - slack, C->c[1] - R - slack, C->c[2] - R - slack), Point(C->c[0] + R + slack, C->c[1] + R + slack, C->c[2] + R + slack)), std::back_inserter(mo->near));
@@ -566,7 +596,7 @@ PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mo, const PetscReal x[3], co
     const PetscReal te = PetscMin(tmax, 2 * (mo->diam + d0) / ulen), eps = 1e-9 * (mo->diam + te * ulen);
     for (int c = 0; c < 3; c++) lo[c] = PetscMin(x[c], x[c] + te * u[c]) - eps, hi[c] = PetscMax(x[c], x[c] + te * u[c]) + eps;
     const K::Iso_cuboid_3 box(Point(lo[0], lo[1], lo[2]), Point(hi[0], hi[1], hi[2]));
-    MeshCellT             cell, *C = mo->use_cells && mo->band < PETSC_MAX_REAL && MeshCell(mo, x, &cell) ? &cell : NULL;
+    MeshCellT             cell, *C = mo->use_cells && mo->band < PETSC_MAX_REAL && MeshCell(mo, x, &cell) && cell.slot != ~(size_t)0 ? &cell : NULL;
     PetscReal             far = 0;
     if (C) { /* the box's farthest corner from the centre: the cell answers if within R of it */
       for (int c = 0; c < 3; c++) {
