@@ -3,7 +3,7 @@
 without contact, for each integrator and solver against h; explicit stability with the penalty
 against the guard; friction on an incline against g (sin - mu cos) t^2/2; the cost targets on the
 benchmark cloth draped on a ball (analytic sphere and a >= 10^4-triangle mesh sphere).
-Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
+Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|meshcheck|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
        [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh]
 Small sizes by default (2 shared cores); --bench-n 101 is the benchmark cloth. Costs: PETSc's
 MSimStep event (wall, ms per step; this machine is shared, so they vary by tens of %) and the
@@ -218,6 +218,41 @@ def targets(a, tmp):
     msimrun.write_csv(os.path.join(HERE, f"targets_n{a.bench_n}{'_' + a.solvers if a.solvers else ''}.csv"), rows)
 
 
+def meshcheck(a, tmp):
+    """no vertex inside the mesh ball in any frame: the targets' mesh runs (--bench-n, 24 steps, each
+    solver) with every step written, and over every frame and vertex the largest of the signed
+    distances to the 20,480 faces' planes (the icosphere is convex, so a point is outside it iff that
+    largest is > 0, and it is a lower bound of the point's distance to the surface)"""
+    obj = os.path.join(tmp, "sphere.obj")
+    sphere_obj(obj)
+    v, f = [], []
+    for line in open(obj):
+        (v if line[0] == "v" else f).append([float(t) for t in line.split()[1:]])
+    v, f = np.array(v), np.array(f, dtype=int) - 1
+    n = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    n /= np.linalg.norm(n, axis=1)[:, None]
+    n *= np.sign(np.einsum("ij,ij->i", n, v[f[:, 0]] - np.array([0.5, 0.5, -0.4])))[:, None]  # outward
+    off = np.einsum("ij,ij->i", n, v[f[:, 0]])
+    cloth = ["-msim_cloth_n", a.bench_n, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", 1 / 30, "-msim_steps", "24", "-msim_friction", "0.3",
+             "-msim_contact_mesh", obj]
+    solvers = {"pd10": ["-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"],
+               "newton_cg": ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]}
+    for s, sopts in solvers.items():
+        if a.solvers and s not in a.solvers.split(","):
+            continue
+        out = os.path.join(tmp, "frames_" + s)
+        rc, err, _, _ = run(a.msim, cloth + sopts + ["-msim_output", out, "-msim_output_every", "1"])
+        least, frames = np.inf, 0
+        for _, fr in vtu.read_pvd(os.path.join(out, "series.pvd")):
+            x = vtu.read_vtu(fr)["points"]
+            x = x[np.linalg.norm(x - np.array([0.5, 0.5, -0.4]), axis=1) < 0.35]  # the others are far outside
+            for k in range(0, len(x), 256):
+                least = min(least, float((x[k:k + 256] @ n.T - off).max(axis=1).min()) if len(x[k:k + 256]) else np.inf)
+            frames += 1
+        print(f"meshcheck {s}: rc {rc}, {frames} frames, least outside margin over every frame and vertex near the ball {least:.3e} m"
+              f" ({'no vertex inside' if least > 0 else 'A VERTEX IS INSIDE'})" + ("" if rc == 0 else " " + err.strip().splitlines()[-1][:150]), flush=True)
+
+
 def plot(a):
     import matplotlib
     matplotlib.use("Agg")
@@ -259,7 +294,7 @@ def main():
     p.add_argument("--obstacles", help="targets: none,sphere,mesh (default all)")
     a = p.parse_args()
     tmp = tempfile.mkdtemp(prefix="msim_contact_study_")
-    for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets)):
+    for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets), ("meshcheck", meshcheck)):
         if a.what in (part, "all"):
             fn(a, tmp)
     if a.what in ("plot", "all"):
