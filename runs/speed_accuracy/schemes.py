@@ -59,7 +59,11 @@ SOLVERS = {  # label: options (msim's own implicit path)
     "PD-20": "-snes_type pd -snes_pd_fixed -snes_max_it 20",
     "PD+Anderson-10": "-snes_type pd -snes_pd_fixed -snes_pd_anderson 5 -snes_max_it 10",
     "L-BFGS-10": f"-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it 10",
+    # msim's own L-BFGS on the PD matrix, fused with PD's steps (-snes_pd_lbfgs; 3 pairs)
+    "PD+L-BFGS-10": "-snes_type pd -snes_pd_fixed -snes_pd_lbfgs 3 -snes_max_it 10",
+    "PD+L-BFGS-8": "-snes_type pd -snes_pd_fixed -snes_pd_lbfgs 3 -snes_max_it 8",
 }
+SOLVER_WANT = set(SOLVERS)  # --solvers: which of them this run makes (the others' rows stay)
 TS_ALPHA = {  # label: options (PETSc TS on msim's analytic Jacobian, fixed steps)
     "alpha2 r=1": "-msim_integrator ts -ts_type alpha2 -ts_alpha_radius 1 -ts_adapt_type none",
     "alpha2 r=0.5": "-msim_integrator ts -ts_type alpha2 -ts_alpha_radius 0.5 -ts_adapt_type none",
@@ -138,11 +142,13 @@ def configs(scene, msim, newton="exact"):
         else:
             own = solvers
         for solver, opts in own.items():
+            if solver not in SOLVER_WANT and not (solver.startswith("Newton") and "Newton" in SOLVER_WANT):
+                continue
             for h in (hs if solver.startswith("Newton") or solver == "PD-10" else [H30]):
                 if scene == "cloth" and solver.startswith("Newton") and h != H30:
                     continue  # seconds per step on the benchmark cloth: one h only
                 out.append((f"{s}, {solver}", s, solver, h, f"-msim_integrator {s} {opts}"))
-    for label, opts in TS_ALPHA.items() if "ts" in WANT else ():
+    for label, opts in TS_ALPHA.items() if "ts" in WANT and label in SOLVER_WANT else ():
         for h in (hs if scene != "cloth" else [H30]):  # Newton on the benchmark cloth: one h
             out.append((f"ts {label}", "ts alpha2", label, h, opts))
     return out
@@ -234,7 +240,8 @@ def merge(path, rows, scenes):
     kept = []
     if os.path.exists(path):
         with open(path) as f:
-            kept = [r for r in csv.DictReader(f) if r["scene"] not in scenes or (r["scheme"].split()[0] not in WANT)]
+            kept = [r for r in csv.DictReader(f) if r["scene"] not in scenes or (r["scheme"].split()[0] not in WANT)
+                    or (r["solver"] not in SOLVER_WANT and not (r["solver"].startswith("Newton") and "Newton" in SOLVER_WANT))]
     write_csv(path, kept + rows)
 
 
@@ -271,7 +278,8 @@ def energy(a, msim):
     write_csv(path, kept + rows)  # the schemes run replace their rows; the others stay
 
 
-MARKERS = {"Newton": "o", "Newton-CG |dx|<1e-4": "o", "Newton LU |dx|<1e-4": "o", "PD-10": "s", "PD-20": "D", "PD+Anderson-10": "^", "L-BFGS-10": "v", "alpha2 r=1": "P", "alpha2 r=0.5": "X"}
+MARKERS = {"Newton": "o", "Newton-CG |dx|<1e-4": "o", "Newton LU |dx|<1e-4": "o", "PD-10": "s", "PD-20": "D", "PD+Anderson-10": "^", "L-BFGS-10": "v",
+           "PD+L-BFGS-10": "<", "PD+L-BFGS-8": ">", "alpha2 r=1": "P", "alpha2 r=0.5": "X"}
 
 
 def targets(rows):
@@ -390,11 +398,14 @@ def main():
     p.add_argument("--fresh-reference", action="store_true", help="recompute the RK4 reference even if /tmp holds it")
     p.add_argument("--newton", default="exact", choices=("exact", "cg"), help="the converged solver: exact-Hessian Newton (MUMPS) or Newton-CG to |dx| < 1e-4")
     p.add_argument("--schemes", default=",".join(SCHEMES + ["ts"]), help="which schemes to run (ts: PETSc's alpha2)")
+    p.add_argument("--solvers", default=",".join(list(SOLVERS) + list(TS_ALPHA)), help="which solvers to run (labels of SOLVERS and TS_ALPHA; Newton: the scene's converged one); the other solvers' rows stay")
     p.add_argument("--repeat-below", type=float, default=5.0, help="re-time only runs whose user seconds per simulated second are below this")
     a = p.parse_args()
     a.scenes = a.scenes.split(",")
     WANT.clear()
     WANT.update(a.schemes.split(","))
+    SOLVER_WANT.clear()
+    SOLVER_WANT.update(a.solvers.split(","))
     msim = os.path.abspath(a.msim)
     if a.part in ("work", "all"):
         work(a, msim)
