@@ -4,7 +4,8 @@
 work: error at t = every frame (the cloth 0.2 ... 1 s, the rope 0.2 ... 1 s, the beam 0.1 ... 0.5 s)
   against RK4 at a tiny step, for implicit_euler, bdf2, implicit_midpoint, newmark (and
   discrete_gradient where this msim has it) each with Newton to convergence (exact Hessian, MUMPS
-  LDL^T; --newton cg: Newton-CG on the PD factor to |dx| < 1e-4 m, for the benchmark cloth), PD 10 and 20 iterations, PD + safeguarded Anderson 10, L-BFGS 10, and PETSc TS alpha2
+  LDL^T; --newton cg: Newton-CG on the PD factor to |dx| < 1e-4 m, for the benchmark cloth), PD 10 and 20 iterations, PD + safeguarded Anderson 10, L-BFGS 10 (PETSc's qn), PD + L-BFGS 10 and 8 (msim's fused
+  -snes_pd_lbfgs), and PETSc TS alpha2
   (generalized-alpha, radius 1 and 0.5) with msim's analytic Jacobian; h = 1/30 s and finer for
   the cheap solvers. One frame series per run gives every T at once (-msim_output_every).
   Cost (the 2-core host is shared and loaded, so wall time swings by 2-4x): the child's CPU user
@@ -21,8 +22,8 @@ plot: schemes_work_precision.png (error at each T against cost), energy_schemes.
   PD-10 implicit Euler's cost against implicit Euler's best) and writes schemes_targets.csv.
 Usage: /usr/bin/python3 runs/speed_accuracy/schemes.py [work|energy|plot|all] [--msim PATH]
   [--scenes cloth,rope,solid] [--cloth-n 101] [--rope-n 1000] [--beam 24,6,6] [--energy-cloth-n 31]
-  [--repeats 2] [--newton exact|cg] [--schemes implicit_euler,bdf2,...,ts]. Sizes are arguments: a bigger machine runs the same script at the benchmark sizes.
-  Rows of the scenes and schemes run replace theirs in schemes.csv; the others stay."""
+  [--repeats 2] [--newton exact|cg] [--schemes implicit_euler,bdf2,...,ts] [--solvers PD-10,PD+L-BFGS-8,...]. Sizes are arguments: a bigger machine runs the same script at the benchmark sizes.
+  Rows of the scenes, schemes and solvers run replace theirs in schemes.csv; the others stay."""
 import csv
 import math
 import os
