@@ -4,7 +4,7 @@ with and without it, its cost per step (CPU time, alternated runs), and what it 
 explicit limit (Gershgorin bound msim prints, and SLEPc's omega_max of (K, M) with the term's
 Hessian in K).
 Usage: study.py [path/to/msim] [inverted|cost|limit|steps[:N[:msim-before]]] (default build/msim,
-all but steps); writes inverted.csv, cost.csv, limit.csv and inverted.png here, and stepsN.csv
+all but steps); writes inverted.csv (springs alone, the full term, the barrier alone), cost.csv, limit.csv and inverted.png here, and stepsN.csv
 (the per-step CPU user time over N bunny steps at 1 rank, steps-only by difference with a 1-step
 run, min of 3 alternated repetitions). Steps: 45 of the bunny's 150 (the inversions start at step 9), 2 ranks."""
 import os
@@ -34,13 +34,18 @@ def run(args, np):
     return p.stdout + p.stderr, (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system), time.time() - t0
 
 
+# the bunny's three settings: springs alone, the full term (Teschner's quadratic and the barrier),
+# the barrier alone (kv 0)
+INVERTED = [("springs", ["-msim_volume", "0"]), ("volume", ["-msim_volume", "1"]), ("barrier", ["-msim_volume", "1", "-msim_volume_stiffness", "0"])]
+
+
 def inverted(tmp):
     rows = []
-    for vol in (1, 0):
-        out = os.path.join(tmp, f"bunny{vol}")
-        run(["-options_file", "examples/bunny.opts", "-msim_steps", "45", "-msim_output", out, "-msim_volume", str(vol)], 2)
+    for name, args in INVERTED:
+        out = os.path.join(tmp, f"bunny_{name}")
+        run(["-options_file", "examples/bunny.opts", "-msim_steps", "45", "-msim_output", out] + args, 2)
         for t, J in tetcheck.ratios(os.path.join(out, "series.pvd")):
-            rows.append({"volume": vol, "t": f"{t:.2f}", "inverted": int((J <= 0).sum()), "J_min": f"{J.min():.4f}", "J_max": f"{J.max():.4f}"})
+            rows.append({"config": name, "t": f"{t:.2f}", "inverted": int((J <= 0).sum()), "below_jhat": int((J < 0.2).sum()), "J_min": f"{J.min():.4f}", "J_max": f"{J.max():.4f}"})
     msimrun.write_csv(os.path.join(HERE, "inverted.csv"), rows)
     return rows
 
@@ -61,10 +66,11 @@ def cost(tmp):
 def steps(tmp, nsteps=21, reps=3, extra=None):
     """the term's cost per step: CPU user time of nsteps- and 1-step runs (their difference is the
     steps alone, without TetGen and the setup), 1 rank, self-contact off, min over reps of runs
-    alternated between springs alone, the volume term without its barrier (kappa 0: Teschner's
-    quadratic alone, no max_step) and the full term. extra: a second msim (another build) whose
-    full term is measured in the same alternation (the code before a change)."""
-    confs = [("springs", MSIM, ["-msim_volume", "0"]), ("quadratic", MSIM, ["-msim_volume", "1", "-msim_volume_kappa", "0"]), ("volume", MSIM, ["-msim_volume", "1"])]
+    alternated between springs alone, the barrier alone (kv 0: its passes skip the tets the safe
+    radii prove above jhat), the volume term without its barrier (kappa 0: Teschner's quadratic
+    alone, no max_step) and the full term. extra: a second msim (another build) whose full term
+    is measured in the same alternation (the code before a change)."""
+    confs = [("springs", MSIM, ["-msim_volume", "0"]), ("barrier", MSIM, ["-msim_volume", "1", "-msim_volume_stiffness", "0"]), ("quadratic", MSIM, ["-msim_volume", "1", "-msim_volume_kappa", "0"]), ("volume", MSIM, ["-msim_volume", "1"])]
     if extra:
         confs.append(("volume_before", os.path.abspath(extra), ["-msim_volume", "1"]))
     best = {}
@@ -111,8 +117,8 @@ def plot(rows):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6, 3.5))
-    for vol, label in ((0, "springs alone"), (1, "with -msim_volume")):
-        r = [x for x in rows if x["volume"] == vol]
+    for name, label in (("springs", "springs alone"), ("volume", "with -msim_volume"), ("barrier", "barrier alone (kv 0)")):
+        r = [x for x in rows if x["config"] == name]
         ax.plot([float(x["t"]) for x in r], [x["inverted"] for x in r], "o-", label=label)
     ax.set_xlabel("t (s)")
     ax.set_ylabel("inverted tets in the frame")
