@@ -265,7 +265,7 @@ def plot(a):
     panels = [(n, T) for n in dict.fromkeys(r["scene"] for r in rows) for T in sorted({float(r["T"]) for r in rows if r["scene"] == n})]
     ncol = 5
     nrow = (len(panels) + ncol - 1) // ncol
-    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.9 * nrow + 1.6), squeeze=False)
+    fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.9 * nrow + 2.2), squeeze=False)
     for ax, (name, T) in zip(axes.flat, panels):
         sel = [r for r in rows if r["scene"] == name and float(r["T"]) == T and r["family"] not in ("Newton", "Newton-CG")]
         fams = {}
@@ -283,7 +283,7 @@ def plot(a):
                 ax.annotate(k, (x, y), fontsize=6, xytext=(2, 2), textcoords="offset points", color=col)
         ax.axvline(1.0, color="gray", ls=":", lw=1)
         ax.axvline(1.1, color="gray", ls=":", lw=0.6)
-        ax.set_xlim(0.9, 1.45)  # the budget's neighbourhood (alpha2 NCG at small h costs 1.3-6 x: beyond, in budget.csv)
+        ax.set_xlim(0.85, 1.5)  # the budget's neighbourhood (alpha2 NCG at small h costs 1.3-6 x: beyond, in budget.csv)
         style(ax, "instructions / budget (PD-10 implicit Euler, 1/30 s)", "largest distance from RK4 (m)",
               f"{name}, T = {T:g} s (k: iterations per step)", 8, ylog=True)
     for ax in list(axes.flat)[len(panels):]:
@@ -292,7 +292,7 @@ def plot(a):
     for ax in axes.flat:
         for hd, lb in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(lb, hd)
-    fig.subplots_adjust(left=0.05, right=0.99, top=0.95, bottom=1.6 / (3.9 * nrow + 1.6), hspace=0.4, wspace=0.25)
+    fig.subplots_adjust(left=0.05, right=0.99, top=0.95, bottom=2.2 / (3.9 * nrow + 2.2), hspace=0.4, wspace=0.25)
     fig.legend(list(handles.values()), list(handles.keys()), loc="lower center", ncol=6, fontsize=7)
     save(fig, os.path.join(HERE, "budget.png"))
 
