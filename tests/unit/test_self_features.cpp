@@ -10,7 +10,8 @@
    one point at distance h from a flat surface, so, derived:
      energy E = C b(h^2), the gradient on p is 2 C b'(h^2) h e_z, on the sheet the opposite,
    C the term's weight (msim/self_contact.h: a pair's stiffness at dhat/2 equals a mean vertex's
-   mass term). Before the weights, (b) counted 5 barriers and (c) 19. Also: the gradient against
+   mass term), with -msim_self_contact_once; without it (the pairs' sum, the default) 5 x that
+   above the edge and 19 x above the vertex, derived from the pairs counted. Also: the gradient against
    central differences of the energy near (b) and (c) (moved off the feature, so that the pairs'
    distances differ), and the Hessian is PSD (x^T H x >= 0 in random directions). */
 #include "harness.h"
@@ -74,7 +75,8 @@ static PetscErrorCode At(Vec X, Vec G, const PetscReal p[3], PetscReal gp[3], Pe
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode Body(void)
+/* once: -msim_self_contact_once; without it the pairs' sum: derived multiplicities 1, 5, 19 */
+static PetscErrorCode Run(PetscBool once)
 {
   const char     *path = "/tmp/msim_test_self_features.off";
   const PetscReal dhat = 0.1, p0[3] = {1.3, 1.6, 0.5};
@@ -106,7 +108,7 @@ static PetscErrorCode Body(void)
   }
   PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
   {
-    std::string opts = std::string("-msim_scene mesh -msim_mesh_file ") + path + " -msim_fix none -msim_self_contact -msim_self_contact_distance 0.1 -msim_integrator implicit_euler";
+    std::string opts = std::string("-msim_scene mesh -msim_mesh_file ") + path + " -msim_fix none -msim_self_contact -msim_self_contact_distance 0.1 -msim_integrator implicit_euler" + (once ? " -msim_self_contact_once" : "");
     PetscCall(TestSimCreate(opts.c_str(), &s));
   }
   PetscCall(MSimImplicitCreate(s.sys, &imp));
@@ -137,8 +139,10 @@ static PetscErrorCode Body(void)
   for (PetscReal h : hs) {
     PetscReal b, db, d2b, e[3], gp[3][3], gs[3];
     MSimBarrier(h * h, dhat * dhat, &b, &db, &d2b);
-    const PetscReal eref = C * b, gref = 2 * C * db * h;
     for (int k = 0; k < 3; k++) {
+      /* without the weights: 1 pair above the face, 2 point-triangle + 3 edge-edge above the edge,
+         4 + 3 point-triangle (the vertex against p's faces) + 3 x 4 edge-edge above the vertex */
+      const PetscReal m = once ? 1 : (k == 0 ? 1 : (k == 1 ? 5 : 19)), eref = m * C * b, gref = m * 2 * C * db * h;
       const PetscReal p[3] = {xy[k][0], xy[k][1], h};
       PetscCall(Place(s.X, p0, p, X));
       e[k] = 0;
@@ -146,7 +150,7 @@ static PetscErrorCode Body(void)
       PetscCall(VecZeroEntries(G));
       PetscCall(t->ops.gradient(t, X, G));
       PetscCall(At(X, G, p, gp[k], gs));
-      NOTE("h %.2f m above %s: energy %.12e (C b(h^2) %.12e), gradient on p (%.3e, %.3e, %.12e) (2 C b' h %.12e), sum (%.1e, %.1e, %.1e)\n", (double)h, what[k], (double)e[k], (double)eref, (double)gp[k][0], (double)gp[k][1], (double)gp[k][2], (double)gref, (double)gs[0], (double)gs[1], (double)gs[2]);
+      NOTE("%s: h %.2f m above %s: energy %.12e (m C b(h^2) %.12e), gradient on p (%.3e, %.3e, %.12e) (m 2 C b' h %.12e), sum (%.1e, %.1e, %.1e)\n", once ? "once" : "pairs", (double)h, what[k], (double)e[k], (double)eref, (double)gp[k][0], (double)gp[k][1], (double)gp[k][2], (double)gref, (double)gs[0], (double)gs[1], (double)gs[2]);
       CHECK(PetscAbsReal(e[k] - eref) <= 1e-10 * PetscAbsReal(eref), "h %g above %s: energy %.12e, one barrier's %.12e", (double)h, what[k], (double)e[k], (double)eref);
       CHECK(PetscAbsReal(gp[k][2] - gref) <= 1e-10 * PetscAbsReal(gref) && PetscAbsReal(gp[k][0]) + PetscAbsReal(gp[k][1]) <= 1e-10 * PetscAbsReal(gref), "h %g above %s: force on p %.12e along z (and %.2e across), one barrier's %.12e", (double)h, what[k], (double)gp[k][2], (double)(PetscAbsReal(gp[k][0]) + PetscAbsReal(gp[k][1])), (double)gref);
       CHECK(PetscAbsReal(gs[0]) + PetscAbsReal(gs[1]) + PetscAbsReal(gs[2]) <= 1e-10 * PetscAbsReal(gref), "h %g above %s: the forces do not sum to 0 (%g %g %g)", (double)h, what[k], (double)gs[0], (double)gs[1], (double)gs[2]);
@@ -193,6 +197,14 @@ static PetscErrorCode Body(void)
   PetscCall(MatDestroy(&J));
   PetscCall(MSimDestroy(&D, &Xp, &G, &X, &imp, &s));
   if (!rank) remove(path);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Body(void)
+{
+  PetscFunctionBeginUser;
+  PetscCall(Run(PETSC_TRUE));
+  PetscCall(Run(PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
