@@ -16,7 +16,8 @@
    Duplicates: a contact whose closest features are an edge or a vertex is as close to every
    triangle and edge around them, so the pairs' barriers counted it several times (a vertex above
    a flat sheet's edge 1 + 1 + its own edges, above a vertex up to 19 times) and the barrier's
-   strength depended on the mesh at the contact. The point-edge and point-point pairs of those
+   strength depended on the mesh at the contact. With -msim_self_contact_once (off: Newton on the
+   PSD Hessian stalls with it, see the option) the point-edge and point-point pairs of those
    features join the sum with weights that make every contact count once (Collect, WeightPE,
    WeightPP: convergent IPC's inclusion-exclusion), tests/unit/test_self_features.cpp.
    Summation order: the terms are summed in the order of their vertices' input ids, and the CCD's
