@@ -8,7 +8,7 @@ with the same frames and monitor rows (all but the wall time). The restarted run
 candidate lists at the checkpoint's positions, the uninterrupted one somewhere earlier: the term
 sums its pairs in the order of their vertices' input ids, and its CCD's answer depends on the step
 only, not on where the lists were made (tests/checkpoint.py checks the same for a scene without
-self-contact). No floor: a plane obstacle's restarts are not bit for bit (a separate matter).
+self-contact). No floor: the obstacles' restarts are checked by tests/contact_restart.py.
 Usage: self_contact_restart.py path/to/msim [--np N]"""
 import math
 import os

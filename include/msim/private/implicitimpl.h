@@ -124,6 +124,13 @@ typedef struct {
      (ADD_VALUES, then assemble) */
   PetscErrorCode (*discrete_gradient)(MSimImplicitTerm, Vec X, Vec G) = NULL;
   PetscErrorCode (*discrete_jacobian)(MSimImplicitTerm, Vec X, Mat J) = NULL;
+  /* optional: state of the term that an exact restart needs besides x, v and the scheme's
+     history (the obstacles' PD weights, which the factor of a fixed-iteration PD step holds): a
+     Vec shaped like X, filled by get_history whenever asked (a checkpoint writes it), and read back
+     by history_loaded after a restart loaded it. Its presence must depend on options only, as a
+     checkpoint's count of history vectors must match at restart. */
+  PetscErrorCode (*get_history)(MSimImplicitTerm, Vec *h) = NULL;
+  PetscErrorCode (*history_loaded)(MSimImplicitTerm) = NULL;
   PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer) = NULL;
   PetscErrorCode (*destroy)(MSimImplicitTerm) = NULL;
 } MSimImplicitTermOps;

@@ -170,6 +170,11 @@ typedef struct {
   PetscBool              pending; /* next holds weights not yet taken */
   PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
   Vec                    diag = NULL; /* A's diagonal, for -msim_contact_pd_refactor's test */
+  /* a restart: w holds the checkpoint's weights (those the run's factor held), A was assembled
+     without them at set-up; `restored` makes the next reweight decide as the run would have
+     with them in A, and assemble them if it keeps them (pd_weights_restored below) */
+  Vec                    hist     = NULL;
+  PetscBool              restored = PETSC_FALSE;
 } PDWeights;
 
 static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBool *changed)
@@ -197,6 +202,10 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     w[v] += h2k * m * d2b;
   }));
   PetscBool same = (PetscBool)(pw->w.size() == w.size());
+  /* after a restart A lacks the weights w the run's factor held: judge as if it had them, then
+     assemble them (the next swap takes `next`) unless the run would have refactored anyway */
+  const PetscBool restored = pw->restored;
+  pw->restored             = PETSC_FALSE;
   if (ct->pd_refactor > 0 && same && term->imp->A) {
     /* lazy (-msim_contact_pd_refactor r): the factor's weights only speed the iteration up, and a
        vertex whose factored diagonal A_vv is within a factor r of the wanted one converges nearly
@@ -211,14 +220,23 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     PetscCall(MatGetDiagonal(term->imp->A, pw->diag));
     PetscCall(VecGetArrayRead(pw->diag, &a));
     for (size_t v = 0; !off && v < w.size(); v++) {
-      const PetscReal have = PetscRealPart(a[v]), want = have - pw->w[v] + w[v];
+      const PetscReal have = PetscRealPart(a[v]) + (restored ? pw->w[v] : 0), want = have - pw->w[v] + w[v];
       off = (PetscBool)(want > r * have || have > r * want);
     }
     PetscCall(VecRestoreArrayRead(pw->diag, &a));
     if (off) *changed = PETSC_TRUE; /* reduced over the ranks by the caller */
+    same = (PetscBool)!off;
   } else {
     for (size_t v = 0; same && v < w.size(); v++) same = (PetscBool)((w[v] > 0) == (pw->w[v] > 0));
     if (!same) *changed = PETSC_TRUE;
+  }
+  if (restored) {
+    /* every rank restores at once, so this reduction is collective: the caller's decides whether
+       to assemble, this one which weights: the run's own when no rank would have refactored */
+    PetscBool keep = same;
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &keep, 1, MPIU_BOOL, MPI_LAND, sys->comm));
+    if (keep) w = pw->w;
+    *changed = PETSC_TRUE;
   }
   pw->next.swap(w);
   pw->pending = PETSC_TRUE;
@@ -235,6 +253,7 @@ static PetscErrorCode PDMatrix_Obstacles(MSimImplicitTerm term, Mat A)
     pw->w.swap(pw->next);
     pw->pending = PETSC_FALSE;
   }
+  pw->restored = PETSC_FALSE; /* A holds w from here on, restored or not */
   for (size_t v = 0; v < pw->w.size(); v++)
     if (pw->w[v] > 0) PetscCall(MatSetValue(A, sys->rstart + (PetscInt)v, sys->rstart + (PetscInt)v, pw->w[v], ADD_VALUES));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -266,9 +285,43 @@ static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, Pet
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The weights PD's factor holds are state: a fixed-iteration PD step depends on them, and the lazy
+   rule keeps them over many steps, so a restart that recomputed them at its first step did not
+   repeat the run bit for bit. A checkpoint carries them (each vertex's in its x slot). */
+static PetscErrorCode GetHistory_Obstacles(MSimImplicitTerm term, Vec *h)
+{
+  PDWeights   *pw = (PDWeights *)term->data;
+  PetscScalar *x;
+
+  PetscFunctionBeginUser;
+  if (!pw->hist) PetscCall(VecDuplicate(term->imp->sys->X0, &pw->hist));
+  PetscCall(VecZeroEntries(pw->hist));
+  PetscCall(VecGetArray(pw->hist, &x));
+  for (size_t v = 0; v < pw->w.size(); v++) x[3 * v] = pw->w[v];
+  PetscCall(VecRestoreArray(pw->hist, &x));
+  *h = pw->hist;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode HistoryLoaded_Obstacles(MSimImplicitTerm term)
+{
+  PDWeights         *pw = (PDWeights *)term->data;
+  const PetscScalar *x;
+
+  PetscFunctionBeginUser;
+  pw->w.assign(term->imp->sys->nown, 0.0);
+  PetscCall(VecGetArrayRead(pw->hist, &x));
+  for (size_t v = 0; v < pw->w.size(); v++) pw->w[v] = PetscRealPart(x[3 * v]);
+  PetscCall(VecRestoreArrayRead(pw->hist, &x));
+  pw->pending  = PETSC_FALSE;
+  pw->restored = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Destroy_Obstacles(MSimImplicitTerm term)
 {
   PetscFunctionBeginUser;
+  if (term->data) PetscCall(VecDestroy(&((PDWeights *)term->data)->hist));
   if (term->data) PetscCall(VecDestroy(&((PDWeights *)term->data)->diag));
   delete (PDWeights *)term->data;
   term->data = NULL;
@@ -396,6 +449,9 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
   if (!ct->pd_weight) { /* the barrier in PD's right-hand side only */
     term->ops.pd_reweight = NULL;
     term->ops.pd_matrix   = NULL;
+  } else {
+    term->ops.get_history    = GetHistory_Obstacles;
+    term->ops.history_loaded = HistoryLoaded_Obstacles;
   }
   if (!ct->moving) term->ops.feasible_start = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -14,6 +14,8 @@
 #include <msim/private/implicitimpl.h>
 #include <msim/destroy.h>
 
+#define MSIM_MAX_TERM_HISTORY 4 /* terms' history vectors (MSimImplicitTermOps.get_history) */
+
 typedef struct {
   MSimImplicit           imp;
   SNES                   snes;
@@ -39,7 +41,7 @@ typedef struct {
   PetscInt               icntl13;        /* MUMPS's ICNTL(13) (-mat_mumps_icntl_13; 1 unless set) */
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
   PetscBool              semismooth;     /* -snes_type vinewtonssls: no objective, a nonsymmetric Jacobian */
-  Vec                    history[MSIM_SCHEME_MAX_WORK + 1]; /* what a checkpoint carries (GetHistory_Implicit) */
+  Vec                    history[MSIM_SCHEME_MAX_WORK + 1 + MSIM_MAX_TERM_HISTORY]; /* what a checkpoint carries (GetHistory_Implicit) */
 } ImplicitData;
 
 /* -msim_step_atol d: also converged once an iteration's step dx has |dx|_2 < d (in metres), the rule
@@ -816,6 +818,12 @@ static PetscErrorCode GetHistory_Implicit(MSimIntegrator integ, PetscInt *n, Vec
   *n = 0;
   for (PetscInt k = 0; k < scheme->nhistory; k++) ie->history[(*n)++] = scheme->work[k];
   if (ie->imp->Vprev) ie->history[(*n)++] = ie->imp->Vprev;
+  for (PetscInt k = 0, nt = 0; k < ie->imp->nterms; k++) {
+    MSimImplicitTerm term = ie->imp->terms[k];
+    if (!term->ops.get_history) continue;
+    PetscCheck(nt++ < MSIM_MAX_TERM_HISTORY, PETSC_COMM_SELF, PETSC_ERR_PLIB, "more than %d terms with history", MSIM_MAX_TERM_HISTORY);
+    PetscCall(term->ops.get_history(term, &ie->history[(*n)++]));
+  }
   *history = *n ? ie->history : NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -827,6 +835,8 @@ static PetscErrorCode HistoryLoaded_Implicit(MSimIntegrator integ)
   PetscFunctionBeginUser;
   ie->imp->scheme->history_valid = PETSC_TRUE;
   if (ie->imp->Vprev) ie->imp->vprev_valid = PETSC_TRUE;
+  for (PetscInt k = 0; k < ie->imp->nterms; k++)
+    if (ie->imp->terms[k]->ops.history_loaded) PetscCall(ie->imp->terms[k]->ops.history_loaded(ie->imp->terms[k]));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
