@@ -70,7 +70,7 @@ static size_t ActiveTets(MSimSystem sys)
    too (a copy, cheap next to the tets), so that each vertex is read from one array, without a
    branch per vertex in the per-iteration passes. With skip (CanSkip), only the tets the reference
    does not prove safe (ActiveTets with m2 = |x_s - xref_s|^2): J > jhat at the others, where the
-   barrier alone is zero, with its gradient and Hessian. Where more than 1 tet in 32 that the
+   barrier alone is zero, with its gradient and Hessian. Where more than 1 tet in 128 that the
    reference had above jhat is no longer skipped, the next gradient pass takes a new reference. */
 template <class F>
 static PetscErrorCode ForEachTet(MSimSystem sys, PetscReal t, Vec X, F &&f, bool skip = false)

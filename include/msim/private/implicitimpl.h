@@ -140,6 +140,9 @@ struct _n_MSimImplicitTerm {
   MSimImplicit        imp;
   MSimImplicitTermOps ops;
   void               *data;
+  /* its energy is already in the system's potential (MSimSystemComputeEnergy: the tets' volume
+     term), so the start's barrier energy (implicit.cpp) must not count it again */
+  PetscBool           in_potential = PETSC_FALSE;
 };
 
 /* The ops of a term computed by one pass over what this rank holds (self-contact's pairs, their

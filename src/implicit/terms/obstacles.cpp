@@ -112,6 +112,23 @@ static PetscErrorCode Gradient_Obstacles(MSimImplicitTerm term, Vec X, Vec G)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+typedef struct {
+  std::vector<PetscReal> w;       /* per owned vertex: the weights in A */
+  std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
+  PetscBool              pending; /* next holds weights not yet taken */
+  PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
+  Vec                    diag = NULL; /* A's diagonal, for -msim_contact_pd_refactor's test */
+  /* a restart: w holds the checkpoint's weights (those the run's factor held), A was assembled
+     without them at set-up; `restored` makes the next reweight decide as the run would have
+     with them in A, and assemble them if it keeps them (PDReweight_Obstacles) */
+  Vec                    hist     = NULL;
+  PetscBool              restored = PETSC_FALSE;
+  /* set by the Hessian (-msim_contact_pc_pd_weight) around its reweight: the weights of each
+     Jacobian, where PD's own steps (also PD as another SNES's preconditioner) take them once a
+     time step */
+  PetscBool              at_jacobian = PETSC_FALSE;
+} PDWeights;
+
 /* one 3 x 3 block per owned vertex near an obstacle, added into the assembled J */
 static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool psd, Mat J)
 {
@@ -125,7 +142,12 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
   /* Newton-CG on the PD factor: without the barrier's stiffness the factor is a poor preconditioner
      of the contact vertices' stiff blocks (20 unconverged iterations a step on the ball); with it,
      refactored by PD's rule (runs/contact/README.md) */
-  if (ct->pc_pd_weight && ct->pd_weight && term->imp->pd_pc) PetscCall(MSimImplicitPDReweight(term->imp, X));
+  if (ct->pc_pd_weight && ct->pd_weight && term->imp->pd_pc) {
+    PDWeights *pw    = (PDWeights *)term->data;
+    pw->at_jacobian = PETSC_TRUE; /* past the once-per-step rule: this Jacobian's weights */
+    PetscCall(MSimImplicitPDReweight(term->imp, X));
+    pw->at_jacobian = PETSC_FALSE;
+  }
   const PetscReal w = term->imp->step.h2 * ct->kappa;
   PetscCall(ForEachNear(term, ct, X, PETSC_TRUE, [&](PetscInt v, PetscReal d, const PetscReal *n, const PetscReal *H, PetscReal m) {
     PetscReal   b, db, d2b;
@@ -164,18 +186,6 @@ static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool 
    reassembled, not only the ranks whose own vertices changed: a rank that kept its old weights
    while another's set changed gave A, and so a fixed-iteration PD step, that depended on the
    partition (examples/bunny_drop.opts: 1 and 2 ranks 1.2 mm apart one step after landing). */
-typedef struct {
-  std::vector<PetscReal> w;       /* per owned vertex: the weights in A */
-  std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
-  PetscBool              pending; /* next holds weights not yet taken */
-  PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
-  Vec                    diag = NULL; /* A's diagonal, for -msim_contact_pd_refactor's test */
-  /* a restart: w holds the checkpoint's weights (those the run's factor held), A was assembled
-     without them at set-up; `restored` makes the next reweight decide as the run would have
-     with them in A, and assemble them if it keeps them (pd_weights_restored below) */
-  Vec                    hist     = NULL;
-  PetscBool              restored = PETSC_FALSE;
-} PDWeights;
 
 static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBool *changed)
 {
@@ -192,7 +202,7 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
      (runs/contact/README.md). Newton's preconditioner (-msim_contact_pc_pd_weight) takes them at
      every Jacobian instead: taken once per step, at the first iterate, they left CG's directions
      so poor that the 101 x 101 drape diverged at step 20 */
-  if (pw->t == term->imp->step.t && !term->imp->pd_pc) PetscFunctionReturn(PETSC_SUCCESS);
+  if (pw->t == term->imp->step.t && !pw->at_jacobian) PetscFunctionReturn(PETSC_SUCCESS);
   pw->t = term->imp->step.t;
   std::vector<PetscReal> w(sys->nown, 0.0);
   const PetscReal        h2k = term->imp->step.h2 * ct->kappa;

@@ -103,7 +103,8 @@ PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
   PetscFunctionBeginUser;
   if (!T.ntet) PetscFunctionReturn(PETSC_SUCCESS); /* no tets, or -msim_volume 0: no op */
   PetscCheck(T.kappa == 0 || !term->imp->scheme->no_barrier, term->imp->sys->comm, PETSC_ERR_SUP, "-msim_integrator %s with the tets' inversion barrier is not supported (%s): use implicit_euler or bdf2, or -msim_volume_kappa 0 (or -msim_volume 0)", term->imp->scheme->type, term->imp->scheme->no_barrier);
-  term->ops = VolumeOps;
+  term->ops          = VolumeOps;
+  term->in_potential = PETSC_TRUE; /* MSimSystemComputeEnergy counts the tets' energy */
   if (T.kappa == 0) { /* no barrier: every step is feasible */
     term->ops.max_step = NULL;
     term->ops.pd_check = NULL;

@@ -682,7 +682,7 @@ static PetscErrorCode BarrierEnergy(ImplicitData *ie, Vec X, PetscReal *e)
   *e = 0;
   if (imp->scheme->no_objective || !(imp->step.h2 > 0)) PetscFunctionReturn(PETSC_SUCCESS);
   for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.max_step && imp->terms[k]->ops.energy) PetscCall(imp->terms[k]->ops.energy(imp->terms[k], X, &phi)); /* summed over the ranks */
+    if (imp->terms[k]->ops.max_step && imp->terms[k]->ops.energy && !imp->terms[k]->in_potential) PetscCall(imp->terms[k]->ops.energy(imp->terms[k], X, &phi)); /* summed over the ranks */
   *e = phi / imp->step.h2;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
