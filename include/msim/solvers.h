@@ -78,6 +78,12 @@ typedef struct {
   /* the largest alpha in (0, 1] for which x - alpha d stays inside every term's feasible set
      (contact and volume barriers; 1 where no term has one), for steps global_solve does not make */
   PetscErrorCode (*max_step)(void *ctx, Vec x, Vec d, PetscReal *alpha);
+  /* set by the solver while global_solve may leave its Phi check (feasible sets) to the next rhs
+     on the same x, which sums Phi anyway: only where every global_solve(rhs, x, x) is followed by
+     rhs(x) or finish and nothing reads x between (plain PD with -snes_pd_fixed) */
+  PetscBool defer_check;
+  /* completes a deferred check at the solver's last iterate (may change x): call after the loop */
+  PetscErrorCode (*finish)(void *ctx);
   void *ctx;
 } MSimPDProblem;
 /* If snes, or its nonlinear preconditioner, is of type pd: set its problem's global step up now,

@@ -359,6 +359,48 @@ PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The global step's check the old way, at X = X0 - alpha D: Phi(X) by MSimImplicitObjective,
+   halving alpha until it does not rise above phi0 (Phi(x_k); cached: the local step's sum) */
+static PetscErrorCode PDHalve(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, PetscBool cached, PetscReal phi0, Vec X)
+{
+  PetscReal phi;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitObjective(imp, X, &phi));
+  /* the local step sums Phi in another order than MSimImplicitObjective: where the two differ
+     by roundoff near convergence, a cached Phi(x_k) a few ulp low would make every halving
+     fail; compare like with like before halving */
+  if (cached && !(phi <= phi0)) PetscCall(MSimImplicitObjective(imp, X0, &phi0));
+  for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
+    alpha *= 0.5;
+    PetscCall(VecWAXPY(X, -alpha, D, X0));
+    PetscCall(MSimImplicitObjective(imp, X, &phi));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* A deferred check still pending (the solver's last iterate, or an X that the next local step
+   does not get): done the old way, if the iterate is as the global step left it */
+static PetscErrorCode PDCheckResolve(MSimImplicit imp)
+{
+  PetscObjectState state;
+
+  PetscFunctionBeginUser;
+  if (!imp->pd_pending) PetscFunctionReturn(PETSC_SUCCESS);
+  imp->pd_pending = PETSC_FALSE;
+  PetscCall(PetscObjectStateGet((PetscObject)imp->pd_px, &state));
+  if (state == imp->pd_pstate) PetscCall(PDHalve(imp, imp->pd_x0, imp->pd_d, imp->pd_alpha, PETSC_TRUE, imp->pd_phi0, imp->pd_px));
+  PetscCall(VecDestroy(&imp->pd_px)); /* the reference taken by the global step */
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDProblemFinish(void *ctx)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PDCheckResolve((MSimImplicit)ctx));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
 {
   MSimImplicit imp = (MSimImplicit)ctx;
@@ -369,21 +411,46 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
      local step's passes (kept in imp->pd_phi), where a separate evaluation costs every term's */
   for (PetscInt k = 0; k < imp->nterms && !phi; k++)
     if (imp->terms[k]->ops.max_step) phi = &own;
+  if (imp->pd_pending) {
+    PetscObjectState state;
+    PetscCall(PetscObjectStateGet((PetscObject)X, &state));
+    if (X == imp->pd_px && state == imp->pd_pstate) {
+      /* the global step's deferred check, with Phi(X) from this local step's passes (phi is set:
+         a check is pending only where a term has a feasible set) and phi0 from the last one's:
+         like with like, as in PDHalve. A halved X gets its own local step. */
+      PetscReal alpha = imp->pd_alpha;
+      imp->pd_pending = PETSC_FALSE;
+      PetscCall(VecDestroy(&imp->pd_px)); /* the global step's reference; the caller's X lives on */
+      PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
+      for (PetscInt it = 0; it < 30 && !(*phi <= imp->pd_phi0); it++) {
+        alpha *= 0.5;
+        PetscCall(VecWAXPY(X, -alpha, imp->pd_d, imp->pd_x0));
+        PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
+      }
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+    PetscCall(PDCheckResolve(imp));
+  }
   PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* The PD solver's global step from the current iterate guess; where a term has a feasible set
    (contact barriers), the step from guess is shortened by the terms' max_step so that PD's
-   iterates stay inside it, and then halved until Phi does not rise. */
+   iterates stay inside it, and then halved until Phi does not rise: checked now, or, where the
+   solver allows it (defer_check) and Phi(guess) is the last local step's, by the next local step
+   at X (PDProblemRHS), which sums Phi(X) anyway: the separate evaluation cost 9% of a PD step of
+   the bunny with its volume barrier and most of PD's cost over Newton's on the cloth on the ball
+   (runs/contact/README.md). */
 static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
   MSimImplicit imp      = (MSimImplicit)ctx;
   PetscBool    feasible = PETSC_TRUE, cached = PETSC_FALSE;
-  Vec          X0       = NULL, D;
+  Vec          X0 = NULL, D = NULL;
   PetscReal    alpha;
 
   PetscFunctionBeginUser;
+  PetscCall(PDCheckResolve(imp)); /* x_k is final before a step from it (the work Vecs are reused) */
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
   if (!feasible && guess) {
@@ -392,12 +459,16 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
     PetscCall(PetscObjectGetId((PetscObject)guess, &id));
     PetscCall(PetscObjectStateGet((PetscObject)guess, &state));
     cached = (PetscBool)(imp->pd_phi_id && id == imp->pd_phi_id && state == imp->pd_phi_state); /* Phi(guess) known */
-    PetscCall(VecDuplicate(guess, &X0));
+    if (!imp->pd_x0) {
+      PetscCall(VecDuplicate(guess, &imp->pd_x0));
+      PetscCall(VecDuplicate(guess, &imp->pd_d));
+    }
+    X0 = imp->pd_x0;
+    D  = imp->pd_d;
     PetscCall(VecCopy(guess, X0));
   }
   PetscCall(MSimImplicitPDSolve(imp, rhs, guess, X));
   if (!X0) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(VecDuplicate(X0, &D));
   PetscCall(VecWAXPY(D, -1.0, X, X0)); /* X = x_k - D */
   PetscCall(MSimImplicitMaxStep(imp, X0, D, &alpha));
   if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, X0));
@@ -409,27 +480,26 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
     if (imp->terms[k]->ops.pd_check) PetscCall(imp->terms[k]->ops.pd_check(imp->terms[k], &needed));
     check = needed;
   }
-  if (check) {
-    /* With the barrier's force lagged in the right-hand side, D = A^-1 g(x_k) (A x - rhs(x) is
-       Phi's gradient), a descent direction but not a contraction where the barrier is stiffer
-       than A: halve the step until Phi does not rise. Phi(x_k): the local step's, when it was
-       taken at guess as it is now. */
-    PetscReal phi0, phi;
+  if (!check) PetscFunctionReturn(PETSC_SUCCESS);
+  /* With the barrier's force lagged in the right-hand side, D = A^-1 g(x_k) (A x - rhs(x) is
+     Phi's gradient), a descent direction but not a contraction where the barrier is stiffer
+     than A: halve the step until Phi does not rise. Phi(x_k): the local step's, when it was
+     taken at guess as it is now. */
+  if (imp->pd.defer_check && cached && X == guess) {
+    imp->pd_pending = PETSC_TRUE;
+    imp->pd_alpha   = alpha;
+    imp->pd_phi0    = imp->pd_phi;
+    PetscCall(PetscObjectReference((PetscObject)X));
+    imp->pd_px = X;
+    PetscCall(PetscObjectStateGet((PetscObject)X, &imp->pd_pstate));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  {
+    PetscReal phi0 = 0;
     if (cached) phi0 = imp->pd_phi;
     else PetscCall(MSimImplicitObjective(imp, X0, &phi0));
-    PetscCall(MSimImplicitObjective(imp, X, &phi));
-    /* the local step sums Phi in another order than MSimImplicitObjective: where the two differ
-       by roundoff near convergence, a cached Phi(x_k) a few ulp low would make every halving
-       fail; compare like with like before halving */
-    if (cached && !(phi <= phi0)) PetscCall(MSimImplicitObjective(imp, X0, &phi0));
-    for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
-      alpha *= 0.5;
-      PetscCall(VecWAXPY(X, -alpha, D, X0));
-      PetscCall(MSimImplicitObjective(imp, X, &phi));
-    }
+    PetscCall(PDHalve(imp, X0, D, alpha, cached, phi0, X));
   }
-  PetscCall(VecDestroy(&D));
-  PetscCall(VecDestroy(&X0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -468,6 +538,8 @@ PetscErrorCode MSimImplicitPDCompose(MSimImplicit imp, DM dm)
   imp->pd.setup        = PDProblemSetUp;
   imp->pd.apply        = PDProblemApply;
   imp->pd.max_step     = PDProblemMaxStep;
+  imp->pd.finish       = PDProblemFinish;
+  imp->pd.defer_check  = PETSC_FALSE; /* SNESSolve_PD sets it where it may */
   imp->pd.ctx          = imp;
   PetscCall(PetscContainerCreate(imp->sys->comm, &c));
   PetscCall(PetscContainerSetPointer(c, &imp->pd));

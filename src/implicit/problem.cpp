@@ -29,6 +29,7 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
   }
   PetscCall(MSimDestroy(&(*imp)->Vprev, &(*imp)->Vstar, &(*imp)->Vwork));
   PetscCall(MSimDestroy(&(*imp)->Xn, &(*imp)->Y, &(*imp)->rhs, &(*imp)->A, &(*imp)->A3, &(*imp)->B, &(*imp)->Xd, &(*imp)->pdb, &(*imp)->pdx, &(*imp)->pdksp));
+  PetscCall(MSimDestroy(&(*imp)->pd_px, &(*imp)->pd_x0, &(*imp)->pd_d));
   delete *imp;
   *imp = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

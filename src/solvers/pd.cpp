@@ -169,6 +169,12 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
     PetscCall(SNESPDGetLBFGS(snes, pd, X, lm, opts->gamma_max, &lbp));
   }
   PetscCall(SNESSetIterationNumber(snes, 0));
+  /* plain PD with -snes_pd_fixed: every global step is followed by a local step at X or by the
+     end of the loop, and nothing reads X between (no residual; a monitor of the solution would
+     see the step before its check), so the global step's Phi check
+     (feasible sets) may wait for the next local step, which sums Phi(X) anyway; pd->finish
+     completes it at the last iterate. Anderson, L-BFGS and the residual's path check at once. */
+  pd->defer_check = (PetscBool)(fixed && !m && !lm && pd->finish);
   if (!fixed) {
     PetscCall(SNESComputeFunction(snes, X, F));
     PetscCall(VecNorm(F, NORM_2, &fnorm));
@@ -220,6 +226,10 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
       else if (fnorm <= rtol * fnorm0) reason = SNES_CONVERGED_FNORM_RELATIVE;
     }
     PetscCall(SNESMonitor(snes, k, fnorm));
+  }
+  if (pd->defer_check) {
+    PetscCall((*pd->finish)(pd->ctx)); /* the SNES never returns an unchecked iterate */
+    pd->defer_check = PETSC_FALSE;
   }
   if (reason == SNES_CONVERGED_ITERATING) reason = fixed ? SNES_CONVERGED_ITS : SNES_DIVERGED_MAX_IT;
   PetscCall(SNESSetConvergedReason(snes, reason));

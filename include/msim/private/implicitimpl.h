@@ -218,6 +218,15 @@ struct _n_MSimImplicit {
   PetscReal        pd_phi       = 0;
   PetscObjectId    pd_phi_id    = 0;
   PetscObjectState pd_phi_state = 0;
+  /* The global step's Phi check deferred to the next local step (plain PD with -snes_pd_fixed,
+     MSimPDProblem's defer_check): X = X0 - alpha D must not raise Phi above phi0; the local step
+     at X sums Phi(X) anyway, where a separate evaluation cost a term pass per iteration. pd_px
+     holds a reference to the iterate, pd_pstate its state after the step (pd_steps.cpp) */
+  PetscBool        pd_pending   = PETSC_FALSE;
+  Vec              pd_px        = NULL;
+  PetscObjectState pd_pstate    = 0;
+  Vec              pd_x0 = NULL, pd_d = NULL; /* the global step's work: x_k and D, made once */
+  PetscReal        pd_alpha = 0, pd_phi0 = 0;
   MSimPDProblem pd;
 };
 
