@@ -130,16 +130,21 @@ static PetscErrorCode BroadPhase(SelfData *sd, const std::vector<PetscReal> &x, 
     }
     grid.Build(sd->boxes, PetscMax(n ? extent / n : 1.0, PETSC_SMALL));
   };
-  /* every pair with a vertex in the rank's block (and one free): the rank computes a pair whose
-     least input id is its own (Collect), and also the point-edge and point-point terms of the
-     pair's features whose least id is (their owner may not own the pair itself) */
+  /* the pairs with a free vertex that the rank computes: those whose least input id is its own
+     (Collect); with -msim_self_contact_once every pair with a vertex in its block, as the rank also
+     computes the point-edge and point-point terms of the pair's features whose least id is its
+     own (their owner may not own the pair itself) */
   auto mine = [&](const PetscInt *v) {
-    bool touches = false, moving = false;
+    bool     touches = false, moving = false;
+    PetscInt low     = PETSC_MAX_INT;
     for (int k = 0; k < 4; k++) {
       touches = touches || (s->vid[v[k]] >= s->dstart && s->vid[v[k]] < s->dstart + s->dcount);
       moving  = moving || s->gnum[v[k]] >= 0;
+      low     = PetscMin(low, s->vid[v[k]]);
     }
-    return moving && touches;
+    /* without -msim_self_contact_once no feature terms exist: a pair is listed (and CCD-tested)
+       by the one rank that computes it, not by every rank it touches */
+    return moving && (sd->once ? touches : (low >= s->dstart && low < s->dstart + s->dcount));
   };
 
   PetscFunctionBeginUser;
