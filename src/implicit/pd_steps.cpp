@@ -371,6 +371,7 @@ static PetscErrorCode PDHalve(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, 
      by roundoff near convergence, a cached Phi(x_k) a few ulp low would make every halving
      fail; compare like with like before halving */
   if (cached && !(phi <= phi0)) PetscCall(MSimImplicitObjective(imp, X0, &phi0));
+  imp->pd_rejected = (PetscBool)!(phi <= phi0);
   for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
     alpha *= 0.5;
     PetscCall(VecWAXPY(X, -alpha, D, X0));
@@ -422,6 +423,7 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
       imp->pd_pending = PETSC_FALSE;
       PetscCall(VecDestroy(&imp->pd_px)); /* the global step's reference; the caller's X lives on */
       PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
+      imp->pd_rejected = (PetscBool)!(*phi <= imp->pd_phi0);
       for (PetscInt it = 0; it < 30 && !(*phi <= imp->pd_phi0); it++) {
         alpha *= 0.5;
         PetscCall(VecWAXPY(X, -alpha, imp->pd_d, imp->pd_x0));
@@ -440,8 +442,10 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
    iterates stay inside it, and then halved until Phi does not rise: checked now, or, where the
    solver allows it (defer_check) and Phi(guess) is the last local step's, by the next local step
    at X (PDProblemRHS), which sums Phi(X) anyway: the separate evaluation cost 9% of a PD step of
-   the bunny with its volume barrier and most of PD's cost over Newton's on the cloth on the ball
-   (runs/contact/README.md). */
+   the bunny with its volume barrier and most of contact's cost in PD on the cloth on the ball
+   (runs/contact/README.md). After a check that halved the step the next is done at once: a
+   deferred halving costs a local step, about 2.5 MSimImplicitObjective passes, and rejections
+   come in runs (the free 101 x 101 cloth on the ball halves in half its iterations). */
 static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
   MSimImplicit imp      = (MSimImplicit)ctx;
@@ -485,7 +489,7 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
      Phi's gradient), a descent direction but not a contraction where the barrier is stiffer
      than A: halve the step until Phi does not rise. Phi(x_k): the local step's, when it was
      taken at guess as it is now. */
-  if (imp->pd.defer_check && cached && X == guess) {
+  if (imp->pd.defer_check && cached && X == guess && !imp->pd_rejected) {
     imp->pd_pending = PETSC_TRUE;
     imp->pd_alpha   = alpha;
     imp->pd_phi0    = imp->pd_phi;
