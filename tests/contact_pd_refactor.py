@@ -12,7 +12,12 @@ rank count:
   vertex mass m (implicit Euler's M, springs near rest), over the steps of both runs;
 - a 21 x 21 cloth draped on the ball with PD-10 (24 steps, friction 0.3), frames every step:
   no vertex inside the ball in any frame under the default rule, and it factors fewer times than
-  the old rule.
+  the old rule; and the same drape run through PD's residual path (no -snes_pd_fixed, tolerances
+  0: the same 10 iterations, each global step's Phi check done at once) ends at the same
+  positions within roundoff: with -snes_pd_fixed the check is taken from the next local step's Phi
+  sum instead (src/implicit/pd_steps.cpp), which must not change the iterates. Some checks must
+  halve (more Phi evaluations than the one per step that checks the last iterate), so the
+  comparison covers the halvings too.
 Usage: contact_pd_refactor.py path/to/msim [--np N]"""
 import os
 import re
@@ -40,6 +45,12 @@ def factorizations(path):
     """MSimLLTFactor's count in a -log_view file, summed over its stages"""
     with open(path) as f:
         return sum(int(c) for c in re.findall(r"^MSimLLTFactor\s+(\d+)", f.read(), re.M))
+
+
+def energies(path):
+    """MSimEnergy's count (Phi evaluations) in a -log_view file, summed over its stages"""
+    with open(path) as f:
+        return sum(int(c) for c in re.findall(r"^MSimEnergy\s+(\d+)", f.read(), re.M))
 
 
 def run(np_, args, tmp, tag, final=True):
@@ -90,6 +101,13 @@ def main():
                 n += 1
             check(n == 25 and least > 0, f"np={np_} drape: no vertex inside the ball in any of {n} frames (least distance {least:.3g} m)")
             check(int(mon[-1]["contact_n"]) > 0, f"np={np_} drape: the cloth lies on the ball ({mon[-1]['contact_n']} vertices within dhat)")
+            xd, _, _ = run(np_, drape, tmp, "drape_deferred")
+            xi, _, _ = run(np_, [a for a in drape if a != "-snes_pd_fixed"] + ["-snes_atol", "0", "-snes_rtol", "0", "-snes_stol", "0"], tmp, "drape_immediate")
+            ne = energies(os.path.join(tmp, f"drape_deferred_{np_}.log"))
+            if check(xd is not None and xi is not None, f"np={np_} drape: runs with the Phi check deferred (-snes_pd_fixed) and at once (residual path)"):
+                d = float(np.abs(xd - xi).max())
+                check(d <= 1e-10, f"np={np_} drape: the deferred Phi check takes the same iterates, max |x_deferred - x_immediate| = {d:.3g} m <= 1e-10")
+                check(ne > 25, f"np={np_} drape: some checks halved ({ne} Phi evaluations with the check deferred, > one per step)")
     return check.exit_code()
 
 
