@@ -27,7 +27,8 @@ QUICK = ["-msim_steps", "1"]
 # runs beyond the defaults, the scenes and the integrators: the implicit solvers msim defines or
 # wires (their options show once the SNES is of that type)
 RUNS = [["-msim_integrator", "implicit_euler", "-snes_type", t] for t in ("newtonls", "pd", "ntr", "qn")] + [
-    ["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd"]]
+    ["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd"],
+    ["-msim_integrator", "implicit_euler", "-msim_self_contact"]]  # the self-contact term's own options
 # a file for the scenes that need one
 MESH_FILES = {"tet": "examples/meshes/beam.msh", "mesh": "tests/data/meshes/sheet.obj"}
 # msim's names, with or without an options prefix (pd_, npc_)
