@@ -30,9 +30,12 @@ PetscErrorCode MSimLBFGSApply(MSimLBFGS *lb, Vec g, Vec d, PetscErrorCode (*h0)(
    rhs(x) and Phi(x) in one pass, so Phi's gradient g = A x - rhs(x) costs one product with A,
    and H0 g one sweep of the factor. An accepted iteration is one sweep, one local step, one
    product with A and 2m + 6 passes over vectors. A step that does not lower Phi by Armijo's rule
-   is replaced by the plain PD step (which never raises Phi) and the history restarts. Steps are
-   shortened to the problem's feasible set (max_step). The pairs carry over from one solve to the
-   next (the next time step's Hessian is close; the inertia term's y_n cancels in y). */
+   (to roundoff: it may pass a rise of MSIM_PHI_ROUNDOFF |Phi|, as msim's energy line search does;
+   |Phi| counts gravity from the origin) is replaced by the plain PD step (which never raises Phi)
+   and the history restarts. Steps are shortened to the problem's feasible set (max_step). The pairs
+   carry over from one solve to the next (the next time step's Hessian is close; the inertia
+   term's y_n cancels in y); checkpoints do not carry them, so a restart with -snes_pd_lbfgs is not
+   bit for bit. */
 typedef struct {
   MSimPDProblem *pd;
   MSimLBFGS      lb;
