@@ -14,6 +14,7 @@ typedef struct {
   PetscBool halo      = PETSC_TRUE;  /* -msim_self_contact_halo (testing: 0 leaves other ranks' elements out) */
   PetscReal start_gap   = -1;         /* -msim_self_contact_start_gap (-1: dhat): closer at the start is refused */
   PetscBool start_check = PETSC_TRUE; /* -msim_self_contact_start_check (0: no start check, for the stall report's test) */
+  PetscBool once        = PETSC_FALSE; /* -msim_self_contact_once: each contact counted once (the term's feature weights) */
 } MSimSelfContactOptions;
 
 /* Reads the options block "msim self-contact" (collective); called once, by the scene. */

@@ -699,14 +699,7 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
     sd->C = o.stiffness * mbar / (4 * s0 * d2b + 2 * db);
   }
   /* the candidate list's margin: pairs within 2 dhat, reused while no vertex moved dhat / 2 */
-  /* off by default: with -msim_psd the Hessian drops the duplicates' negative corrections, so it
-     is stiffer than the energy where they act, and Newton on it stalls (tests/self_contact_ranks.py's
-     sheet: 200 iterations a step from step 11, |g| 1e-3, against 11-32 without); PD and Newton on
-     the signed Hessian (-msim_psd 0) converge */
-  sd->once = PETSC_FALSE;
-  PetscOptionsBegin(sys->comm, NULL, "msim self-contact term", NULL);
-  PetscCall(PetscOptionsBool("-msim_self_contact_once", "Self-contact: count each contact once whatever features are closest (point-edge and point-point terms weighted by inclusion-exclusion), not once per point-triangle and edge-edge pair; Newton with -msim_psd converges slowly with it", NULL, sd->once, &sd->once, NULL));
-  PetscOptionsEnd();
+  sd->once = o.once; /* -msim_self_contact_once (self_options.cpp: why it is off) */
   sd->margin  = sd->surf->dhat;
   sd->wmargin = 4 * sd->margin;
   sd->eplan   = -1;
