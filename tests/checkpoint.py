@@ -14,7 +14,6 @@ import os
 import random
 import shutil
 import signal
-import struct
 import subprocess
 import sys
 import tempfile
@@ -32,11 +31,7 @@ def run(np, args, cwd):
     return mt.run(MSIM, args, np, cwd=cwd)
 
 
-def final(path):
-    """positions from a PETSc binary Vec file (big-endian: int classid, int n, n doubles)"""
-    data = open(path, "rb").read()
-    n = struct.unpack(">i", data[4:8])[0]
-    return struct.unpack(f">{n}d", data[8:8 + 8 * n])
+final = mt.read_binary_vec  # positions written by -msim_view_final binary:PATH
 
 
 def frames(out):

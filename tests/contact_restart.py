@@ -8,7 +8,6 @@ where the uninterrupted run does, at 1 and 2 ranks, under both refactorization r
 weights were carried, the restarted run refactored at its first step with that step's weights and
 ended 2e-12 m away.
 Usage: contact_restart.py path/to/msim [--np N]"""
-import struct
 import tempfile
 import os
 
@@ -23,11 +22,7 @@ SPLIT, END = 24, 36
 check = mt.Checks()
 
 
-def final(path):
-    """positions from a PETSc binary Vec file (big-endian: int classid, int n, n doubles)"""
-    data = open(path, "rb").read()
-    n = struct.unpack(">i", data[4:8])[0]
-    return struct.unpack(f">{n}d", data[8:8 + 8 * n])
+final = mt.read_binary_vec  # positions written by -msim_view_final binary:PATH
 
 
 def main():

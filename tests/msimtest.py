@@ -98,6 +98,15 @@ def read_view(path):
         return [float(l) for l in f if l.strip() and l.strip()[0] in "+-0123456789"]
 
 
+def read_binary_vec(path):
+    """the numbers of a Vec written by -msim_view_final binary:PATH (big-endian: int classid, int n,
+    n doubles), bit for bit: restart tests compare them exactly"""
+    import struct
+    data = open(path, "rb").read()
+    n = struct.unpack(">i", data[4:8])[0]
+    return struct.unpack(f">{n}d", data[8:8 + 8 * n])
+
+
 def positions(path):
     """read_view's numbers as an (n, 3) numpy array of vertex positions"""
     import numpy as np

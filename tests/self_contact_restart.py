@@ -12,7 +12,6 @@ self-contact). No floor: the obstacles' restarts are checked by tests/contact_re
 Usage: self_contact_restart.py path/to/msim [--np N]"""
 import math
 import os
-import struct
 import tempfile
 
 import numpy as np
@@ -28,11 +27,7 @@ SPLIT, END = 12, 36
 check = mt.Checks()
 
 
-def final(path):
-    """positions from a PETSc binary Vec file (big-endian: int classid, int n, n doubles)"""
-    data = open(path, "rb").read()
-    n = struct.unpack(">i", data[4:8])[0]
-    return struct.unpack(f">{n}d", data[8:8 + 8 * n])
+final = mt.read_binary_vec  # positions written by -msim_view_final binary:PATH
 
 
 def frames(out):
