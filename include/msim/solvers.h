@@ -2,6 +2,8 @@
 #pragma once
 #include <msim/petsc_compat.h>
 #include <petscsnes.h>
+#include <string>
+#include <vector>
 
 #define SNESPD "pd"
 #define SNESNTR "ntr"
@@ -94,3 +96,20 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes);
    -snes_qn_scale_type jacobian, ...; not pd, anderson, ngmres, ncg, nrichardson, plain qn): PETSc's
    own flag for it, read after SNESSetFromOptions. */
 PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses);
+
+/* What a solver carries from one SNESSolve to the next, beyond the problem's own state: SNES pd's
+   L-BFGS pairs (-snes_pd_lbfgs) and ntr's trust radius. The next time step starts from it, so a
+   restart repeats a run bit for bit only if checkpoints carry it (src/output/checkpoint.cpp). name
+   says whose it is ("": nothing carried: a solver without such state, or before its first solve),
+   real holds its scalars, vec its vectors, shaped like the SNES's solution. A type provides it by
+   composing "MSimSNESGetHistory_C" and "MSimSNESSetHistory_C" (PetscObjectComposeFunction). */
+typedef struct {
+  std::string            name;
+  std::vector<PetscReal> real;
+  std::vector<Vec>       vec; /* from Get: the solver's own (do not destroy); to Set: copied from */
+} MSimSolverHistory;
+/* snes's, else its nonlinear preconditioner's (the pd NPC of anderson/ngmres) */
+PetscErrorCode MSimSNESGetHistory(SNES snes, MSimSolverHistory *h);
+/* a restart's: the solver takes it if it would carry state of that name and shape (same type and
+   options), else starts afresh (*taken false) */
+PetscErrorCode MSimSNESSetHistory(SNES snes, const MSimSolverHistory *h, PetscBool *taken);

@@ -6,11 +6,18 @@
    PETSc's binary viewer, collectively, to F.tmp renamed to F once closed: a killed run leaves its previous checkpoint whole. -msim_restart F
    continues from one. An integrator with a history (BDF2's x_{n-1}, v_{n-1}, Newmark's a_n) has it
    written too, under its type name, in the same order; a restart with the same integrator loads
-   it, another starts its scheme up afresh. Nothing else carries from step to step (the accelerated
-   solvers' histories start afresh each step), so a restarted run repeats the uninterrupted one
-   bit for bit at the same rank count. */
+   it, another starts its scheme up afresh. So does the state the implicit integrators' solver
+   carries from one step's solve to the next (MSimSolverHistory: SNES pd's L-BFGS pairs, ntr's
+   radius), under its name, its scalars then its vectors (in input vertex order too, so that
+   another rank count gets them redistributed as x and v); a restart whose solver would carry the
+   same takes it, another solver starts afresh. Nothing else carries from step to step (Anderson's
+   history and the other SNES types' start afresh each solve; PETSc's qn keeps its pairs in a Mat
+   whose contents PETSc 3.18 does not expose, so qn alone does not restart bit for bit), so a
+   restarted run repeats the uninterrupted one bit for bit at the same rank count. */
 #include <msim/output.h>
 #include <msim/integrator.h>
+#include <msim/implicit.h>
+#include <msim/solvers.h>
 #include <msim/options.h>
 #include <msim/log.h>
 #include <msim/private/integratorimpl.h>
@@ -20,8 +27,8 @@
 #include <sys/stat.h>
 
 static const PetscInt MSIM_CHECKPOINT_MAGIC   = 0x6d73696d; /* "msim" */
-static const PetscInt MSIM_CHECKPOINT_VERSION = 2; /* 2: the integrator's history */
-enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_NHIST, H_INTEG, H_COUNT };
+static const PetscInt MSIM_CHECKPOINT_VERSION = 3; /* 2: the integrator's history; 3: the solver's */
+enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC, H_COUNT };
 
 struct _n_MSimCheckpoint {
   MSimSystem sys;
@@ -50,6 +57,19 @@ static PetscErrorCode History(MSimCheckpoint ck, PetscInt *n, Vec **history, con
     PetscCall(ck->integ->ops.get_history(ck->integ, n, history));
     *name = ck->integ->type;
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the solver whose state (MSimSolverHistory) goes with x and v: the implicit integrators' (NULL
+   for the others) */
+static PetscErrorCode Solver(MSimCheckpoint ck, SNES *snes)
+{
+  PetscBool implicit = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  *snes = NULL;
+  if (ck->integ) PetscCall(MSimImplicitSchemeIsRegistered(ck->integ->type, &implicit));
+  if (implicit) PetscCall(MSimImplicitEulerGetSNES(ck->integ, snes));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -91,6 +111,8 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscInt          nhist;
   Vec              *hist;
   const char       *integ;
+  SNES              snes;
+  MSimSolverHistory solver;
 
   PetscFunctionBeginUser;
   if (!ck->path[0]) PetscFunctionReturn(PETSC_SUCCESS);
@@ -104,6 +126,11 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscCall(History(ck, &nhist, &hist, &integ));
   header[H_NHIST]   = nhist;
   header[H_INTEG]   = nhist ? (PetscInt)strlen(integ) : 0;
+  PetscCall(Solver(ck, &snes));
+  PetscCall(MSimSNESGetHistory(snes, &solver));
+  header[H_SOLVER]  = (PetscInt)solver.name.size();
+  header[H_SREAL]   = header[H_SOLVER] ? (PetscInt)solver.real.size() : 0;
+  header[H_SVEC]    = header[H_SOLVER] ? (PetscInt)solver.vec.size() : 0;
   PetscCall(PetscViewerCreate(sys->comm, &v));
   PetscCall(PetscViewerSetType(v, PETSCVIEWERBINARY));
   PetscCall(PetscViewerSetFromOptions(v)); /* -viewer_binary_mpiio */
@@ -114,12 +141,18 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscCall(PetscViewerBinaryWrite(v, reals, 3, PETSC_REAL));
   if (header[H_IDENT]) PetscCall(PetscViewerBinaryWrite(v, ck->ident.data(), header[H_IDENT], PETSC_CHAR));
   if (header[H_INTEG]) PetscCall(PetscViewerBinaryWrite(v, integ, header[H_INTEG], PETSC_CHAR));
+  if (header[H_SOLVER]) PetscCall(PetscViewerBinaryWrite(v, solver.name.data(), header[H_SOLVER], PETSC_CHAR));
+  if (header[H_SREAL]) PetscCall(PetscViewerBinaryWrite(v, solver.real.data(), header[H_SREAL], PETSC_REAL));
   PetscCall(MSimSystemNaturalPositions(sys, t, X));
   PetscCall(VecView(sys->natural, v));
   PetscCall(MSimSystemNaturalVector(sys, V));
   PetscCall(VecView(sys->natural, v));
   for (PetscInt k = 0; k < nhist; k++) {
     PetscCall(MSimSystemNaturalVector(sys, hist[k]));
+    PetscCall(VecView(sys->natural, v));
+  }
+  for (PetscInt k = 0; k < header[H_SVEC]; k++) {
+    PetscCall(MSimSystemNaturalVector(sys, solver.vec[k]));
     PetscCall(VecView(sys->natural, v));
   }
   PetscCall(PetscViewerDestroy(&v)); /* collective: the file is complete here */
@@ -180,8 +213,11 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: checkpoint format version %" PetscInt_FMT "; this msim reads version %" PetscInt_FMT, F, header[H_VERSION], MSIM_CHECKPOINT_VERSION);
   }
   /* counts no larger than the file keep the size below from overflowing */
-  const bool      sane   = header[H_IDENT] >= 0 && header[H_NV] >= 0 && header[H_NHIST] >= 0 && header[H_INTEG] >= 0 && header[H_IDENT] <= size && header[H_NV] <= size && header[H_NHIST] <= size && header[H_INTEG] <= size;
-  const long long expect = sane ? head + (long long)header[H_IDENT] + (long long)header[H_INTEG] + (2 + (long long)header[H_NHIST]) * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar)) : -1;
+  bool sane = true;
+  for (PetscInt k : {H_IDENT, H_NV, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC}) sane = sane && header[k] >= 0 && header[k] <= size;
+  const long long expect = sane ? head + (long long)header[H_IDENT] + (long long)header[H_INTEG] + (long long)header[H_SOLVER] + (long long)header[H_SREAL] * (long long)sizeof(PetscReal) +
+                                    (2 + (long long)header[H_NHIST] + (long long)header[H_SVEC]) * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar))
+                                : -1;
   if (!sane || size != expect) {
     PetscCall(PetscViewerDestroy(&v));
     SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: damaged checkpoint (%lld bytes, its header says %lld)", F, size, expect);
@@ -206,17 +242,41 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   PetscCall(History(ck, &nhist, &hist, &integ));
   if (header[H_INTEG]) PetscCall(PetscViewerBinaryRead(v, &integ_there[0], header[H_INTEG], NULL, PETSC_CHAR));
   const PetscBool load_hist = (PetscBool)(nhist > 0 && header[H_NHIST] == nhist && integ_there == integ);
+  /* the solver's state goes to the solver, which takes it if it would carry the same */
+  SNES              snes;
+  MSimSolverHistory solver;
+  PetscCall(Solver(ck, &snes));
+  solver.name.assign((size_t)header[H_SOLVER], '\0');
+  solver.real.assign((size_t)header[H_SREAL], 0.0);
+  if (header[H_SOLVER]) PetscCall(PetscViewerBinaryRead(v, &solver.name[0], header[H_SOLVER], NULL, PETSC_CHAR));
+  if (header[H_SREAL]) PetscCall(PetscViewerBinaryRead(v, solver.real.data(), header[H_SREAL], NULL, PETSC_REAL));
+  const PetscBool load_solver = (PetscBool)(snes && header[H_SOLVER] > 0);
+  if (load_solver)
+    for (PetscInt k = 0; k < header[H_SVEC]; k++) {
+      solver.vec.push_back(NULL);
+      PetscCall(VecDuplicate(X, &solver.vec.back()));
+    }
+  /* the file's vectors in order; NULL: one to read past (another integrator's history) */
   std::vector<Vec> targets = {X, V};
-  if (load_hist) targets.insert(targets.end(), hist, hist + nhist);
+  targets.insert(targets.end(), (size_t)header[H_NHIST], NULL);
+  if (load_hist) std::copy(hist, hist + nhist, targets.begin() + 2);
+  targets.insert(targets.end(), solver.vec.begin(), solver.vec.end());
   /* a vector the file's size admits but VecLoad refuses still closes the file */
   PetscErrorCode load = PETSC_SUCCESS;
   PetscCall(MSimSystemNaturalSetUp(sys));
   for (Vec target : targets) {
     if ((load = VecLoad(sys->natural, v))) break;
+    if (!target) continue;
     PetscCall(VecScatterBegin(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
     PetscCall(VecScatterEnd(sys->to_natural, sys->natural, target, INSERT_VALUES, SCATTER_REVERSE));
   }
   PetscCall(PetscViewerDestroy(&v));
+  if (!load && load_solver) {
+    PetscBool taken;
+    PetscCall(MSimSNESSetHistory(snes, &solver, &taken));
+    if (!taken) PetscCall(PetscInfo(NULL, "-msim_restart %s: the checkpoint's %s state is not this solver's: it starts afresh\n", F, solver.name.c_str()));
+  }
+  for (Vec &w : solver.vec) PetscCall(VecDestroy(&w));
   PetscCall(load);
   if (load_hist) PetscCall(ck->integ->ops.history_loaded(ck->integ));
   *step      = header[H_STEP];

@@ -21,7 +21,8 @@ typedef struct {
   PetscReal eta;         /* accept a step when actual / predicted decrease of Phi > eta */
   PetscReal forcing_max; /* largest relative CG tolerance */
   PetscReal delta0;      /* first radius as a multiple of |P^-1 g|_P (a full preconditioned
-                            gradient step); later solves start from the last solve's radius */
+                            gradient step); later solves start from the last solve's radius,
+                            which checkpoints carry (SNESGetHistory_NTR) */
   PetscReal delta;       /* current radius, carried from one solve to the next */
   PetscInt  rejected;    /* steps rejected over the life of the SNES */
   PetscInt  negative;    /* CG solves stopped by a direction of negative curvature */
@@ -166,9 +167,36 @@ static PetscErrorCode SNESView_NTR(SNES snes, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* For checkpoints (MSimSolverHistory "ntr"): the radius the next solve starts from, and the
+   counters over the SNES's life */
+static PetscErrorCode SNESGetHistory_NTR(SNES snes, MSimSolverHistory *h)
+{
+  SNES_NTR *tr = (SNES_NTR *)snes->data;
+
+  PetscFunctionBeginUser;
+  h->name = "ntr";
+  h->real = {tr->delta, (PetscReal)tr->rejected, (PetscReal)tr->negative};
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode SNESSetHistory_NTR(SNES snes, const MSimSolverHistory *h, PetscBool *taken)
+{
+  SNES_NTR *tr = (SNES_NTR *)snes->data;
+
+  PetscFunctionBeginUser;
+  *taken = (PetscBool)(h->name == "ntr" && h->real.size() == 3 && h->vec.empty());
+  if (!*taken) PetscFunctionReturn(PETSC_SUCCESS);
+  tr->delta    = h->real[0];
+  tr->rejected = (PetscInt)h->real[1];
+  tr->negative = (PetscInt)h->real[2];
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode SNESDestroy_NTR(SNES snes)
 {
   PetscFunctionBeginUser;
+  PetscCall(PetscObjectComposeFunction((PetscObject)snes, "MSimSNESGetHistory_C", NULL));
+  PetscCall(PetscObjectComposeFunction((PetscObject)snes, "MSimSNESSetHistory_C", NULL));
   PetscCall(PetscFree(snes->data));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -192,6 +220,8 @@ PetscErrorCode SNESCreate_NTR(SNES snes)
   tr->forcing_max = 0.5;
   tr->delta0      = 1;
   snes->data      = tr;
+  PetscCall(PetscObjectComposeFunction((PetscObject)snes, "MSimSNESGetHistory_C", SNESGetHistory_NTR));
+  PetscCall(PetscObjectComposeFunction((PetscObject)snes, "MSimSNESSetHistory_C", SNESSetHistory_NTR));
   PetscCall(SNESGetKSP(snes, &ksp));
   PetscCall(KSPSetType(ksp, KSPSTCG));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -76,9 +76,20 @@ static PetscErrorCode SNESPDLBFGSDestroyContainer(void *ctx)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static PetscErrorCode SNESPDRestartDestroy(void *ctx)
+{
+  MSimSolverHistory *h = (MSimSolverHistory *)ctx;
+  PetscFunctionBeginUser;
+  for (Vec &v : h->vec) PetscCall(VecDestroy(&v));
+  delete h;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* L-BFGS's state lives with the SNES (made on its first solve, freed with it): its pairs carry
    over to the next time step's solve, where the Hessian they sample has changed little (the
-   inertia term's y_n cancels in y = g_{k+1} - g_k) */
+   inertia term's y_n cancels in y = g_{k+1} - g_k). A restart's state (SNESSetHistory_PD) waits
+   on the SNES until the state is made here: where pd is another SNES's NPC, its problem (on the
+   DM, which the NPC gets at set-up) is not known when the checkpoint is read. */
 static PetscErrorCode SNESPDGetLBFGS(SNES snes, MSimPDProblem *pd, Vec X, PetscInt m, PetscReal gamma_max, MSimPDLBFGS **st)
 {
   PetscContainer c;
@@ -103,6 +114,15 @@ static PetscErrorCode SNESPDGetLBFGS(SNES snes, MSimPDProblem *pd, Vec X, PetscI
   PetscCall(PetscContainerSetUserDestroy(c, SNESPDLBFGSDestroyContainer));
   PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDLBFGS", (PetscObject)c));
   PetscCall(PetscContainerDestroy(&c));
+  PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDLBFGSRestart", (PetscObject *)&c));
+  if (c) {
+    MSimSolverHistory *h;
+    PetscBool          taken;
+    PetscCall(PetscContainerGetPointer(c, (void **)&h));
+    PetscCall(MSimPDLBFGSSetHistory(*st, h, &taken));
+    if (!taken) PetscCall(PetscInfo(snes, "pd: the checkpoint's L-BFGS state does not fit: the history starts afresh\n"));
+    PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDLBFGSRestart", NULL));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -245,6 +265,60 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* For checkpoints (MSimSolverHistory): L-BFGS's state once a solve has made it. Plain PD and
+   Anderson carry nothing from one solve to the next (Anderson's history is made and freed in each
+   solve). The type test: the functions stay composed if the SNES changes type. */
+static PetscErrorCode SNESGetHistory_PD(SNES snes, MSimSolverHistory *h)
+{
+  PetscBool      pd;
+  PetscContainer c;
+  SNESPDOptions *opts;
+  MSimPDLBFGS   *st;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESPD, &pd));
+  if (!pd) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESPDGetOptions(snes, &opts));
+  PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDLBFGS", (PetscObject *)&c));
+  if (!c || opts->lbfgs <= 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscContainerGetPointer(c, (void **)&st));
+  if (st->lb.m == opts->lbfgs) PetscCall(MSimPDLBFGSGetHistory(st, h));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* a restart's L-BFGS state, of the m this SNES runs with: a copy waits on the SNES for the state
+   its first solve makes (SNESPDGetLBFGS) */
+static PetscErrorCode SNESSetHistory_PD(SNES snes, const MSimSolverHistory *h, PetscBool *taken)
+{
+  PetscBool          pd;
+  SNESPDOptions     *opts;
+  MSimSolverHistory *copy;
+  PetscContainer     c;
+
+  PetscFunctionBeginUser;
+  *taken = PETSC_FALSE;
+  PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESPD, &pd));
+  if (!pd) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESPDGetOptions(snes, &opts));
+  if (opts->lbfgs <= 0 || h->name != "pd_lbfgs" || h->real.empty() || h->real[0] != opts->lbfgs || (PetscInt)h->vec.size() != 2 * opts->lbfgs) PetscFunctionReturn(PETSC_SUCCESS);
+  copy       = new MSimSolverHistory();
+  copy->name = h->name;
+  copy->real = h->real;
+  for (Vec v : h->vec) {
+    copy->vec.push_back(NULL);
+    PetscCall(VecDuplicate(v, &copy->vec.back()));
+    PetscCall(VecCopy(v, copy->vec.back()));
+  }
+  PetscCall(PetscContainerCreate(PetscObjectComm((PetscObject)snes), &c));
+  PetscCall(PetscContainerSetPointer(c, copy));
+  PetscCall(PetscContainerSetUserDestroy(c, SNESPDRestartDestroy));
+  PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDLBFGSRestart", (PetscObject)c));
+  PetscCall(PetscContainerDestroy(&c));
+  PetscCall(PetscObjectCompose((PetscObject)snes, "SNESPDLBFGS", NULL)); /* the first solve makes the state anew */
+  *taken = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode SNESCreate_PD(SNES snes)
 {
   SNESPDOptions *opts;
@@ -252,6 +326,8 @@ static PetscErrorCode SNESCreate_PD(SNES snes)
   PetscFunctionBeginUser;
   PetscCall(SNESCreate_Shell(snes));
   PetscCall(SNESShellSetSolve(snes, SNESSolve_PD));
+  PetscCall(PetscObjectComposeFunction((PetscObject)snes, "MSimSNESGetHistory_C", SNESGetHistory_PD));
+  PetscCall(PetscObjectComposeFunction((PetscObject)snes, "MSimSNESSetHistory_C", SNESSetHistory_PD));
   PetscCall(SNESPDGetOptions(snes, &opts)); /* its options handler, for the SetFromOptions that follows */
   PetscFunctionReturn(PETSC_SUCCESS);
 }

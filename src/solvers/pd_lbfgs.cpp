@@ -287,3 +287,46 @@ PetscErrorCode MSimPDLBFGSIterate(MSimPDLBFGS *st, Vec X)
   st->phi = phit;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+/* the scalars before rho's m, in this order */
+enum { LB_M, LB_COUNT, LB_NEXT, LB_GAMMA, LB_SKIPPED, LB_FALLBACKS, LB_CUT, LB_BACKTRACKS, LB_NREAL };
+
+PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h)
+{
+  const MSimLBFGS *lb = &st->lb;
+
+  PetscFunctionBeginUser;
+  h->name = "pd_lbfgs";
+  h->real = {(PetscReal)lb->m, (PetscReal)lb->count, (PetscReal)lb->next, lb->gamma, (PetscReal)lb->skipped, (PetscReal)st->fallbacks, (PetscReal)st->cut, (PetscReal)st->backtracks};
+  h->real.insert(h->real.end(), lb->rho.begin(), lb->rho.end());
+  /* every slot, not only the count in use: the ring then goes on exactly where it was */
+  h->vec = lb->S;
+  h->vec.insert(h->vec.end(), lb->Y.begin(), lb->Y.end());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimPDLBFGSSetHistory(MSimPDLBFGS *st, const MSimSolverHistory *h, PetscBool *taken)
+{
+  MSimLBFGS     *lb = &st->lb;
+  const PetscInt m  = lb->m;
+
+  PetscFunctionBeginUser;
+  *taken = PETSC_FALSE;
+  if (h->name != "pd_lbfgs" || (PetscInt)h->real.size() != LB_NREAL + m || (PetscInt)h->vec.size() != 2 * m || h->real[LB_M] != m) PetscFunctionReturn(PETSC_SUCCESS);
+  const PetscInt count = (PetscInt)h->real[LB_COUNT], next = (PetscInt)h->real[LB_NEXT];
+  if (count < 0 || count > m || next < 0 || next >= m) PetscFunctionReturn(PETSC_SUCCESS);
+  for (PetscInt k = 0; k < m; k++) {
+    PetscCall(VecCopy(h->vec[k], lb->S[k]));
+    PetscCall(VecCopy(h->vec[m + k], lb->Y[k]));
+    lb->rho[k] = h->real[LB_NREAL + k];
+  }
+  lb->count      = count;
+  lb->next       = next;
+  lb->gamma      = h->real[LB_GAMMA];
+  lb->skipped    = (PetscInt)h->real[LB_SKIPPED];
+  st->fallbacks  = (PetscInt)h->real[LB_FALLBACKS];
+  st->cut        = (PetscInt)h->real[LB_CUT];
+  st->backtracks = (PetscInt)h->real[LB_BACKTRACKS];
+  *taken         = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

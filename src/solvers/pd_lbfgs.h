@@ -34,8 +34,8 @@ PetscErrorCode MSimLBFGSApply(MSimLBFGS *lb, Vec g, Vec d, PetscErrorCode (*h0)(
    |Phi| counts gravity from the origin) is replaced by the plain PD step (which never raises Phi)
    and the history restarts. Steps are shortened to the problem's feasible set (max_step). The pairs
    carry over from one solve to the next (the next time step's Hessian is close; the inertia
-   term's y_n cancels in y); checkpoints do not carry them, so a restart with -snes_pd_lbfgs is not
-   bit for bit. */
+   term's y_n cancels in y); checkpoints carry them (MSimPDLBFGSGetHistory), so a restart with
+   -snes_pd_lbfgs repeats the run bit for bit. */
 typedef struct {
   MSimPDProblem *pd;
   MSimLBFGS      lb;
@@ -54,3 +54,11 @@ PetscErrorCode MSimPDLBFGSDestroy(MSimPDLBFGS *st);
 PetscErrorCode MSimPDLBFGSBegin(MSimPDLBFGS *st, Vec X);
 /* one iteration: X is replaced by the next iterate, whose local step, gradient and Phi are kept */
 PetscErrorCode MSimPDLBFGSIterate(MSimPDLBFGS *st, Vec X);
+
+/* For checkpoints: what the next solve reads besides X (MSimSolverHistory "pd_lbfgs"): the m
+   pairs' slots, their rho, the ring's count and next slot, gamma, and the counters -info reports
+   "so far". Get lends st's vectors; Set copies a restart's into st, if its m is st's. A field
+   that a solve reads from the one before must be added to both, or restarts stop repeating the run
+   bit for bit (tests/pd_lbfgs_restart.py). */
+PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h);
+PetscErrorCode MSimPDLBFGSSetHistory(MSimPDLBFGS *st, const MSimSolverHistory *h, PetscBool *taken);
