@@ -13,7 +13,13 @@
    mass term), with -msim_self_contact_once; without it (the pairs' sum, the default) 5 x that
    above the edge and 19 x above the vertex, derived from the pairs counted. Also: the gradient against
    central differences of the energy near (b) and (c) (moved off the feature, so that the pairs'
-   distances differ), and the Hessian is PSD (x^T H x >= 0 in random directions). */
+   distances differ), and the Hessian is PSD (x^T H x >= 0 in random directions).
+   The PSD Hessian (-msim_psd's, the one Newton-CG and Cholesky use) at (a), (b), (c): along the
+   apex's vertical motion it must equal the energy's second derivative, derived m C (4 h^2 b'' +
+   2 b') (d^2/dh^2 of m C b(h^2)) and measured by central second differences of the energy; with
+   the option m = 1 only if the blocks of one contact are projected together (each term's block
+   projected alone gave 5 and 32 x that above the edge and the vertex: the duplicates' positive
+   blocks kept, their negative corrections dropped). */
 #include "harness.h"
 #include <msim/contact.h>
 #include <msim/private/systemimpl.h>
@@ -47,6 +53,25 @@ static PetscErrorCode Place(Vec X0, const PetscReal p0[3], const PetscReal p[3],
     if (PetscRealPart(x[k + 2]) > 0.25)
       for (int c = 0; c < 3; c++) x[k + c] += p[c] - p0[c];
   PetscCall(VecRestoreArray(X, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* D = the unit vector along z at the vertex at p (the apex, moved there up to roundoff) */
+static PetscErrorCode ApexZ(Vec X, const PetscReal p[3], Vec D)
+{
+  const PetscScalar *x;
+  PetscScalar       *d;
+  PetscInt           n;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecZeroEntries(D));
+  PetscCall(VecGetLocalSize(X, &n));
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArray(D, &d));
+  for (PetscInt k = 0; k < n; k += 3)
+    if (PetscAbsReal(PetscRealPart(x[k]) - p[0]) + PetscAbsReal(PetscRealPart(x[k + 1]) - p[1]) + PetscAbsReal(PetscRealPart(x[k + 2]) - p[2]) < 1e-9) d[k + 2] = 1;
+  PetscCall(VecRestoreArray(D, &d));
+  PetscCall(VecRestoreArrayRead(X, &x));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -130,6 +155,7 @@ static PetscErrorCode Run(PetscBool once)
   PetscCall(VecDuplicate(s.X, &G));
   PetscCall(VecDuplicate(s.X, &Xp));
   PetscCall(VecDuplicate(s.X, &D));
+  PetscCall(MSimSystemCreateMatrix(s.sys, &J));
   /* (a) the centroid of triangle (1,1)-(2,1)-(1,2) (its cell, i + j even, is split along (2,1)-(1,2)),
      0.29 m from its edges; (b) the middle of the interior edge (2,2)-(3,2), 0.35 m from the
      nearest other edge; (c) vertex (2,2), which no diagonal meets */
@@ -154,11 +180,28 @@ static PetscErrorCode Run(PetscBool once)
       CHECK(PetscAbsReal(e[k] - eref) <= 1e-10 * PetscAbsReal(eref), "h %g above %s: energy %.12e, one barrier's %.12e", (double)h, what[k], (double)e[k], (double)eref);
       CHECK(PetscAbsReal(gp[k][2] - gref) <= 1e-10 * PetscAbsReal(gref) && PetscAbsReal(gp[k][0]) + PetscAbsReal(gp[k][1]) <= 1e-10 * PetscAbsReal(gref), "h %g above %s: force on p %.12e along z (and %.2e across), one barrier's %.12e", (double)h, what[k], (double)gp[k][2], (double)(PetscAbsReal(gp[k][0]) + PetscAbsReal(gp[k][1])), (double)gref);
       CHECK(PetscAbsReal(gs[0]) + PetscAbsReal(gs[1]) + PetscAbsReal(gs[2]) <= 1e-10 * PetscAbsReal(gref), "h %g above %s: the forces do not sum to 0 (%g %g %g)", (double)h, what[k], (double)gs[0], (double)gs[1], (double)gs[2]);
+      {
+        /* the PSD Hessian along the apex's vertical motion against the energy's second derivative */
+        const PetscReal href = m * C * (4 * h * h * d2b + 2 * db), eps = 1e-4 * h;
+        PetscReal       dHd, ep = 0, em = 0;
+        PetscCall(ApexZ(X, p, D));
+        PetscCall(MatZeroEntries(J));
+        PetscCall(t->ops.hessian(t, X, PETSC_TRUE, J));
+        PetscCall(MatMult(J, D, G));
+        PetscCall(VecDot(D, G, &dHd));
+        PetscCall(VecWAXPY(Xp, eps, D, X));
+        PetscCall(t->ops.energy(t, Xp, &ep));
+        PetscCall(VecWAXPY(Xp, -eps, D, X));
+        PetscCall(t->ops.energy(t, Xp, &em));
+        const PetscReal fd2 = (ep - 2 * e[k] + em) / (eps * eps);
+        NOTE("%s: h %.2f m above %s: PSD Hessian along the apex's z %.10e, m C (4 h^2 b'' + 2 b') %.10e, second difference of the energy %.10e\n", once ? "once" : "pairs", (double)h, what[k], (double)dHd, (double)href, (double)fd2);
+        CHECK(PetscAbsReal(dHd - href) <= 1e-10 * PetscAbsReal(href), "h %g above %s: PSD Hessian along the apex's z %.10e, the energy's second derivative %.10e (%.3g x)", (double)h, what[k], (double)dHd, (double)href, (double)(dHd / href));
+        CHECK(PetscAbsReal(fd2 - href) <= 3e-5 * PetscAbsReal(href), "h %g above %s: second difference of the energy %.10e against the derived %.10e", (double)h, what[k], (double)fd2, (double)href);
+      }
     }
   }
   /* off the features (pairs at different distances, duplicates' weights acting): the gradient
      against central differences of the energy along random directions, and the Hessian PSD */
-  PetscCall(MSimSystemCreateMatrix(s.sys, &J));
   {
     const PetscReal off[4][3] = {{2.5 + 0.013, 2 + 0.021, 0.04}, {2 + 0.017, 2 - 0.011, 0.05}, {2 - 0.006, 2 + 0.03, 0.03}, {2.5 - 0.02, 2 - 0.015, 0.06}};
     PetscRandom     r;

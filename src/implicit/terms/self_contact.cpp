@@ -100,6 +100,8 @@ typedef struct {
      features' candidates (kind, 4 vertices) */
   std::vector<SelfTerm>                act;
   std::vector<std::array<PetscInt, 5>> sub;
+  std::vector<std::array<PetscInt, 6>> keys;  /* the PSD Hessian's groups (Hessian_Self) */
+  std::vector<PetscInt>                order;
   PetscBool                            once; /* -msim_self_contact_once */
 } SelfData;
 
@@ -424,15 +426,15 @@ static PetscReal WeightPP(const SelfData *sd, PetscInt p, PetscInt q)
    reaches an edge or a point only through the triangles and edges around it). A point-edge pair
    none of whose super-pairs exists (p's edges and e's triangles all touch e or p: a collapsed
    neighbourhood, no contact) is left out, as before; point-point pairs of neighbours too. */
-static PetscErrorCode Collect(SelfData *sd, PetscBool dup)
+static PetscErrorCode Collect(SelfData *sd, PetscBool dup, PetscBool bykey)
 {
   MSimSelfSurface s   = sd->surf;
   const PetscReal dh2 = s->dhat * s->dhat;
-  auto            own = [&](const PetscInt *v) {
+  auto            own = [&](const PetscInt *v, const PetscReal *w) {
     PetscInt low    = PETSC_MAX_INT;
     bool     moving = false;
     for (int k = 0; k < 4; k++) {
-      low    = PetscMin(low, s->vid[v[k]]);
+      if (!bykey || w[k] != 0) low = PetscMin(low, s->vid[v[k]]);
       moving = moving || s->gnum[v[k]] >= 0;
     }
     return moving && low >= s->dstart && low < s->dstart + s->dcount;
@@ -455,7 +457,7 @@ static PetscErrorCode Collect(SelfData *sd, PetscBool dup)
     PetscReal       w[4];
     const PetscReal s2 = PairDistance2(sd->x, ee, v, w);
     if (s2 >= dh2) return;
-    if (own(v)) add(ee ? KIND_EE : KIND_PT, v, s2, w, 1.0);
+    if (own(v, w)) add(ee ? KIND_EE : KIND_PT, v, s2, w, 1.0);
     if (!dup) return;
     /* only the feature pairs within dhat (most pairs' closest points lie inside their elements,
        away from the features), so that the sort below sees few */
@@ -479,9 +481,9 @@ static PetscErrorCode Collect(SelfData *sd, PetscBool dup)
     for (const std::array<PetscInt, 5> &q : sd->sub) {
       const PetscInt *v = &q[1];
       PetscReal       w[4];
-      if (!own(v) || (q[0] == KIND_PP && Adjacent(sd, v[0], v[2]))) continue;
+      if (q[0] == KIND_PP && Adjacent(sd, v[0], v[2])) continue;
       const PetscReal s2 = PairDistance2(sd->x, PETSC_TRUE, v, w);
-      if (s2 >= dh2) continue;
+      if (s2 >= dh2 || !own(v, w)) continue;
       const PetscReal c = q[0] == KIND_PE ? WeightPE(sd, v[0], v[2], v[3]) : WeightPP(sd, v[0], v[2]);
       if (c != 0) add(q[0], v, s2, w, c);
     }
@@ -506,7 +508,7 @@ static PetscErrorCode Evaluate(SelfData *sd)
   sd->geval.assign(sd->x.size(), 0);
   sd->npairs = 0;
   sd->dmin   = PETSC_INFINITY;
-  PetscCall(Collect(sd, PETSC_TRUE));
+  PetscCall(Collect(sd, PETSC_TRUE, PETSC_FALSE));
   for (const SelfTerm &t : sd->act) {
     PetscReal b, db, d2b, r[3] = {0, 0, 0};
     if (t.s <= 0) local = PETSC_INFINITY;
@@ -568,21 +570,30 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, 
   PetscFunctionBeginUser;
   PetscCall(MSimSelfSurfaceGather(s, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
   PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
-  PetscCall(Collect(sd, PETSC_TRUE));
-  /* psd: each term's block projected on its own: a term of weight c < 0 (a duplicate's
-     correction) is negative semidefinite and projects to 0, so the sum is PSD and, at a contact
-     that several pairs share, as stiff as the former sum of those pairs' blocks (Newton-CG then
-     takes shorter steps there). Without psd (a direct solver with inertia correction), the
-     weighted sum: where the duplicates coincide (their r and w agree) it is one barrier's block,
-     the Hessian of the energy the gradient differentiates */
-  for (const SelfTerm &t : sd->act) {
-    PetscReal   b, db, d2b, r[3] = {0, 0, 0};
+  PetscCall(Collect(sd, PETSC_TRUE, (PetscBool)(psd && sd->once)));
+  /* A term's block, with its closest points held fixed and projected in closed form (the header):
+     lambda (w w^T) kron (r r^T), lambda = C max(0, 4 b'' s + 2 b') / s, times the term's weight c.
+     Without -msim_self_contact_once every weight is 1 and the sum of these blocks is PSD. With it,
+     the point-edge and point-point terms carry weights c < 0 that cancel the duplicates, and
+     projecting each term on its own would keep the duplicates' blocks and drop their corrections:
+     a Hessian up to 19 x stiffer than the energy where they act, and Newton on it stalls (200
+     iterations a step on tests/self_contact_ranks.py's sheet). So with psd the terms are grouped
+     by the features their closest points lie on (a point-triangle pair whose closest point is on
+     an edge is the point-edge term of that edge; on a vertex, the point-point term; an edge-edge
+     pair at an end likewise): the terms of one group are one distance function (the same r, the
+     same weights on the same vertices), so their blocks are one block times the sum of their
+     weighted lambdas, kappa, and the group's sum is projected once: max(0, kappa) times the block.
+     Where the duplicates coincide (a point above an edge or a vertex) kappa is one barrier's and
+     the Hessian is the energy's (tests/unit/test_self_features.cpp); a group is the rank's when
+     the least input id of its features' vertices is in the rank's block, which holds every
+     term of it (Collect's bykey). Without psd (a direct solver with inertia correction), the
+     weighted sum of the blocks. */
+  const bool group = psd && sd->once;
+  auto       block = [&](const SelfTerm &t, PetscReal lambda) {
+    PetscReal   r[3] = {0, 0, 0};
     PetscInt    idx[12];
     PetscScalar H[144];
-    if ((psd && t.c <= 0) || ierr) continue;
-    MSimBarrier(PetscMax(t.s, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
-    const PetscReal lambda = sd->C * t.c * PetscMax(0.0, 4 * d2b * t.s + 2 * db) / PetscMax(t.s, PETSC_SMALL * dh2);
-    if (lambda == 0) continue;
+    if (lambda == 0 || ierr) return;
     for (int k = 0; k < 4; k++)
       for (int c = 0; c < 3; c++) r[c] += t.w[k] * sd->x[3 * t.v[k] + c];
     for (int k = 0; k < 4; k++)
@@ -590,6 +601,47 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, 
     for (int i = 0; i < 12; i++)
       for (int j = 0; j < 12; j++) H[12 * i + j] = lambda * t.w[i / 3] * t.w[j / 3] * r[i % 3] * r[j % 3];
     ierr = MatSetValues(J, 12, idx, 12, idx, H, ADD_VALUES);
+  };
+  auto lam = [&](const SelfTerm &t) {
+    PetscReal b, db, d2b;
+    MSimBarrier(PetscMax(t.s, PETSC_SMALL * dh2), dh2, &b, &db, &d2b);
+    return sd->C * PetscMax(0.0, 4 * d2b * t.s + 2 * db) / PetscMax(t.s, PETSC_SMALL * dh2);
+  };
+  if (!group) {
+    for (const SelfTerm &t : sd->act)
+      if (!psd || t.c > 0) block(t, t.c * lam(t));
+  } else {
+    /* each term's features: the input ids of its vertices of nonzero weight on each side, the
+       sides ordered (the same features from a point-triangle and from an edge-edge pair) */
+    const size_t n = sd->act.size();
+    sd->keys.resize(n);
+    sd->order.resize(n);
+    for (size_t k = 0; k < n; k++) {
+      const SelfTerm &t     = sd->act[k];
+      const int       split = t.kind == KIND_PT ? 1 : 2;
+      PetscInt        side[2][3] = {{-1, -1, -1}, {-1, -1, -1}};
+      int             m[2]       = {0, 0};
+      for (int q = 0; q < 4; q++) {
+        const int h = q >= split;
+        bool      seen = false;
+        for (int z = 0; z < m[h]; z++) seen = seen || side[h][z] == t.gid[q];
+        if (t.w[q] == 0 || seen) continue;
+        side[h][m[h]++] = t.gid[q];
+        for (int z = m[h] - 1; z > 0 && side[h][z] < side[h][z - 1]; z--) std::swap(side[h][z], side[h][z - 1]); /* ascending */
+      }
+      const int first = std::lexicographical_compare(side[1], side[1] + 3, side[0], side[0] + 3) ? 1 : 0;
+      for (int q = 0; q < 3; q++) sd->keys[k][q] = side[first][q], sd->keys[k][3 + q] = side[1 - first][q];
+      sd->order[k] = (PetscInt)k;
+    }
+    /* stable: within a group the input-id order of Collect, so the sums repeat on a restart */
+    std::stable_sort(sd->order.begin(), sd->order.end(), [&](PetscInt a, PetscInt b) { return sd->keys[a] < sd->keys[b]; });
+    for (size_t k = 0; k < n;) {
+      size_t    l     = k;
+      PetscReal kappa = 0;
+      for (; l < n && sd->keys[sd->order[l]] == sd->keys[sd->order[k]]; l++) kappa += sd->act[sd->order[l]].c * lam(sd->act[sd->order[l]]);
+      block(sd->act[sd->order[k]], PetscMax(kappa, 0.0));
+      k = l;
+    }
   }
   PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
   PetscCall(ierr);
@@ -719,7 +771,7 @@ PetscErrorCode MSimSelfContactGetPairs(MSimImplicitTerm term, PetscReal t, Vec X
   /* the point-triangle and edge-edge pairs only, each at its own barrier's force: the friction
      term's Hessian is exact and PSD only with positive forces (not done: the duplicates' weights
      there, so friction still counts a contact at a shared edge or vertex once per pair) */
-  PetscCall(Collect(sd, PETSC_FALSE));
+  PetscCall(Collect(sd, PETSC_FALSE, PETSC_FALSE));
   for (const SelfTerm &t : sd->act) {
     MSimSelfContactPair p;
     PetscReal           b, db, d2b, r[3] = {0, 0, 0};
