@@ -30,9 +30,18 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *nt
 /* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,
    Hessian of the distance (face region 0; edge (I - n n^T - e e^T)/r; vertex (I - n n^T)/r) */
 PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+/* the same for a rank's vertex v (>= 0; the per-vertex loops of msim/private/contactimpl.h): the
+   same numbers, with a point asked again answered from v's last answers */
+PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
 /* a step t in [0, tmax] for which the segment x -> x + t u keeps off the thickness shell
    (conservative advancement; PETSC_INFINITY where x + [0, tmax] u cannot reach it) */
 PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mesh, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
+/* the same for a rank's vertex v (>= 0), its distance at x from MSimMeshObstacleDistanceVertex */
+PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
+/* the vertex queries within the band around the surface's box so far: answered from the vertex's
+   last answers, skipped as beyond band (moved less than its last distance's excess over band),
+   and computed in full */
+void MSimMeshObstacleVertexCounts(MSimMeshObstacle mesh, PetscInt64 counts[3]);
 
 typedef struct {
   MSimObstacleKind kind;

@@ -32,6 +32,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <map>
 #include <string>
 #include <vector>
@@ -93,6 +94,23 @@ struct _n_MSimMeshObstacle {
   size_t                 last_slot = 0;
   std::vector<Candidate> pool;
   std::vector<Ref>       refs;
+  /* the vertex queries' last answers (MSimMeshObstacleDistanceVertex): MEMO_SLOTS per vertex,
+     each the point asked (bit for bit), its answer (d, n, H: H always computed) and when it was
+     last used (0 or <= memo_epoch: empty) */
+  struct Answer {
+    PetscReal x[3];
+    uint64_t  stamp;
+    PetscReal d, n[3], H[9];
+  };
+  std::vector<Answer> memo;
+  uint64_t            clock = 0, memo_epoch = 0;
+  /* per vertex: a point x of its last full query and a radius r such that every point within r
+     of x is farther than band from the surface (0: none) */
+  struct Far {
+    PetscReal x[3], r;
+  };
+  std::vector<Far> far;
+  uint64_t         nvq[3] = {0, 0, 0}; /* vertex queries in the band's box: answered again, skipped as far, full */
 };
 
 static PetscLogEvent MSIM_MeshCells; /* a cell's candidates collected (the cache's rebuilds) */
@@ -245,6 +263,7 @@ static bool SegmentCrosses(const PetscReal o[3], const PetscReal d[3], PetscReal
 struct MeshCellT {
   PetscReal c[3];
   size_t    off, n, slot;
+  PetscReal margin; /* an empty coarse cell (slot ~0): x's distance to its box's nearest face */
 };
 
 /* the key's slot in the table: its own, or the empty one where it would go (Fibonacci hashing,
@@ -307,7 +326,12 @@ static bool MeshCell(MSimMeshObstacle mo, const PetscReal x[3], MeshCellT *C)
       mo->ncoarse++;
     }
     if (!mo->cslots[cs].n) {
-      C->off = C->n = 0, C->slot = ~(size_t)0;
+      C->off = C->n = 0, C->slot = ~(size_t)0, C->margin = PETSC_MAX_REAL;
+      for (int c = 0; c < 3; c++) {
+        const PetscReal lo = mo->org[c] + (PetscReal)((ijk[c] >> 3) << 3) * mo->cw;
+        C->margin = PetscMin(C->margin, PetscMin(x[c] - lo, lo + 8 * mo->cw - x[c]));
+      }
+      C->margin = PetscMax(C->margin, 0.0);
       return true;
     }
     /* a new cell: its candidates */
@@ -436,7 +460,9 @@ void MSimMeshObstacleDestroy(MSimMeshObstacle *mesh)
 
 void MSimMeshObstacleSetBand(MSimMeshObstacle mo, PetscReal band)
 {
-  mo->band = band;
+  mo->band       = band;
+  mo->memo_epoch = mo->clock; /* the answers depend on the band */
+  mo->far.clear();
   ClearCells(mo);
   if (!(band > 0 && band < PETSC_MAX_REAL)) return;
   /* cells of a quarter of the band (half-diagonal 0.43 band): 51 x 51 PD-10 on the 20,480-triangle
@@ -453,6 +479,11 @@ void MSimMeshObstacleSetCache(MSimMeshObstacle mo, PetscBool use)
   mo->use_cells = use ? true : false;
 }
 
+void MSimMeshObstacleVertexCounts(MSimMeshObstacle mo, PetscInt64 counts[3])
+{
+  for (int k = 0; k < 3; k++) counts[k] = (PetscInt64)mo->nvq[k];
+}
+
 void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri, PetscBool *closed)
 {
   if (file) *file = mo->file.c_str();
@@ -463,7 +494,7 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri
 /* cube_bound: beyond the band, the band itself may stand in as a lower bound (see below); the
    conservative advancement of MSimMeshObstacleSafeStep needs the true distance there (a constant
    lower bound would advance by 0.9 dhat a step and cut a long move short) */
-static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9], bool cube_bound)
+static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9], bool cube_bound, PetscReal *lower = NULL)
 {
   /* beyond the band around the surface's bounding box, the distance to the box is a lower bound
      of the distance to the surface (which lies in the box), and it is all the callers need there:
@@ -475,11 +506,13 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
     q[c] = x[c] < mo->lo[c] ? x[c] - mo->lo[c] : (x[c] > mo->hi[c] ? x[c] - mo->hi[c] : 0.0);
     db2 += q[c] * q[c];
   }
+  if (lower) *lower = 0; /* *lower: a lower bound of x's distance to the surface, where it is > band (else 0) */
   if (db2 > mo->band * mo->band) {
     const PetscReal db = std::sqrt(db2);
     for (int c = 0; c < 3; c++) n[c] = q[c] / db;
     if (H)
       for (int k = 0; k < 9; k++) H[k] = 0;
+    if (lower) *lower = db;
     return db - mo->thickness;
   }
   /* inside the box: the triangles that meet the cube of half-width band around x. The nearest
@@ -507,11 +540,19 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
       }
     };
     if (mo->use_cells && MeshCell(mo, x, &cell)) C = &cell;
+    PetscReal lb = b; /* what the candidates show of the distance beyond band (MSimMeshObstacleDistanceVertex) */
     if (C) { /* the candidates by their distance to the centre, while they can still be nearer */
       PetscReal s = 0;
       for (int c = 0; c < 3; c++) s += (x[c] - C->c[c]) * (x[c] - C->c[c]);
       s = std::sqrt(s) - 1e-12 * (mo->diam + b); /* roundoff on the safe side: look a little further */
-      for (size_t k = C->off; k < C->off + C->n && mo->pool[k].dc - s <= rbest; k++) consider(*mo->pool[k].T);
+      size_t k = C->off;
+      for (; k < C->off + C->n && mo->pool[k].dc - s <= rbest; k++) consider(*mo->pool[k].T);
+      /* every triangle is at least min(dc, R) - |x - c| from x (R: the cell's reach, the
+         non-candidates beyond it), those looked at their own distance; an empty coarse cell: band
+         plus x's margin in it */
+      const PetscReal sup = s + 2e-12 * (mo->diam + b);
+      if (C->slot == ~(size_t)0) lb = b + C->margin;
+      else lb = PetscMin(std::sqrt(best), PetscMin(k < C->off + C->n ? mo->pool[k].dc : PETSC_MAX_REAL, b + mo->smax) - sup);
     } else {
       mo->near.clear();
       mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(x[0] - b, x[1] - b, x[2] - b), Point(x[0] + b, x[1] + b, x[2] + b)), std::back_inserter(mo->near));
@@ -521,6 +562,7 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
       for (int c = 0; c < 3; c++) n[c] = db2 > 0 ? q[c] / std::sqrt(db2) : (c == 2);
       if (H)
         for (int k = 0; k < 9; k++) H[k] = 0;
+      if (lower) *lower = lb;
       return b - mo->thickness;
     }
   } else {
@@ -555,6 +597,70 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], Pe
   return Distance(mo, x, n, H, true);
 }
 
+/* A vertex asks again at the very point it asked before, most of the time: friction's lagged
+   normal at x_n at every evaluation of a time step, PD's right-hand side and energy at the same
+   iterate, the energy at a point its gradient was taken at. Each vertex keeps its last MEMO_SLOTS
+   answers (three: x_n, the iterate, a trial point) keyed by the point's bits, and a point asked
+   again gets its answer back: the same numbers, as the query is a function of the point (the
+   cells only save work; their state changes no answer, test_mesh_obstacle.cpp). Points beyond the
+   band around the bounding box are answered directly, that test being cheaper than the memo's.
+   A vertex that is far (beyond band) and moves little needs no query either: its full query at
+   y also gives a lower bound L of y's distance (Distance's *lower: the cell's candidates bound
+   every triangle's distance), and the distance is 1-Lipschitz, so every x with |x - y| < L - band
+   is beyond band, where Distance's answer is the band itself with the box's direction, computed
+   here by the same operations. The margin (1e-9 of the surface's size) covers the roundoff of the
+   distances compared, ~1e-16 of it: a skipped x is one the full query would also have found beyond
+   band, so the answers stay the same bit for bit. */
+enum { MEMO_SLOTS = 3 };
+
+PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+{
+  PetscReal db2 = 0, q[3];
+  for (int c = 0; c < 3; c++) {
+    q[c] = x[c] < mo->lo[c] ? x[c] - mo->lo[c] : (x[c] > mo->hi[c] ? x[c] - mo->hi[c] : 0.0);
+    db2 += q[c] * q[c];
+  }
+  if (db2 > mo->band * mo->band) { /* Distance's first answer, the same operations */
+    const PetscReal db = std::sqrt(db2);
+    for (int c = 0; c < 3; c++) n[c] = q[c] / db;
+    if (H)
+      for (int k = 0; k < 9; k++) H[k] = 0;
+    return db - mo->thickness;
+  }
+  if (v < 0) return Distance(mo, x, n, H, true);
+  if (mo->memo.size() < MEMO_SLOTS * (size_t)(v + 1)) mo->memo.resize(MEMO_SLOTS * (size_t)(v + 1), _n_MSimMeshObstacle::Answer{{0, 0, 0}, 0, 0, {0, 0, 0}, {0}});
+  if (mo->far.size() <= (size_t)v) mo->far.resize((size_t)v + 1, _n_MSimMeshObstacle::Far{{0, 0, 0}, 0});
+  _n_MSimMeshObstacle::Far &f = mo->far[v];
+  if (f.r > 0) {
+    const PetscReal dx[3] = {x[0] - f.x[0], x[1] - f.x[1], x[2] - f.x[2]};
+    if (dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2] < f.r * f.r) { /* Distance's answer beyond band */
+      for (int c = 0; c < 3; c++) n[c] = db2 > 0 ? q[c] / std::sqrt(db2) : (c == 2);
+      if (H)
+        for (int k = 0; k < 9; k++) H[k] = 0;
+      mo->nvq[1]++;
+      return mo->band - mo->thickness;
+    }
+  }
+  _n_MSimMeshObstacle::Answer *a = &mo->memo[MEMO_SLOTS * (size_t)v], *use = NULL, *old = a;
+  for (int k = 0; k < MEMO_SLOTS && !use; k++) {
+    if (a[k].stamp > mo->memo_epoch && !std::memcmp(a[k].x, x, sizeof(a[k].x))) use = &a[k];
+    else if (a[k].stamp < old->stamp) old = &a[k];
+  }
+  if (!use) { /* the least recently used slot takes the new point */
+    PetscReal lower;
+    use    = old;
+    use->d = Distance(mo, x, use->n, use->H, true, &lower);
+    for (int c = 0; c < 3; c++) use->x[c] = f.x[c] = x[c];
+    f.r = lower - mo->band - 1e-9 * (mo->diam + mo->band);
+    mo->nvq[2]++;
+  } else mo->nvq[0]++;
+  use->stamp = ++mo->clock;
+  for (int c = 0; c < 3; c++) n[c] = use->n[c];
+  if (H)
+    for (int k = 0; k < 9; k++) H[k] = use->H[k];
+  return use->d;
+}
+
 /* Moller-Trumbore: the time t >= 0 at which o + t d meets T, edges and corners included (within
    roundoff: a segment through an edge counts as a hit, the conservative side); infinity if none */
 static PetscReal SegmentHitTime(const PetscReal o[3], const PetscReal d[3], const Triangle &T)
@@ -574,11 +680,16 @@ static PetscReal SegmentHitTime(const PetscReal o[3], const PetscReal d[3], cons
 
 PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mo, const PetscReal x[3], const PetscReal u[3], PetscReal tmax)
 {
+  return MSimMeshObstacleSafeStepVertex(mo, -1, x, u, tmax);
+}
+
+PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal u[3], PetscReal tmax)
+{
   const PetscReal ulen = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
   PetscReal       n[3], y[3] = {x[0], x[1], x[2]}, t = 0;
 
   if (ulen == 0) return PETSC_INFINITY;
-  const PetscReal d0 = MSimMeshObstacleDistance(mo, x, n, NULL);
+  const PetscReal d0 = MSimMeshObstacleDistanceVertex(mo, v, x, n, NULL); /* v's answer at x (its iterate, asked already) */
   if (d0 <= 0) return 0;
   if (d0 > tmax * ulen) return PETSC_INFINITY; /* the shell is farther than the whole step */
   if (mo->thickness == 0) {

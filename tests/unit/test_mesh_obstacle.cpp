@@ -10,7 +10,11 @@
      edges), signed by the parity of a ray's crossings counted over all triangles, where within the
      band; the band itself (the documented lower bound) beyond it;
    - the safe step of random moves from outside points equals the tree path's exactly;
-   - the cache is reused: far fewer rebuilds (the MSimMeshCells event) than queries.
+   - the cache is reused: far fewer rebuilds (the MSimMeshCells event) than queries;
+   - the per-vertex queries (MSimMeshObstacleDistanceVertex, SafeStepVertex: each walk one vertex,
+     asking at its new point, again at its last one, and at a point 1e-3 band away) give the plain
+     queries' numbers bit for bit, with both their shortcuts (a point asked again, a far point that
+     moved little) taken.
    Each rank walks its own points (the queries are local): the same checks at 1 and 2 ranks. */
 #include "harness.h"
 #include <msim/contact.h>
@@ -124,7 +128,8 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   std::mt19937     gen(11 + 7 * rank);
   std::uniform_real_distribution<double> U(0, 1);
   std::normal_distribution<double>       N(0, 1);
-  PetscInt         nq = 0, nbad_tree = 0, nbad_bf = 0, nbad_step = 0, nbf = 0, nsteps = 0, nside = 0, nlow = 0;
+  PetscInt         nq = 0, nbad_tree = 0, nbad_bf = 0, nbad_step = 0, nbf = 0, nsteps = 0, nside = 0, nlow = 0, nbad_vertex = 0;
+  PetscInt64       vc[3];
   double           worst_tree = 0, worst_bf = 0;
   PetscLogEvent      ev;
   PetscEventPerfInfo before, after;
@@ -166,6 +171,21 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
       for (int k = 0; k < 9; k++) err = std::max(err, std::abs(Hc[k] - Ht[k]) * std::max(r, 1e-300));
       worst_tree = std::max(worst_tree, err);
       if (err > 1e-10) nbad_tree++;
+      /* the vertex queries: bit for bit the plain ones, at y, at the walk's last point x (asked the
+         step before: answered again) and near y (skipped where y was far) */
+      MSimMeshObstacleSetCache(mo, PETSC_TRUE);
+      {
+        const V3 z = {y[0] + 1e-3 * band, y[1], y[2]};
+        const V3 *pts[3] = {&y, &x, &z};
+        for (const V3 *p : pts) {
+          double nv[3], Hv[9], np[3], Hp[9];
+          const double dv = MSimMeshObstacleDistanceVertex(mo, walk, p->data(), nv, Hv), dp = MSimMeshObstacleDistance(mo, p->data(), np, Hp);
+          bool same = dv == dp;
+          for (int c = 0; c < 3; c++) same = same && nv[c] == np[c];
+          for (int k = 0; k < 9; k++) same = same && Hv[k] == Hp[k];
+          nbad_vertex += !same;
+        }
+      }
       /* brute force */
       int          side;
       const double rb = BruteForce(s, y, closed, &side);
@@ -197,6 +217,8 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
         MSimMeshObstacleSetCache(mo, PETSC_FALSE);
         const double st = MSimMeshObstacleSafeStep(mo, y.data(), u, 1.0);
         if (!(sc == st || (std::abs(sc - st) <= 1e-12 * std::abs(st)))) nbad_step++;
+        MSimMeshObstacleSetCache(mo, PETSC_TRUE);
+        if (!(MSimMeshObstacleSafeStepVertex(mo, walk, y.data(), u, 1.0) == sc)) nbad_vertex++;
         nsteps++;
       }
       /* keep near the surface: a point beyond 3 bands starts over from where it was */
@@ -205,12 +227,18 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   }
   PetscCall(PetscLogEventGetPerfInfo(0, ev, &after));
   const PetscInt rebuilds = after.count - before.count;
+  MSimMeshObstacleVertexCounts(mo, vc);
   NOTE("%s (band %.3g, thickness %.3g): %d queries, %d against brute force within the band (%d inside), %d beyond it, %d safe steps, %d cell rebuilds on rank 0; worst |cached - tree| %.2e, |cached - brute force| %.2e (in bands)\n", path, band, thick, (int)nq, (int)nbf, (int)nside, (int)nlow, (int)nsteps, (int)rebuilds, worst_tree, worst_bf);
   CHECK(nbad_tree == 0, "%s: %d of %d cached queries differ from the tree's (worst %.3e)", path, (int)nbad_tree, (int)nq, worst_tree);
   CHECK(nbad_bf == 0, "%s: %d cached queries differ from brute force (worst %.3e)", path, (int)nbad_bf, worst_bf);
   CHECK(nbf > nq / 4, "%s: only %d of %d queries within the band were checked against brute force", path, (int)nbf, (int)nq);
   CHECK(!closed || nside > nbf / 10, "%s: only %d of %d checked points were inside: the side is not exercised", path, (int)nside, (int)nbf);
   CHECK(nbad_step == 0, "%s: %d of %d cached safe steps differ from the tree's", path, (int)nbad_step, (int)nsteps);
+  NOTE("%s: vertex queries in the box's band: %lld answered again, %lld skipped as far, %lld in full\n", path, (long long)vc[0], (long long)vc[1], (long long)vc[2]);
+  CHECK(nbad_vertex == 0, "%s: %d vertex queries (distance, normal, Hessian or safe step) differ from the plain ones", path, (int)nbad_vertex);
+  /* the far skip needs points in the box's band yet beyond band from the surface: the bunny's box
+     has them, the flat sheet's hardly any */
+  CHECK(vc[0] > nq / 10 && (vc[1] > nq / 10 || !closed), "%s: the vertex queries' shortcuts not exercised (%lld answered again, %lld skipped)", path, (long long)vc[0], (long long)vc[1]);
   CHECK(rebuilds > 0 && rebuilds < nq / 2, "%s: %d cell rebuilds for %d cached queries (and as many safe steps): the cache is not reused", path, (int)rebuilds, (int)nq);
   MSimMeshObstacleDestroy(&mo);
   PetscFunctionReturn(PETSC_SUCCESS);

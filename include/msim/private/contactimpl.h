@@ -37,8 +37,9 @@ inline void MSimContactForEachNear(const _n_MSimContact *ct, PetscInt nown, cons
 {
   for (PetscInt v = 0; v < nown; v++)
     for (const MSimObstacle &o : ct->obs) {
-      PetscReal       n[3], H[9];
-      const PetscReal d = MSimObstacleDistanceAt(&o, t, x + 3 * v, n, hessian ? H : NULL);
+      PetscReal       n[3], H[9], y[3];
+      for (int c = 0; c < 3; c++) y[c] = x[3 * v + c] - o.v[c] * t; /* as MSimObstacleDistanceAt */
+      const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL) : MSimObstacleDistanceAt(&o, t, x + 3 * v, n, hessian ? H : NULL);
       if (d < reach) f(v, o, d, n, H);
     }
 }
