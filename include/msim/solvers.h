@@ -113,3 +113,6 @@ PetscErrorCode MSimSNESGetHistory(SNES snes, MSimSolverHistory *h);
 /* a restart's: the solver takes it if it would carry state of that name and shape (same type and
    options), else starts afresh (*taken false) */
 PetscErrorCode MSimSNESSetHistory(SNES snes, const MSimSolverHistory *h, PetscBool *taken);
+/* whether all that snes (or its NPC) carries from one solve to the next is in its history: not
+   for PETSc's qn, whose pairs stay in a Mat out of reach */
+PetscErrorCode MSimSNESHistoryIsComplete(SNES snes, PetscBool *complete);

@@ -12,8 +12,9 @@
    another rank count gets them redistributed as x and v); a restart whose solver would carry the
    same takes it, another solver starts afresh. Nothing else carries from step to step (Anderson's
    history and the other SNES types' start afresh each solve; PETSc's qn keeps its pairs in a Mat
-   whose contents PETSc 3.18 does not expose, so qn alone does not restart bit for bit), so a
-   restarted run repeats the uninterrupted one bit for bit at the same rank count. */
+   whose contents PETSc 3.18 does not expose, so qn alone does not restart bit for bit, and a
+   restart with it says so in one line), so a restarted run repeats the uninterrupted one bit for
+   bit at the same rank count. */
 #include <msim/output.h>
 #include <msim/integrator.h>
 #include <msim/implicit.h>
@@ -278,6 +279,11 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   }
   for (Vec &w : solver.vec) PetscCall(VecDestroy(&w));
   PetscCall(load);
+  if (snes) {
+    PetscBool complete;
+    PetscCall(MSimSNESHistoryIsComplete(snes, &complete));
+    if (!complete) PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: -msim_restart with -snes_type qn: PETSc keeps qn's pairs from step to step where a checkpoint cannot reach them, so the restarted run is not bit for bit the uninterrupted one\n"));
+  }
   if (load_hist) PetscCall(ck->integ->ops.history_loaded(ck->integ));
   *step      = header[H_STEP];
   *t         = reals[0];

@@ -54,3 +54,22 @@ PetscErrorCode MSimSNESSetHistory(SNES snes, const MSimSolverHistory *h, PetscBo
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+/* PETSc 3.18's qn keeps its pairs from one solve to the next in its LMVM Mat (SNESSolve_QN never
+   resets it; only set-up does), which has no public way to read or set them */
+PetscErrorCode MSimSNESHistoryIsComplete(SNES snes, PetscBool *complete)
+{
+  SNES      s[2];
+  PetscBool qn;
+
+  PetscFunctionBeginUser;
+  *complete = PETSC_TRUE;
+  if (!snes) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(Candidates(snes, s));
+  for (SNES c : s) {
+    if (!c) continue;
+    PetscCall(PetscObjectTypeCompare((PetscObject)c, SNESQN, &qn));
+    if (qn) *complete = PETSC_FALSE;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
