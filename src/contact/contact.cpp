@@ -323,6 +323,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->psd_curvature = PETSC_TRUE;
   ct->pd_refactor    = 4; /* runs/contact/README.md: 21 -> 7 factorizations on the 101 x 101 drape, the same monitor */
   ct->pc_pd_weight   = PETSC_FALSE;
+  ct->pd_bound       = PETSC_TRUE;
   PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &container));
   PetscCall(PetscContainerSetPointer(container, ct));
   PetscCall(PetscContainerSetUserDestroy(container, ContactDestroy));
@@ -369,6 +370,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal (A refactored per -msim_contact_pd_refactor); 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_pd_refactor", "PD with -msim_contact_pd_weight: keep the factor until some vertex's wanted diagonal (A's plus the barrier's weight, taken once per step) is off the factored one by more than this factor; 0: refactor whenever the set of vertices within dhat changes", NULL, ct->pd_refactor, &ct->pd_refactor, NULL));
+  PetscCall(PetscOptionsBool("-msim_contact_pd_bound", "PD: take the global step's length from a bound on Phi that needs only the contact terms' change (no pass over the springs); 0: halve until Phi, evaluated in full, does not rise", NULL, ct->pd_bound, &ct->pd_bound, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pc_pd_weight", "Newton with -msim_pc_pd: the PD factor preconditioning CG includes the barrier's weights (taken at every Jacobian, refactored by -msim_contact_pd_refactor's rule)", NULL, ct->pc_pd_weight, &ct->pc_pd_weight, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
   PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));

@@ -7,33 +7,67 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <petsc/private/petscimpl.h> /* PetscObjectStateGet: whether guess is the local step's X unchanged */
+#include <msim/solvers.h>                /* MSimMatMultInterleaved3 */
+#include <cstring>
+#include <vector>
 
-/* A = M + the diagonal terms' weights I + the other terms' PD weights, assembled once */
+/* the global step's feasibility work, counted in -log_view: max_step calls, the bound's
+   evaluations (PDBoundStep) and the halvings on Phi */
+static PetscLogEvent PD_MaxStep = 0, PD_Bound = 0, PD_Halving = 0;
+
+/* A's diagonal from the weights of the terms that follow the state (pd_reweight: the obstacles,
+   whose pd_matrix adds diagonal entries only): diag(A) = the fixed part's diagonal (kept with A at
+   its assembly) + their weights, so that a reweight costs O(n) instead of the springs' assembly
+   (MatSetValues per spring: a quarter of a refactorization of the 101 x 101 cloth in valgrind
+   instructions, runs/contact/README.md). The same sums in the same order at set-up, at a reweight
+   and after a restart, so a restart repeats A bit for bit. */
+static PetscErrorCode PDSetStateWeights(MSimImplicit imp)
+{
+  Vec base;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectQuery((PetscObject)imp->A, "MSimPDFixedDiagonal", (PetscObject *)&base));
+  PetscCall(MatDiagonalSet(imp->A, base, INSERT_VALUES));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm term = imp->terms[k];
+    if (!term->ops.diagonal && term->ops.pd_matrix && term->ops.pd_reweight) PetscCall(term->ops.pd_matrix(term, imp->A));
+  }
+  PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* A = M + the diagonal terms' weights I + the other terms' PD weights, assembled once; the
+   weights that follow the state are set on the diagonal by PDSetStateWeights */
 static PetscErrorCode PDAssemble(MSimImplicit imp)
 {
   MSimSystem         sys = imp->sys;
   const PetscScalar *m;
   std::vector<PetscInt> dnz, onz;
   PetscReal          diag; /* the diagonal terms' weights */
+  Vec                base;
 
   PetscFunctionBeginUser;
-  if (imp->A) PetscCall(MatZeroEntries(imp->A)); /* new weights (pd_reweight), same pattern */
-  else {
-    PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
-    PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
-    PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
-    PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
-  }
+  PetscCheck(!imp->A, sys->comm, PETSC_ERR_PLIB, "PD's matrix is assembled once");
+  PetscCall(MSimSystemGraphPreallocation(sys, dnz, onz)); /* the scalar graph Laplacian's pattern */
+  PetscCall(MatCreateAIJ(sys->comm, sys->nown, sys->nown, sys->nfree, sys->nfree, 0, dnz.data(), 0, onz.data(), &imp->A));
+  PetscCall(MatSetOption(imp->A, MAT_SYMMETRIC, PETSC_TRUE));
+  PetscCall(MatSetOption(imp->A, MAT_SPD, PETSC_TRUE));
   PetscCall(MSimImplicitDiagonalWeight(imp, &diag));
   for (PetscInt k = 0; k < imp->nterms; k++) {
     MSimImplicitTerm term = imp->terms[k];
-    if (!term->ops.diagonal && term->ops.pd_matrix) PetscCall(term->ops.pd_matrix(term, imp->A));
+    if (!term->ops.diagonal && term->ops.pd_matrix && !term->ops.pd_reweight) PetscCall(term->ops.pd_matrix(term, imp->A));
   }
   PetscCall(VecGetArrayRead(sys->mass, &m));
   for (PetscInt i = 0; i < sys->nown; i++) PetscCall(MatSetValue(imp->A, sys->rstart + i, sys->rstart + i, m[3 * i] + diag, ADD_VALUES));
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(MatAssemblyBegin(imp->A, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(imp->A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatCreateVecs(imp->A, &base, NULL));
+  PetscCall(MatGetDiagonal(imp->A, base));
+  PetscCall(PetscObjectCompose((PetscObject)imp->A, "MSimPDFixedDiagonal", (PetscObject)base)); /* freed with A */
+  PetscCall(VecDestroy(&base));
+  PetscCall(PDSetStateWeights(imp));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -81,6 +115,11 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
 
   PetscFunctionBeginUser;
   if (imp->A) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!PD_MaxStep) {
+    PetscCall(PetscLogEventRegister("MSimPDMaxStep", MSIM_CLASSID, &PD_MaxStep));
+    PetscCall(PetscLogEventRegister("MSimPDBound", MSIM_CLASSID, &PD_Bound));
+    PetscCall(PetscLogEventRegister("MSimPDHalving", MSIM_CLASSID, &PD_Halving));
+  }
   PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
   PetscCall(MSimImplicitStepUpdate(imp));
   PetscCall(PDAssemble(imp));
@@ -128,7 +167,7 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
 }
 
 /* Terms whose PD weights follow the state (contact) update them before a local step; where any
-   changed on any rank (one reduction of a flag), A is reassembled and refactored, so the factor
+   changed on any rank (one reduction of a flag), A's diagonal is reset and A refactored, so the factor
    stays the same as long as the contact set does. */
 static PetscErrorCode PDReweight(MSimImplicit imp, Vec X)
 {
@@ -146,7 +185,7 @@ static PetscErrorCode PDReweight(MSimImplicit imp, Vec X)
   {
     PC       pc;
     PetscInt before, after;
-    PetscCall(PDAssemble(imp));
+    PetscCall(PDSetStateWeights(imp));
     PetscCall(KSPGetPC(imp->pdksp, &pc));
     PetscCall(MSimFactorizationCount(&before));
     PetscCall(PCSetUp(pc));
@@ -358,6 +397,157 @@ PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Whether PD may bound Phi along its global step from the contact terms alone (PDBoundStep): with
+   a factor (an exact solve), every term either a projection (the springs: their local step is
+   Phi's), a diagonal quadratic, a term that gives its own gap (pd_gap: the obstacles), or friction,
+   whose right-hand side is its gradient with no weight in A (its gap from its energy and gradient
+   ops). Any other term (self-contact, the tets' volume) keeps the halving on Phi. */
+static PetscErrorCode PDBoundAvailable(MSimImplicit imp, PetscBool *ok)
+{
+  PetscBool gap = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  *ok = PETSC_FALSE;
+  if (imp->pd_iterative) PetscFunctionReturn(PETSC_SUCCESS);
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm t = imp->terms[k];
+    if (t->ops.pd_gap) gap = PETSC_TRUE;
+    else if (t->ops.diagonal || (!t->ops.pd_rhs && !t->ops.energy) || !std::strcmp(t->type, MSIMTERMSPRINGS)) continue; /* no ops: not active */
+    else if (!std::strcmp(t->type, "friction") && t->ops.energy && t->ops.gradient) continue;
+    else PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  *ok = gap;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The global step's length without evaluating Phi. X1 = A^-1 rhs minimizes the quadratic S(X) =
+   the springs' projections at X0 (and the diagonal terms) + each lagged term's model at X0
+   (E(X0) + grad E(X0).(X - X0) + sum_v w_v/2 |x_v - x0_v|^2, w_v its weights in A); S(X0) =
+   Phi(X0), and along X0 - alpha D (D = X0 - X1) S = Phi(X0) - (alpha - alpha^2/2) D^T A D. The
+   springs' Phi at X is at most their projections' energy at X (the projections are optimal only at
+   X0), so Phi(X0 - alpha D) <= Phi(X0) - (alpha - alpha^2/2) D^T A D + gap(alpha), gap the lagged
+   terms' excess over their models (pd_gap: only the vertices within reach of an obstacle), and
+   any alpha with gap(alpha) <= (alpha - alpha^2/2) D^T A D lowers Phi: no pass over the springs,
+   no local step at a rejected point. Tried: alpha0 (max_step's), then alpha0 / 2^j (j <= 12) in one
+   batch, then one secant step between the last failing and the first passing alpha. The bound is
+   conservative (it drops the springs' reprojection), so the alpha it accepts may be shorter than
+   the halving on Phi would take; found is false when none passes (the caller halves on Phi).
+   X holds X0 - alpha0 D on entry and X0 - acc D on return (untouched unless acc < alpha0). */
+static PetscErrorCode PDBoundStep(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha0, Vec X, PetscReal *acc, PetscBool *found)
+{
+  Vec                    W, Xa; /* work: A D or a gradient, and X0 - alpha D */
+  PetscReal              dad;
+  std::vector<PetscInt>  lag; /* friction: its gap from its energy and gradient */
+  std::vector<PetscReal> e0, slope;
+  PetscInt               evals = 0;
+
+  PetscFunctionBeginUser;
+  *found = PETSC_FALSE;
+  *acc   = alpha0;
+  PetscCall(PetscLogEventBegin(PD_Bound, 0, 0, 0, 0));
+  PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&W));
+  PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&Xa));
+  if (!W) { /* made once, freed with D */
+    PetscCall(VecDuplicate(D, &W));
+    PetscCall(VecDuplicate(D, &Xa));
+    PetscCall(PetscObjectCompose((PetscObject)D, "MSimPDBoundWork", (PetscObject)W));
+    PetscCall(PetscObjectCompose((PetscObject)D, "MSimPDBoundX", (PetscObject)Xa));
+    PetscCall(VecDestroy(&W));
+    PetscCall(VecDestroy(&Xa));
+    PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&W));
+    PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&Xa));
+  }
+  PetscCall(MSimMatMultInterleaved3(imp->A, &imp->A3, D, NULL, W));
+  PetscCall(VecDot(D, W, &dad));
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    MSimImplicitTerm t = imp->terms[k];
+    PetscReal        e = 0, s;
+    if (t->ops.pd_gap || t->ops.diagonal || (!t->ops.pd_rhs && !t->ops.energy) || !std::strcmp(t->type, MSIMTERMSPRINGS)) continue;
+    PetscCall(t->ops.energy(t, X0, &e));
+    PetscCall(VecZeroEntries(W));
+    PetscCall(t->ops.gradient(t, X0, W));
+    PetscCall(VecDot(W, D, &s));
+    lag.push_back(k);
+    e0.push_back(e);
+    slope.push_back(s);
+  }
+  /* gap(alpha) - (alpha - alpha^2/2) D^T A D for each alpha: <= 0 accepts it */
+  auto excess = [&](PetscInt n, const PetscReal *a, PetscReal *f) -> PetscErrorCode {
+    PetscFunctionBeginUser;
+    evals += n;
+    for (PetscInt j = 0; j < n; j++) f[j] = 0;
+    for (PetscInt k = 0; k < imp->nterms; k++)
+      if (imp->terms[k]->ops.pd_gap) PetscCall(imp->terms[k]->ops.pd_gap(imp->terms[k], X0, D, n, a, f));
+    for (size_t l = 0; l < lag.size(); l++)
+      for (PetscInt j = 0; j < n; j++) {
+        PetscReal e = 0;
+        PetscCall(VecWAXPY(Xa, -a[j], D, X0));
+        PetscCall(imp->terms[lag[l]]->ops.energy(imp->terms[lag[l]], Xa, &e));
+        f[j] += e - e0[l] + a[j] * slope[l];
+      }
+    for (PetscInt j = 0; j < n; j++) f[j] -= (a[j] - 0.5 * a[j] * a[j]) * dad;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  };
+  if (dad > 0 && PetscIsNormalReal(dad)) {
+    PetscReal f0;
+    PetscCall(excess(1, &alpha0, &f0));
+    if (f0 <= 0) *found = PETSC_TRUE;
+    else {
+      const PetscInt nj = 12;
+      PetscReal      a[nj], f[nj];
+      for (PetscInt j = 0; j < nj; j++) a[j] = alpha0 * PetscPowReal(0.5, (PetscReal)(j + 1));
+      PetscCall(excess(nj, a, f));
+      for (PetscInt j = 0; j < nj && !*found; j++)
+        if (f[j] <= 0) {
+          /* the secant root of the excess between the failing alpha above and this one, 0.9 of
+             the way from this one: kept if it passes */
+          const PetscReal ahi = j ? a[j - 1] : alpha0, fhi = j ? f[j - 1] : f0;
+          *found = PETSC_TRUE;
+          *acc   = a[j];
+          if (PetscIsNormalReal(fhi)) {
+            PetscReal as = a[j] + 0.9 * (ahi - a[j]) * (-f[j]) / (fhi - f[j]), fs;
+            if (as > a[j] && as < ahi) {
+              PetscCall(excess(1, &as, &fs));
+              if (fs <= 0) *acc = as;
+            }
+          }
+        }
+    }
+  }
+  if (*found && *acc != alpha0) PetscCall(VecWAXPY(X, -*acc, D, X0));
+  {
+    /* with -info, Phi at both ends evaluated in full, as evidence that the bound held (tests) */
+    PetscBool info;
+    PetscReal p0 = 0, p1 = 0;
+    PetscCall(PetscInfoEnabled(VEC_CLASSID, &info));
+    if (info && *found) {
+      PetscCall(MSimImplicitObjective(imp, X0, &p0));
+      PetscCall(MSimImplicitObjective(imp, X, &p1));
+    }
+    PetscCall(PetscInfo(X0, "pd bound: alpha0 %g accepted %g (%s), D^T A D %g, %" PetscInt_FMT " evaluations, Phi %.17g -> %.17g\n", (double)alpha0, (double)*acc, *found ? "found" : "none: halving on Phi", (double)dad, evals, (double)p0, (double)p1));
+  }
+  PetscCall(PetscLogEventEnd(PD_Bound, 0, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Phi rose at X0 - alpha D: the step's length from the bound (PDBoundStep) where it applies, in
+   place of halvings that each cost a pass of every term (or, deferred, a local step). The bound
+   needs the global step's model: A and the right-hand side taken at X0, as `cached` says. found:
+   X = X0 - acc D, Phi(X) <= Phi(X0) */
+static PetscErrorCode PDBoundRetry(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, Vec X, PetscBool *found, PetscReal *acc)
+{
+  PetscBool ok;
+
+  PetscFunctionBeginUser;
+  *found = PETSC_FALSE;
+  *acc   = alpha;
+  PetscCall(PDBoundAvailable(imp, &ok));
+  if (!ok) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PDBoundStep(imp, X0, D, alpha, X, acc, found));
+  if (*found) imp->pd_rejected = PETSC_FALSE; /* a rejection costs no halving now: keep deferring */
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The global step's check the old way, at X = X0 - alpha D: Phi(X) by MSimImplicitObjective,
    halving alpha until it does not rise above phi0 (Phi(x_k); cached: the local step's sum) */
 static PetscErrorCode PDHalve(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, PetscBool cached, PetscReal phi0, Vec X)
@@ -371,10 +561,18 @@ static PetscErrorCode PDHalve(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, 
      fail; compare like with like before halving */
   if (cached && !(phi <= phi0)) PetscCall(MSimImplicitObjective(imp, X0, &phi0));
   imp->pd_rejected = (PetscBool)!(phi <= phi0);
+  if (imp->pd_rejected && cached) {
+    PetscBool found;
+    PetscReal acc;
+    PetscCall(PDBoundRetry(imp, X0, D, alpha, X, &found, &acc));
+    if (found) PetscFunctionReturn(PETSC_SUCCESS);
+  }
   for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
+    PetscCall(PetscLogEventBegin(PD_Halving, 0, 0, 0, 0));
     alpha *= 0.5;
     PetscCall(VecWAXPY(X, -alpha, D, X0));
     PetscCall(MSimImplicitObjective(imp, X, &phi));
+    PetscCall(PetscLogEventEnd(PD_Halving, 0, 0, 0, 0));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -423,10 +621,21 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
       PetscCall(VecDestroy(&imp->pd_px)); /* the global step's reference; the caller's X lives on */
       PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
       imp->pd_rejected = (PetscBool)!(*phi <= imp->pd_phi0);
+      if (imp->pd_rejected) {
+        PetscBool found;
+        PetscReal acc;
+        PetscCall(PDBoundRetry(imp, imp->pd_x0, imp->pd_d, alpha, X, &found, &acc));
+        if (found) {
+          if (acc != alpha) PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi)); /* X moved: its own local step */
+          PetscFunctionReturn(PETSC_SUCCESS);
+        }
+      }
       for (PetscInt it = 0; it < 30 && !(*phi <= imp->pd_phi0); it++) {
+        PetscCall(PetscLogEventBegin(PD_Halving, 0, 0, 0, 0));
         alpha *= 0.5;
         PetscCall(VecWAXPY(X, -alpha, imp->pd_d, imp->pd_x0));
         PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
+        PetscCall(PetscLogEventEnd(PD_Halving, 0, 0, 0, 0));
       }
       PetscFunctionReturn(PETSC_SUCCESS);
     }
@@ -468,13 +677,20 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
     }
     X0 = imp->pd_x0;
     D  = imp->pd_d;
-    PetscCall(VecCopy(guess, X0));
   }
-  PetscCall(MSimImplicitPDSolve(imp, rhs, guess, X));
-  if (!X0) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(VecWAXPY(D, -1.0, X, X0)); /* X = x_k - D */
-  PetscCall(MSimImplicitMaxStep(imp, X0, D, &alpha));
-  if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, X0));
+  if (!X0) {
+    PetscCall(MSimImplicitPDSolve(imp, rhs, guess, X));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  /* the solution into D and max_step from guess itself, still the local step's X (same id and
+     state), whose distances the obstacles kept: then x_k's copy, and X = x_k - alpha D */
+  PetscCall(MSimImplicitPDSolve(imp, rhs, guess, D));
+  PetscCall(VecAYPX(D, -1.0, guess)); /* D = x_k - A^-1 rhs */
+  PetscCall(PetscLogEventBegin(PD_MaxStep, 0, 0, 0, 0));
+  PetscCall(MSimImplicitMaxStep(imp, guess, D, &alpha));
+  PetscCall(PetscLogEventEnd(PD_MaxStep, 0, 0, 0, 0));
+  PetscCall(VecCopy(guess, X0));
+  PetscCall(VecWAXPY(X, -alpha, D, X0));
   /* a term may say that its barrier is not met along this step (pd_check): no check for it */
   PetscBool check = (PetscBool)(alpha < 1);
   for (PetscInt k = 0; k < imp->nterms && !check; k++) {

@@ -21,6 +21,7 @@ struct _n_MSimContact {
   PetscBool                 psd_curvature; /* PSD Hessian: keep the barrier's curvature term, clamped */
   PetscReal                 pd_refactor; /* PD's contact weights: refactor when some vertex's diagonal is off the factored one by more than this factor (0: whenever the set within dhat changes) */
   PetscBool                 pc_pd_weight; /* the PD factor as Newton's preconditioner includes the contact weights */
+  PetscBool                 pd_bound; /* PD: the global step's length from the contact terms' change alone (pd_gap), no Phi pass */
   /* friction's last step (set by its term at every evaluation, non-owning): x_n, the step's start
      and unknown's times and h, so that the output's force at the step's result includes friction */
   Vec                       fr_xn;

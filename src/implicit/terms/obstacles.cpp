@@ -30,6 +30,7 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: max_step from the X whose distances the local step kept */
 
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
 {
@@ -127,6 +128,11 @@ typedef struct {
      Jacobian, where PD's own steps (also PD as another SNES's preconditioner) take them once a
      time step */
   PetscBool              at_jacobian = PETSC_FALSE;
+  /* each owned vertex's least distance to the obstacles at the last PD local step's X (its id and
+     state): max_step from that X skips the vertices whose move cannot reach an obstacle */
+  std::vector<PetscReal> dmin;
+  PetscObjectId          dmin_id    = 0;
+  PetscObjectState       dmin_state = 0;
 } PDWeights;
 
 /* one 3 x 3 block per owned vertex near an obstacle, added into the assembled J */
@@ -280,7 +286,39 @@ static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, Pet
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(AddGradient(term, ct, X, rhs, -1.0));
+  {
+    /* the gradient and, with e, the energy in one pass over the vertices (each distance once):
+       the same terms in the same order as AddGradient's and LocalEnergy's; and every vertex's
+       least distance, for max_step from this X */
+    const PetscReal    w = term->imp->step.h2 * ct->kappa;
+    const PetscScalar *x, *ms;
+    pw->dmin.assign(term->imp->sys->nown, PETSC_MAX_REAL);
+    PetscCall(MSimContactAddToVec(rhs, [&](PetscScalar *g) {
+      PetscFunctionBeginUser;
+      PetscCall(VecGetArrayRead(X, &x));
+      PetscCall(VecGetArrayRead(term->imp->sys->mass, &ms));
+      MSimContactForEachNear(ct, term->imp->sys->nown, x, term->imp->step.tx, PETSC_MAX_REAL, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+        PetscReal       b, db, d2b;
+        const PetscReal m = PetscRealPart(ms[3 * v]);
+        pw->dmin[v]       = PetscMin(pw->dmin[v], d);
+        if (!(d < ct->dhat)) return;
+        const PetscReal dc = PetscMax(d, PETSC_SMALL * ct->dhat);
+        MSimBarrier(dc, ct->dhat, &b, &db, &d2b);
+        for (int c = 0; c < 3; c++) g[3 * v + c] -= w * m * db * n[c];
+        if (!e) return;
+        if (d <= 0) *e = PETSC_INFINITY;
+        else {
+          if (dc != d) MSimBarrier(d, ct->dhat, &b, &db, &d2b);
+          *e += w * m * b;
+        }
+      });
+      PetscCall(VecRestoreArrayRead(term->imp->sys->mass, &ms));
+      PetscCall(VecRestoreArrayRead(X, &x));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }));
+    PetscCall(PetscObjectGetId((PetscObject)X, &pw->dmin_id));
+    PetscCall(PetscObjectStateGet((PetscObject)X, &pw->dmin_state));
+  }
   if (!pw->w.empty()) {
     const PetscScalar *x;
     PetscScalar       *r;
@@ -291,7 +329,66 @@ static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, Pet
     PetscCall(VecRestoreArray(rhs, &r));
     PetscCall(VecRestoreArrayRead(X, &x));
   }
-  if (e) PetscCall(LocalEnergy(term, ct, X, e));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* PD's bound on Phi along the global step (pd_steps.cpp, PDBoundStep): the right-hand side holds
+   the barrier's model at X0, its gradient and the factored weights w_v, so the step minimizes the
+   springs' projections plus B(X0) + g.(X - X0) + sum_v w_v/2 |x_v - x0_v|^2; gap[j] is B's excess
+   over that model at X0 - alpha[j] D. One distance per vertex and obstacle at X0; a vertex whose
+   segment cannot come within dhat (the distance is 1-Lipschitz: d0 - alpha |D_v| >= dhat) adds
+   only the weights' term, so only the vertices within reach are evaluated at each alpha. */
+static PetscErrorCode PDGap_Obstacles(MSimImplicitTerm term, Vec X0, Vec D, PetscInt n, const PetscReal alpha[], PetscReal gap[])
+{
+  PDWeights         *pw  = (PDWeights *)term->data;
+  MSimSystem         sys = term->imp->sys;
+  const PetscReal    tx  = term->imp->step.tx;
+  MSimContact        ct;
+  const PetscScalar *x0, *dv, *m;
+  PetscReal          amax = 0, q = 0;
+  std::vector<PetscReal> g(n, 0.0);
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  const PetscReal w = term->imp->step.h2 * ct->kappa;
+  for (PetscInt j = 0; j < n; j++) amax = PetscMax(amax, alpha[j]);
+  PetscCall(VecGetArrayRead(X0, &x0));
+  PetscCall(VecGetArrayRead(D, &dv));
+  PetscCall(VecGetArrayRead(term->imp->sys->mass, &m));
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    const PetscReal *p = x0 + 3 * v, *u = dv + 3 * v, len = PetscSqrtReal(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    if (v < (PetscInt)pw->w.size()) q += pw->w[v] * len * len;
+    if (len == 0) continue;
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal       n0[3], nn[3], b0 = 0, db0 = 0, d2b;
+      const PetscReal d0 = MSimObstacleDistanceAt(&o, tx, p, n0, NULL);
+      if (d0 - amax * len >= ct->dhat) continue;
+      const PetscReal wm = w * PetscRealPart(m[3 * v]);
+      PetscReal       slope = 0; /* grad B(X0).D_v, as the right-hand side has it */
+      if (d0 <= 0) b0 = PETSC_INFINITY; /* not feasible: no bound (PD halves on Phi instead) */
+      else if (d0 < ct->dhat) {
+        PetscReal b;
+        MSimBarrier(d0, ct->dhat, &b0, &db0, &d2b);
+        MSimBarrier(PetscMax(d0, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db0, &d2b); /* AddGradient's */
+        slope = wm * db0 * (n0[0] * u[0] + n0[1] * u[1] + n0[2] * u[2]);
+      }
+      for (PetscInt j = 0; j < n; j++) {
+        const PetscReal xa[3] = {p[0] - alpha[j] * u[0], p[1] - alpha[j] * u[1], p[2] - alpha[j] * u[2]};
+        const PetscReal d     = d0 - alpha[j] * len >= ct->dhat ? ct->dhat : MSimObstacleDistanceAt(&o, tx, xa, nn, NULL);
+        PetscReal       b = 0, db;
+        if (d <= 0 || b0 == PETSC_INFINITY) g[j] = PETSC_INFINITY;
+        else if (d < ct->dhat) MSimBarrier(d, ct->dhat, &b, &db, &d2b);
+        if (g[j] < PETSC_INFINITY) g[j] += wm * (b - b0) + alpha[j] * slope;
+      }
+    }
+  }
+  PetscCall(VecRestoreArrayRead(term->imp->sys->mass, &m));
+  PetscCall(VecRestoreArrayRead(D, &dv));
+  PetscCall(VecRestoreArrayRead(X0, &x0));
+  for (PetscInt j = 0; j < n; j++) g[j] -= 0.5 * alpha[j] * alpha[j] * q;
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, g.data(), (PetscMPIInt)n, MPIU_REAL, MPIU_SUM, sys->comm));
+  for (PetscInt j = 0; j < n; j++) gap[j] += g[j];
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -338,32 +435,37 @@ static PetscErrorCode Destroy_Obstacles(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* o's safe step for the rank's vertex v: a mesh takes v's distance at x from its last answers
-   (MSimMeshObstacleSafeStepVertex; the same numbers) */
-static PetscReal SafeStep(const MSimObstacle &o, PetscReal t, PetscInt v, const PetscScalar *x, const PetscReal u[3], PetscReal tmax)
-{
-  if (o.kind != MSIM_OBSTACLE_MESH) return MSimObstacleSafeStep(&o, t, x, u, tmax);
-  const PetscReal y[3] = {x[0] - o.v[0] * t, x[1] - o.v[1] * t, x[2] - o.v[2] * t}; /* as MSimObstacleSafeStep */
-  return MSimMeshObstacleSafeStepVertex(o.mesh, v, y, u, tmax);
-}
-
 static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimSystem         sys = term->imp->sys;
   MSimContact        ct;
   const PetscScalar *x, *y;
   PetscReal          a = *alpha;
+  const PetscReal   *dmin = NULL;
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  {
+    /* from the X of PD's last local step, whose distances that pass kept: a vertex whose move a
+       |u| is shorter than 0.75 of its distance cannot lower alpha (the distance is 1-Lipschitz, so
+       a hit comes after d / |u|, and the safe step is 0.8 of it; with a mesh's thickness,
+       conservative advancement covers 0.9 d / |u| at once), so its ray tests are skipped (the global step's max_step: 4% of a contact step before) */
+    PDWeights       *pw = (PDWeights *)term->data;
+    PetscObjectId    id;
+    PetscObjectState state;
+    PetscCall(PetscObjectGetId((PetscObject)X, &id));
+    PetscCall(PetscObjectStateGet((PetscObject)X, &state));
+    if (pw && id == pw->dmin_id && state == pw->dmin_state && (PetscInt)pw->dmin.size() == sys->nown) dmin = pw->dmin.data();
+  }
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(Y, &y));
   for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
+    if (dmin && 0.5625 * dmin[v] * dmin[v] > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
     for (const MSimObstacle &o : ct->obs) {
-      const PetscReal t = SafeStep(o, term->imp->step.tx, v, x + 3 * v, u, a);
+      const PetscReal t = MSimObstacleSafeStep(&o, term->imp->step.tx, x + 3 * v, u, a);
       if (t < a) a = t;
     }
   }
@@ -395,7 +497,7 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
     const PetscReal u[3] = {PetscRealPart(x[3 * v] - a[3 * v]), PetscRealPart(x[3 * v + 1] - a[3 * v + 1]), PetscRealPart(x[3 * v + 2] - a[3 * v + 2])};
     PetscReal       s    = 1;
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
-    for (const MSimObstacle &o : ct->obs) s = PetscMin(s, SafeStep(o, term->imp->step.tx, v, a + 3 * v, u, s));
+    for (const MSimObstacle &o : ct->obs) s = PetscMin(s, MSimObstacleSafeStep(&o, term->imp->step.tx, a + 3 * v, u, s));
     if (s < 1)
       for (int c = 0; c < 3; c++) x[3 * v + c] = a[3 * v + c] + s * u[c];
   }
@@ -473,5 +575,6 @@ PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
     term->ops.history_loaded = HistoryLoaded_Obstacles;
   }
   if (!ct->moving) term->ops.feasible_start = NULL;
+  if (ct->pd_bound) term->ops.pd_gap = PDGap_Obstacles;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
