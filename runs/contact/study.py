@@ -3,7 +3,7 @@
 without contact, for each integrator and solver against h; explicit stability with the penalty
 against the guard; friction on an incline against g (sin - mu cos) t^2/2; the cost targets on the
 benchmark cloth draped on a ball (analytic sphere and a >= 10^4-triangle mesh sphere).
-Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|meshcheck|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
+Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|meshcheck|newton|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
        [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh]
 Small sizes by default (2 shared cores); --bench-n 101 is the benchmark cloth. Costs: PETSc's
 MSimStep event (wall, ms per step; this machine is shared, so they vary by tens of %) and the
@@ -253,6 +253,84 @@ def meshcheck(a, tmp):
               f" ({'no vertex inside' if least > 0 else 'A VERTEX IS INSIDE'})" + ("" if rc == 0 else " " + err.strip().splitlines()[-1][:150]), flush=True)
 
 
+def spring_compression(x):
+    """median and 90th percentile over the vertices of the cloth's (msim_cloth_n: vertex j N + i,
+    structural, shear and bending springs, k = 1000 N/m, 1 kg, h = 1/30 s) compressed springs'
+    transverse curvature h^2 k (L/l - 1), summed at each vertex, in units of the vertex mass m:
+    what the PSD-projected spring Hessian drops (msim::SpringHessian clamps 1 - L/l at 0), against
+    the m I it keeps"""
+    n = int(round(len(x) ** 0.5))
+    dx, h, k, m = 1.0 / (n - 1), 1.0 / 30, 1000.0, 1.0 / n ** 2
+    i, j = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+    vid = j * n + i
+    pairs = [(vid[:-1, :], vid[1:, :], dx), (vid[:, :-1], vid[:, 1:], dx), (vid[:-1, :-1], vid[1:, 1:], 2 ** 0.5 * dx),
+             (vid[1:, :-1], vid[:-1, 1:], 2 ** 0.5 * dx), (vid[:-2, :], vid[2:, :], 2 * dx), (vid[:, :-2], vid[:, 2:], 2 * dx)]
+    drop = np.zeros(len(x))
+    for a, b, L in pairs:
+        a, b = a.ravel(), b.ravel()
+        l = np.linalg.norm(x[a] - x[b], axis=1)
+        c = np.maximum(L / l - 1, 0) * k * h * h
+        np.add.at(drop, a, c)
+        np.add.at(drop, b, c)
+    return float(np.median(drop) / m), float(np.percentile(drop, 90) / m)
+
+
+def newton(a, tmp):
+    """why Newton-CG needs ~10 x the iterations on the ball (issue 34): the cloth (--bench-n) of
+    `targets`, Newton-CG (examples/cloth_newton_fast.opts's options) falling freely, hanging from
+    two corners, landing on a plane and draped on the ball, and on the ball with the candidate
+    changes; the same with MUMPS (exact linear solves); at --bench-n <= 41 a reference (MUMPS,
+    |dx| < 1e-6, 300 iterations) for the final state's distance. Per case: CPU ms per step over
+    steps 5-24 (24-step run less the 4-step run, user time), Newton and CG iterations per step,
+    the fraction of Newton iterations whose step max_step cut (the line search's PetscInfo), steps
+    at the 20-iteration cap, mean |g| at the steps' ends, the contact force (mean of the last 5
+    steps; m g = 9.81 N), vertices within dhat, the least gap to the ball at the end, and the
+    compressed springs' dropped curvature (spring_compression)"""
+    cloth = ["-msim_cloth_n", a.bench_n, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", 1 / 30, "-msim_steps", "24"]
+    cg = ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]
+    mumps = ["-msim_pc_pd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_ksp_ew", "0"]
+    ball = ["-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3"]
+    kappa10 = ["-msim_contact_kappa", str(10 * 30 ** 2 / 6.3863)]  # 10 x the default 1/(h^2 b''(dhat/2)), b''(dhat/2) = 2 ln 2 + 5
+    cases = {"none": [], "corners (no contact)": ["-msim_fix", "corners"], "plane": ["-msim_contact_plane", "0,0,1,-0.1", "-msim_friction", "0.3"],
+             "sphere": ball, "sphere -msim_contact_pc_pd_weight": ball + ["-msim_contact_pc_pd_weight"], "sphere kappa x 10": ball + kappa10,
+             "sphere kappa x 10 -msim_contact_pc_pd_weight": ball + kappa10 + ["-msim_contact_pc_pd_weight"], "sphere -msim_step_atol 1e-2 -msim_contact_pc_pd_weight": ball + ["-msim_step_atol", "1e-2", "-msim_contact_pc_pd_weight"],
+             "sphere -snes_ksp_ew_rtolmax 0.1 -snes_ksp_ew_rtol0 0.1": ball + ["-snes_ksp_ew_rtolmax", "0.1", "-snes_ksp_ew_rtol0", "0.1"],
+             "sphere MUMPS": ball + mumps, "corners (no contact) MUMPS": ["-msim_fix", "corners"] + mumps, "plane MUMPS": ["-msim_contact_plane", "0,0,1,-0.1", "-msim_friction", "0.3"] + mumps}
+    if int(a.bench_n) <= 41:
+        cases["reference: sphere MUMPS |dx| < 1e-6"] = ball + mumps + ["-msim_step_atol", "1e-6", "-snes_max_it", "300"]
+    ref = None
+    rows = []
+    for name in sorted(cases, key=lambda c: not c.startswith("reference")):
+        args = cloth + cg + cases[name]
+        csv, fin = os.path.join(tmp, "n.csv"), os.path.join(tmp, "final.bin")
+        rc, err, log, cpu = run(a.msim, args + ["-msim_monitor_csv", csv, "-msim_view_final", "binary:" + fin, "-info", ":snes"])
+        _, _, _, cpu4 = run(a.msim, [x if x != "24" else "4" for x in args])
+        mon = [r for r in read_csv(csv) if int(r["step"]) >= 5] if rc == 0 else []
+        col = lambda k: np.array([float(r[k]) for r in mon]) if mon else np.array([np.nan])
+        searches = [ln for ln in log.splitlines() if "energy line search: lambda" in ln]
+        x = np.array(msimtest_read(fin)).reshape(-1, 3) if rc == 0 else None
+        if name.startswith("reference"):
+            ref = x
+        gap = float((np.linalg.norm(x - [0.5, 0.5, -0.4], axis=1) - 0.3).min()) if x is not None and "-msim_contact_sphere" in args else float("nan")
+        comp = spring_compression(x) if x is not None else (float("nan"),) * 2
+        rows.append(dict(n=a.bench_n, case=name, ok=int(rc == 0), cpu_ms_per_step=round(1e3 * (cpu - cpu4) / 20, 2), newton_its_per_step=round(col("nonlinear_its").mean(), 2),
+                         cg_its_per_step=round(col("linear_its").mean(), 1), cut_by_max_step=round(sum("max_step 1.)" not in ln for ln in searches) / max(len(searches), 1), 3),
+                         steps_at_cap=int((col("nonlinear_its") >= 20).sum()), mean_gnorm=f"{col('residual').mean():.2e}", contact_fz=round(col("contact_fz")[-5:].mean(), 3),
+                         contact_n_last=int(col("contact_n")[-1]) if mon else -1, least_gap_mm=round(1e3 * gap, 4),
+                         dropped_curvature_median_m=round(comp[0], 2), dropped_curvature_p90_m=round(comp[1], 2),
+                         dist_ref_rms_mm=round(1e3 * float(np.sqrt(((x - ref) ** 2).sum(axis=1).mean())), 2) if ref is not None and x is not None else float("nan"),
+                         note="" if rc == 0 else err.strip().splitlines()[-1][:150]))
+        print(rows[-1], flush=True)
+    msimrun.write_csv(os.path.join(HERE, f"newton_n{a.bench_n}.csv"), rows)
+
+
+def msimtest_read(path):
+    """-msim_view_final binary:PATH's numbers (tests/msimtest.read_binary_vec)"""
+    sys.path.insert(0, os.path.join(HERE, "..", "..", "tests"))
+    import msimtest
+    return msimtest.read_binary_vec(path)
+
+
 def plot(a):
     import matplotlib
     matplotlib.use("Agg")
@@ -294,8 +372,8 @@ def main():
     p.add_argument("--obstacles", help="targets: none,sphere,mesh (default all)")
     a = p.parse_args()
     tmp = tempfile.mkdtemp(prefix="msim_contact_study_")
-    for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets), ("meshcheck", meshcheck)):
-        if a.what in (part, "all"):
+    for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets), ("meshcheck", meshcheck), ("newton", newton)):
+        if a.what == part or (a.what == "all" and part != "newton"):  # newton: only by name (minutes at 101)
             fn(a, tmp)
     if a.what in ("plot", "all"):
         plot(a)
