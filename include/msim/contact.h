@@ -31,7 +31,8 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *nt
    Hessian of the distance (face region 0; edge (I - n n^T - e e^T)/r; vertex (I - n n^T)/r) */
 PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
 /* the same for a rank's vertex v (>= 0; the per-vertex loops of msim/private/contactimpl.h): the
-   same numbers, with a point asked again answered from v's last answers */
+   same numbers, with a point asked again answered from v's last answers and a far vertex that
+   moved little answered as beyond band without a lookup (with the cache off: the plain query) */
 PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
 /* a step t in [0, tmax] for which the segment x -> x + t u keeps off the thickness shell
    (conservative advancement; PETSC_INFINITY where x + [0, tmax] u cannot reach it) */

@@ -629,7 +629,7 @@ PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const 
       for (int k = 0; k < 9; k++) H[k] = 0;
     return db - mo->thickness;
   }
-  if (v < 0) return Distance(mo, x, n, H, true);
+  if (v < 0 || !mo->use_cells) return Distance(mo, x, n, H, true); /* the kept answers are the cache path's */
   if (mo->memo.size() < MEMO_SLOTS * (size_t)(v + 1)) mo->memo.resize(MEMO_SLOTS * (size_t)(v + 1), _n_MSimMeshObstacle::Answer{{0, 0, 0}, 0, 0, {0, 0, 0}, {0}});
   if (mo->far.size() <= (size_t)v) mo->far.resize((size_t)v + 1, _n_MSimMeshObstacle::Far{{0, 0, 0}, 0});
   _n_MSimMeshObstacle::Far &f = mo->far[v];
