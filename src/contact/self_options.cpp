@@ -23,11 +23,13 @@ PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *
   PetscCall(MSimOptionsReal("-msim_self_contact_ccd_fraction", "Self-contact: additive CCD stops a step where a pair's gap falls to this fraction of its start (0 < s < 1)", NULL, o->ccd_s, &o->ccd_s, NULL));
   PetscCall(PetscOptionsBool("-msim_self_contact_halo", "Self-contact: include neighbouring ranks' elements (0 only to test that the halo matters)", NULL, o->halo, &o->halo, NULL));
   PetscCall(MSimOptionsReal("-msim_self_contact_start_gap", "Self-contact: refuse a start whose vertex-disjoint surface elements are closer than this, m (-1: the contact distance dhat; 0: refuse only elements that cross or touch; a start resting in contact gives its gap)", NULL, o->start_gap, &o->start_gap, NULL));
-  /* off by default: with -msim_psd the Hessian drops the duplicates' negative corrections, so it
-     is stiffer than the energy where they act, and Newton on it stalls (tests/self_contact_ranks.py's
-     sheet: 200 iterations a step from step 11, |g| 1e-3, against 11-32 without); PD and Newton on
-     the signed Hessian (-msim_psd 0) converge */
-  PetscCall(PetscOptionsBool("-msim_self_contact_once", "Self-contact: count each contact once whatever features are closest (point-edge and point-point terms weighted by inclusion-exclusion), not once per point-triangle and edge-edge pair; Newton with -msim_psd converges slowly with it", NULL, o->once, &o->once, NULL));
+  /* off by default: the weighted energy is not C1 where two edges lie parallel and overlap (an
+     edge-edge pair then has two closest vertex-edge features at once but is counted in the weights
+     of both, so the energy there is the max of the two vertices' barriers, not their sum), and a
+     fold of a regular grid settles on such a kink: Newton stalls at it, on the PSD Hessian and on
+     the signed one alike (tests/self_contact_ranks.py's sheet: 200 iterations a step from step 11;
+     runs/self_contact/README.md, "Each contact counted once") */
+  PetscCall(PetscOptionsBool("-msim_self_contact_once", "Self-contact: count each contact once whatever features are closest (point-edge and point-point terms weighted by inclusion-exclusion), not once per point-triangle and edge-edge pair; Newton may stall on folds of regular grids (parallel edges) with it", NULL, o->once, &o->once, NULL));
   PetscCall(PetscOptionsBool("-msim_self_contact_start_check", "Self-contact: check the start for crossing or touching elements (0 only to test the stall report: crossing elements stay locked through each other)", NULL, o->start_check, &o->start_check, NULL));
   PetscOptionsEnd();
   PetscCheck(o->dhat >= 0, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_distance must be >= 0 m (got %g)", (double)o->dhat);

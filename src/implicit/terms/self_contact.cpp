@@ -16,8 +16,8 @@
    Duplicates: a contact whose closest features are an edge or a vertex is as close to every
    triangle and edge around them, so the pairs' barriers counted it several times (a vertex above
    a flat sheet's edge 1 + 1 + its own edges, above a vertex up to 19 times) and the barrier's
-   strength depended on the mesh at the contact. With -msim_self_contact_once (off: Newton on the
-   PSD Hessian stalls with it, see the option) the point-edge and point-point pairs of those
+   strength depended on the mesh at the contact. With -msim_self_contact_once (off: Newton can
+   stall at the weighted energy's kink where edges lie parallel, see the option) the point-edge and point-point pairs of those
    features join the sum with weights that make every contact count once (Collect, WeightPE,
    WeightPP: convergent IPC's inclusion-exclusion), tests/unit/test_self_features.cpp.
    Summation order: the terms are summed in the order of their vertices' input ids, and the CCD's
@@ -389,8 +389,14 @@ static inline bool Adjacent(const SelfData *sd, PetscInt p, PetscInt q)
    pairs whose distance is that pair's) sum to 1, every contact counts once, whatever features
    are closest: c = 1 for point-triangle and edge-edge pairs (their contacts: a vertex against a
    face's inside, two edges crossing), and below, solving W = 1 from the top down, for a point p
-   against an edge e and a point p against a point q. Each term stays C1 (a barrier of a squared
-   distance to a convex set), so their weighted sum does, at every weight. */
+   against an edge e and a point p against a point q. Each term is as smooth as the pairs' (a barrier
+   of a squared distance between convex sets), and so is their weighted sum, at every weight; but
+   an edge-edge pair whose edges lie parallel and overlap has two closest vertex-edge features at
+   once (both ends of one edge against the other) while the weights count it in each: there the
+   pair's barrier, already only continuous (the distance of parallel segments is a min), is no
+   longer outweighed by the other pairs at those contacts, and the energy is the max of the two
+   vertices' barriers instead of their sum. A fold of a regular grid settles on such parallel edges
+   and Newton stalls there (runs/self_contact/README.md, "Each contact counted once"). */
 static PetscReal WeightPE(const SelfData *sd, PetscInt p, PetscInt e0, PetscInt e1)
 {
   PetscInt n = 0;
@@ -576,8 +582,8 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, 
      Without -msim_self_contact_once every weight is 1 and the sum of these blocks is PSD. With it,
      the point-edge and point-point terms carry weights c < 0 that cancel the duplicates, and
      projecting each term on its own would keep the duplicates' blocks and drop their corrections:
-     a Hessian up to 19 x stiffer than the energy where they act, and Newton on it stalls (200
-     iterations a step on tests/self_contact_ranks.py's sheet). So with psd the terms are grouped
+     a Hessian 5 x (above an edge) and 32 x (above a vertex) stiffer than the energy there, and
+     Newton's steps too short. So with psd the terms are grouped
      by the features their closest points lie on (a point-triangle pair whose closest point is on
      an edge is the point-edge term of that edge; on a vertex, the point-point term; an edge-edge
      pair at an end likewise): the terms of one group are one distance function (the same r, the
