@@ -10,7 +10,17 @@
 - a cloth dropped on the ball (a barrier's feasible set: the step is cut by max_step) runs, never
   gains energy, and reaches the ball;
 - -snes_pd_lbfgs 0 is plain PD bit for bit; -snes_pd_lbfgs with -snes_pd_anderson is refused with
-  one line."""
+  one line;
+- the gradient from the local step's passes (pd_gradient.cpp, the default) is A x - rhs(x) to
+  roundoff (-snes_pd_lbfgs_check: |difference| <= 1000 eps |rhs|, the cancellation A x - rhs
+  leaves in each row's sum of about 15 terms of rhs's size) on every term it covers: a damped cloth
+  with drag and wind (the damped springs' pass, a diagonal term), a cloth on the ball with the
+  barrier, friction and self-contact lagged (-msim_contact_pd_weight 0: their part is -(their
+  pd_rhs)), a tet beam with the volume term and its barrier; s^T A s from the two-loop's Gram
+  matrix is the product's to 1e-8 (pairs of steps above about 1e-8 m: below, both are roundoff);
+  the ball with the barrier's PD weights (weights in A that the pass does not cover) takes the
+  product, and says so; to convergence, the product's path (-snes_pd_lbfgs_fused 0) also ends at
+  Newton's solution."""
 import os
 import re
 import sys
@@ -31,6 +41,17 @@ PD = ["-snes_type", "pd", "-snes_max_it", "50000"] + TIGHT
 BALL = ["-msim_cloth_n", "15", "-msim_fix", "none", "-msim_dt", "0.0333333333333333", "-msim_steps", "30", "-msim_integrator", "implicit_euler",
         "-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3", "-snes_type", "pd", "-snes_pd_lbfgs", "5", "-snes_pd_fixed", "-snes_max_it", "10"]
 INFO = re.compile(r"pd: L-BFGS iteration (\d+) Phi (\S+)")
+GCHECK = re.compile(r"fused gradient check: \|g - \(A x - rhs\)\| (\S+) \|g\| (\S+) \|rhs\| (\S+)")
+GRAM = re.compile(r"Gram check: s\^T A s (\S+), by the product (\S+) \(")
+FALLBACK = "this problem's gradient takes the product"
+FUSED_LB = ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_fixed", "-snes_max_it", "10", "-snes_pd_lbfgs_check", "-info", "-msim_spectrum_check", "0"]
+FUSED_SCENES = {
+    "damped cloth, drag and wind": ["-msim_cloth_n", "11", "-msim_damping", "2", "-msim_drag", "0.05", "-msim_wind", "1,0,0", "-msim_integrator", "newmark",
+                                    "-msim_dt", "0.02", "-msim_steps", "10"],
+    "cloth on the ball, lagged barrier, friction, self-contact": BALL[:BALL.index("-snes_type")] + ["-msim_steps", "20", "-msim_contact_pd_weight", "0", "-msim_self_contact"],
+    "tet beam, volume term": ["-msim_scene", "box", "-msim_box_n", "4,2,2", "-msim_box_size", "1,0.25,0.25", "-msim_fix_plane", "x_min", "-msim_young", "2e5",
+                              "-msim_density", "100", "-msim_integrator", "bdf2", "-msim_dt", "0.02", "-msim_steps", "10"],
+}
 
 
 def phi_never_rises(check, np_, text, label):
@@ -48,6 +69,26 @@ def phi_never_rises(check, np_, text, label):
     check(n > 0 and worst <= 1, f"np={np_}: {label}: Phi never rises over {n} iterations (largest rise {worst:.3g} x the allowance 1e-12 |Phi| + {floor:.1e} J)")
 
 
+def fused_gradient(check, np_):
+    """the fused gradient against the product, and the Gram matrix's s^T A s against A s's"""
+    eps = np.finfo(float).eps
+    for label, scene in FUSED_SCENES.items():
+        r = mt.run(MSIM, scene + FUSED_LB, np_)
+        rank0 = "\n".join(l for l in r.stdout.splitlines() if l.startswith("[0]"))  # every rank prints the checks
+        g = [tuple(float(v) for v in m) for m in GCHECK.findall(rank0)]
+        gram = [(float(a), float(b)) for a, b in GRAM.findall(rank0)]
+        if r.returncode or not g:
+            check(False, f"np={np_}: {label}: the fused gradient ran and was checked" + (": " + r.stderr.strip()[-200:] if r.returncode else " (no check lines)"))
+            continue
+        worst = max(d / (1000 * eps * rhs) for d, _, rhs in g)
+        check(worst <= 1 and FALLBACK not in r.stdout, f"np={np_}: {label}: |g - (A x - rhs)| <= 1000 eps |rhs| at {len(g)} solves' first iterates (largest {worst:.2g} x the bound)")
+        big = [(a, b) for a, b in gram if b > 1e-16]
+        rel = max((abs(a - b) / b for a, b in big), default=np.inf)
+        check(len(big) > 0 and rel <= 1e-8, f"np={np_}: {label}: s^T A s from the Gram matrix within {rel:.1e} of the product's over {len(big)} pairs (of {len(gram)}; bound 1e-8)")
+    r = mt.run(MSIM, BALL + ["-msim_steps", "3", "-snes_pd_lbfgs_check", "-info"], np_)
+    check(r.returncode == 0 and FALLBACK in r.stdout and not GCHECK.search(r.stdout), f"np={np_}: the ball with the barrier's PD weights takes the product A x - rhs (-info says so)")
+
+
 def main():
     check = mt.Checks()
     bound = 100 * STEPS * ATOL / (MASS / N**2)
@@ -56,16 +97,16 @@ def main():
             for scheme in ("implicit_euler", "newmark"):
                 base = SCENE + ["-msim_integrator", scheme]
                 x = {}
-                for label, opts in (("Newton", NEWTON), ("PD+L-BFGS", LBFGS), ("PD", PD)):
-                    x[label], r = mt.final_positions(MSIM, base + opts + (["-info", ":snes"] if label == "PD+L-BFGS" else []), np_, tmp, f"{scheme}_{label}".replace("+", ""))
+                for label, opts in (("Newton", NEWTON), ("PD+L-BFGS", LBFGS), ("PD+L-BFGS product", LBFGS + ["-snes_pd_lbfgs_fused", "0"]), ("PD", PD)):
+                    x[label], r = mt.final_positions(MSIM, base + opts + (["-info", ":snes"] if label.startswith("PD+L-BFGS") else []), np_, tmp, f"{scheme}_{label}".replace("+", "").replace(" ", "_"))
                     check(x[label] is not None and "stopped at -snes_max_it" not in r.stderr, f"np={np_}: {scheme} {label}: converged to |g| <= {ATOL:g} in every step")
-                    if label == "PD+L-BFGS" and x[label] is not None:
+                    if label.startswith("PD+L-BFGS") and x[label] is not None:
                         phi_never_rises(check, np_, r.stdout, f"{scheme} to convergence")
                 if any(v is None for v in x.values()):
                     continue
-                for other in ("Newton", "PD"):
-                    d = float(np.max(np.abs(x["PD+L-BFGS"] - x[other])))
-                    check(d <= bound, f"np={np_}: {scheme}: PD+L-BFGS ends {d:.2e} m from {other} (bound {bound:.1e} m)")
+                for lb, other in (("PD+L-BFGS", "Newton"), ("PD+L-BFGS", "PD"), ("PD+L-BFGS product", "Newton")):
+                    d = float(np.max(np.abs(x[lb] - x[other])))
+                    check(d <= bound, f"np={np_}: {scheme}: {lb} ends {d:.2e} m from {other} (bound {bound:.1e} m)")
             # the ball: the barrier's feasible set
             csv = os.path.join(tmp, f"ball_{np_}.csv")
             r = mt.run(MSIM, BALL + ["-msim_monitor_csv", csv, "-info", ":snes"], np_)
@@ -76,6 +117,7 @@ def main():
                 check(emax <= e0 + 1e-9, f"np={np_}: on the ball: total energy at most {emax:.6g} J <= its start {e0:.3g} J")
                 check(max(int(x["contact_n"]) for x in rows) > 0, f"np={np_}: the cloth reached the ball")
                 phi_never_rises(check, np_, r.stdout, "on the ball")
+            fused_gradient(check, np_)
             # m = 0 is plain PD
             a, _ = mt.final_positions(MSIM, SCENE + ["-msim_integrator", "bdf2", "-snes_type", "pd", "-snes_pd_fixed", "-snes_max_it", "10"], np_, tmp, "m0a")
             b, _ = mt.final_positions(MSIM, SCENE + ["-msim_integrator", "bdf2", "-snes_type", "pd", "-snes_pd_fixed", "-snes_max_it", "10", "-snes_pd_lbfgs", "0"], np_, tmp, "m0b")

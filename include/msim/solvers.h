@@ -77,6 +77,10 @@ typedef struct {
   /* y = (A kron I3) x - b (b NULL: 0) with A as the last local step left it (contact may
      reweight it): with b = rhs(x) it is Phi's gradient, for -snes_pd_lbfgs */
   PetscErrorCode (*apply)(void *ctx, Vec x, Vec b, Vec y);
+  /* optional (NULL: rhs and apply): the local step's passes giving Phi's gradient g = A x - rhs(x)
+     and Phi(x) without the product with A, for -snes_pd_lbfgs; *done false (g untouched) where
+     some term of the problem cannot give its part there */
+  PetscErrorCode (*gradient)(void *ctx, Vec x, Vec g, PetscReal *phi, PetscBool *done);
   /* the largest alpha in (0, 1] for which x - alpha d stays inside every term's feasible set
      (contact and volume barriers; 1 where no term has one), for steps global_solve does not make */
   PetscErrorCode (*max_step)(void *ctx, Vec x, Vec d, PetscReal *alpha);

@@ -756,6 +756,7 @@ PetscErrorCode MSimImplicitPDCompose(MSimImplicit imp, DM dm)
   imp->pd.global_solve = PDProblemGlobal;
   imp->pd.setup        = PDProblemSetUp;
   imp->pd.apply        = PDProblemApply;
+  imp->pd.gradient     = MSimImplicitPDGradient; /* pd_gradient.cpp */
   imp->pd.max_step     = PDProblemMaxStep;
   imp->pd.finish       = PDProblemFinish;
   imp->pd.defer_check  = PETSC_FALSE; /* SNESSolve_PD sets it where it may */

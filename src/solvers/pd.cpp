@@ -26,6 +26,7 @@ typedef struct {
   PetscInt  anderson; /* -snes_pd_anderson */
   PetscInt  lbfgs;    /* -snes_pd_lbfgs */
   PetscReal gamma_max; /* -snes_pd_lbfgs_scale_max */
+  PetscBool lbfgs_fused, lbfgs_check; /* -snes_pd_lbfgs_fused, -snes_pd_lbfgs_check */
 } SNESPDOptions;
 
 static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *PetscOptionsObject, void *ctx)
@@ -42,6 +43,8 @@ static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *Pe
   PetscCall(MSimOptionsInt("-snes_pd_lbfgs", "SNES pd: L-BFGS with m pairs and the PD matrix as initial Hessian, Armijo-safeguarded on Phi (0: plain PD)", NULL, o->lbfgs, &o->lbfgs, NULL));
   PetscCall(PetscOptionsReal("-snes_pd_lbfgs_scale_max", "SNES pd: L-BFGS scales its initial Hessian A^-1 by s^T A s / s^T y of the newest pair, kept in [1, this] (1: unscaled)", NULL, o->gamma_max, &o->gamma_max, NULL));
   PetscCheck(o->gamma_max >= 1, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_lbfgs_scale_max must be >= 1 (got %g)", (double)o->gamma_max);
+  PetscCall(PetscOptionsBool("-snes_pd_lbfgs_fused", "SNES pd: L-BFGS takes Phi's gradient from the local step's passes where every term can (0: A x - rhs(x), one product with A per iteration)", NULL, o->lbfgs_fused, &o->lbfgs_fused, NULL));
+  PetscCall(PetscOptionsBool("-snes_pd_lbfgs_check", "SNES pd: L-BFGS compares its fused gradient and s^T A s with the products A x - rhs(x) and A s, printed with -info (costs products; for tests)", NULL, o->lbfgs_check, &o->lbfgs_check, NULL));
   PetscCheck(o->lbfgs >= 0, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_lbfgs must be >= 0 (got %" PetscInt_FMT ")", o->lbfgs);
   PetscCheck(!(o->lbfgs > 0 && o->anderson > 0), PetscObjectComm(obj), PETSC_ERR_ARG_INCOMP, "-snes_pd_lbfgs and -snes_pd_anderson cannot be used together: choose one");
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -56,6 +59,7 @@ static PetscErrorCode SNESPDGetOptions(SNES snes, SNESPDOptions **o)
   PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDOptions", (PetscObject *)&c));
   if (!c) {
     PetscCall(PetscNew(o));
+    (*o)->lbfgs_fused = PETSC_TRUE;
     (*o)->gamma_max = 3; /* runs/speed_accuracy/README.md: on the benchmark cloth (newmark, 5 pairs, 10 iterations) 2.3 cm from RK4 at 0.2 s, unscaled 3.6 cm, at 2, 5, 100: 2.5, 2.7, 3.1 cm */
     PetscCall(PetscContainerCreate(PetscObjectComm((PetscObject)snes), &c));
     PetscCall(PetscContainerSetPointer(c, *o));
@@ -187,6 +191,8 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   if (lm > 0) {
     if (!lbfgs_event) PetscCall(PetscLogEventRegister("MSimPDLBFGS", MSIM_CLASSID, &lbfgs_event));
     PetscCall(SNESPDGetLBFGS(snes, pd, X, lm, opts->gamma_max, &lbp));
+    lbp->use_fused = opts->lbfgs_fused;
+    lbp->check     = opts->lbfgs_check;
   }
   PetscCall(SNESSetIterationNumber(snes, 0));
   /* plain PD with -snes_pd_fixed: every global step is followed by a local step at X or by the

@@ -16,6 +16,22 @@ typedef struct {
   std::vector<PetscScalar> a;              /* the first loop's coefficients */
   PetscReal                gamma;          /* H0 = gamma A^-1 */
   PetscInt                 skipped;        /* pairs not stored: s . y <= 0 (non-convex Phi) */
+  /* With track (MSimLBFGSApply), A's Gram matrix of the pairs, gram[i m + j] = s_i^T A s_j (slots),
+     kept without a product with A: d = gamma A^-1 q + sum_i b_i s_i, so A d = gamma q + sum_i b_i
+     A s_i, and d^T A d and (A d) . s_j follow from q . d0 (d0 = gamma A^-1 q), the s_i . q, b and
+     the Gram matrix; the apply leaves them in dad and arow for the pair -t d (MSimLBFGSPushGram) */
+  std::vector<PetscReal>   gram, arow, b, qs;
+  PetscReal                dad;
+  /* the size of d^T A d's parts, (|d0|_A + sum_i |b_i s_i|_A)^2: where d^T A d is far below it (d
+     mostly cancels: a step at roundoff, which near convergence still makes pairs) the Gram sum
+     would carry the parts' roundoff, and the new pair's row is taken by a product with A
+     (exact_rows counts them) */
+  PetscReal                dad_scale;
+  PetscInt                 exact_rows;
+  /* s . g of the newest pair and the next gradient, from the pass that made the pair: the first
+     loop's first dot (valid for the g the pass saw, until Reset or Invalidate) */
+  PetscScalar              sg;
+  PetscBool                sg_valid;
 } MSimLBFGS;
 
 PetscErrorCode MSimLBFGSCreate(Vec tmpl, PetscInt m, MSimLBFGS *lb);
@@ -24,18 +40,20 @@ PetscErrorCode MSimLBFGSReset(MSimLBFGS *lb);
 /* d = H g by the two-loop recursion, each loop's dot fused with the previous pair's update (one
    pass over the vectors per pair and loop); h0(ctx, q, r) applies A^-1 (r = A^-1 q); with gd,
    also g . d. d may not be g. */
-PetscErrorCode MSimLBFGSApply(MSimLBFGS *lb, Vec g, Vec d, PetscErrorCode (*h0)(void *, Vec, Vec), void *ctx, PetscScalar *gd);
+PetscErrorCode MSimLBFGSApply(MSimLBFGS *lb, Vec g, Vec d, PetscErrorCode (*h0)(void *, Vec, Vec), void *ctx, PetscScalar *gd, PetscBool track);
 
-/* The pd type's L-BFGS iteration, fused with PD's steps: the local step at an iterate gives
-   rhs(x) and Phi(x) in one pass, so Phi's gradient g = A x - rhs(x) costs one product with A,
-   and H0 g one sweep of the factor. An accepted iteration is one sweep, one local step, one
-   product with A and 2m + 6 passes over vectors. A step that does not lower Phi by Armijo's rule
-   (to roundoff: it may pass a rise of MSIM_PHI_ROUNDOFF |Phi|, as msim's energy line search does;
-   |Phi| counts gravity from the origin) is replaced by the plain PD step (which never raises Phi)
-   and the history restarts. Steps are shortened to the problem's feasible set (max_step). The pairs
-   carry over from one solve to the next (the next time step's Hessian is close; the inertia
-   term's y_n cancels in y); checkpoints carry them (MSimPDLBFGSGetHistory), so a restart with
-   -snes_pd_lbfgs repeats the run bit for bit. */
+/* The pd type's L-BFGS iteration, fused with PD's steps. Phi's gradient g = A x - rhs(x) and Phi
+   come from the local step's passes (MSimPDProblem's gradient: each term's part of g where it
+   computes its part of rhs, no product with A; -snes_pd_lbfgs_fused 0, or a problem whose terms
+   cannot, take rhs(x) and the product), and H0 g one sweep of the factor. The scale gamma =
+   s^T A s / s^T y comes from the Gram matrix kept by the two-loop recursion (MSimLBFGS), so an
+   accepted iteration is one sweep, one local step and 2m + 3 passes over vectors. A step that
+   does not lower Phi by Armijo's rule (to roundoff: it may pass a rise of MSIM_PHI_ROUNDOFF |Phi|,
+   as msim's energy line search does; |Phi| counts gravity from the origin) is replaced by the
+   plain PD step (which never raises Phi; its rhs from A x - g, one product) and the history
+   restarts. Steps are shortened to the problem's feasible set (max_step). The pairs carry over
+   from one solve to the next (the next time step's Hessian is close; the inertia term's y_n
+   cancels in y). */
 typedef struct {
   MSimPDProblem *pd;
   MSimLBFGS      lb;
@@ -46,6 +64,10 @@ typedef struct {
   PetscBool      first;
   PetscInt       fallbacks, cut; /* plain PD steps taken instead; steps a feasible set shortened */
   PetscInt       backtracks;     /* steps shortened once by Phi's parabola */
+  PetscBool      use_fused;      /* -snes_pd_lbfgs_fused: the gradient from the local step's passes where the problem can */
+  PetscBool      check;          /* -snes_pd_lbfgs_check: compare g and s^T A s with the products (PetscInfo) */
+  PetscBool      fused;          /* this solve's gradient is the problem's (rhs is not kept) */
+  PetscBool      rhs_valid;      /* rhs is the local step's at the current iterate */
 } MSimPDLBFGS;
 
 PetscErrorCode MSimPDLBFGSCreate(MSimPDProblem *pd, Vec X, PetscInt m, PetscReal gamma_max, MSimPDLBFGS *st);

@@ -99,6 +99,11 @@ typedef struct {
   PetscErrorCode (*pd_matrix)(MSimImplicitTerm, Mat A) = NULL;
   PetscErrorCode (*pd_begin)(MSimImplicitTerm, Vec X) = NULL;
   PetscErrorCode (*pd_rhs)(MSimImplicitTerm, Vec X, Vec rhs, PetscReal *e) = NULL;
+  /* optional, PD + L-BFGS's gradient in the local step's pass (pd_gradient.cpp): G += the term's
+     part of Phi's gradient at X, which is its pd_matrix part of A X less its pd_rhs at X (the
+     springs: h2 k (1 - L/l) d where pd_rhs adds h2 k (L/l) d), and *e as pd_rhs. A term with
+     pd_matrix but without it makes the fused gradient fall back to A X - rhs(X) */
+  PetscErrorCode (*pd_gradient)(MSimImplicitTerm, Vec X, Vec G, PetscReal *e) = NULL;
   /* optional, before each local step: a term whose PD weights depend on the state (contact:
      the vertices near an obstacle) updates them at X and sets *changed when they changed; the
      problem then reassembles A and refactors it (pd_matrix and pd_rhs use the new weights) */
@@ -248,3 +253,8 @@ PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w);
 /* PD's weights of state-dependent terms (contact) taken at X, A refactored where they changed
    (pd_steps.cpp); for Newton's Jacobian with the PD factor as preconditioner */
 PetscErrorCode MSimImplicitPDReweight(MSimImplicit imp, Vec X);
+/* PD + L-BFGS's gradient (MSimPDProblem's gradient, pd_gradient.cpp): G = Phi's gradient at X
+   (A X - rhs(X), without the product with A) and Phi(X), in the local step's passes; *done false
+   (G untouched) where a term cannot give its part (pd_matrix without pd_gradient, or
+   pd_reweight): the caller then takes the local step and the product. ctx: the MSimImplicit. */
+PetscErrorCode MSimImplicitPDGradient(void *ctx, Vec X, Vec G, PetscReal *phi, PetscBool *done);

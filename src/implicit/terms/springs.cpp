@@ -144,7 +144,10 @@ static PetscErrorCode PDBegin_Springs(MSimImplicitTerm term, Vec X)
 /* One spring through the local slots (xloc: ghost and fixed slots filled; the owned rows of x and
    rhs are the Vec arrays xo and ro; ghost contributions go to floc, or nowhere when fl is NULL):
    the PD projection, the damping term with the spring axes of xref (xn, all slots, or NULL), and
-   the coupling to fixed ends. */
+   the coupling to fixed ends. grad: the spring's part of Phi's gradient instead (ro is G), its
+   part of A x less what it adds to rhs: h2 k (d - p) + hd kd (n . u) n, whatever its ends (a
+   fixed end's coupling is in both and cancels). */
+template <bool grad>
 static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, PetscReal k, PetscReal L, const PetscScalar *xo, const PetscScalar *xl, const PetscScalar *xn, PetscScalar *ro, PetscScalar *fl, PetscReal *energy)
 {
   MSimSystem      sys = imp->sys;
@@ -152,17 +155,20 @@ static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, Petsc
   const PetscReal h2 = imp->step.h2, hkd = imp->step.hd * sys->damping;
   const Vec3      xi = CMap3((i < nown ? xo : xl) + 3 * i), xj = CMap3((j < nown ? xo : xl) + 3 * j);
   const PetscReal w1 = h2 * k;
-  Vec3            p  = w1 * msim::SpringProjection(xi, xj, L);
+  Vec3            p  = grad ? Vec3(w1 * ((xi - xj) - msim::SpringProjection(xi, xj, L))) : Vec3(w1 * msim::SpringProjection(xi, xj, L));
   if (energy) *energy += h2 * msim::SpringEnergy(xi, xj, k, L);
   if (xn) {
     const Vec3 dn = CMap3(xn + 3 * i) - CMap3(xn + 3 * j), n = dn.normalized(), u = xi - xj - dn;
-    p += hkd * (dn + u - n.dot(u) * n);
+    if (grad) p += (hkd * n.dot(u)) * n;
+    else p += hkd * (dn + u - n.dot(u) * n);
     if (energy) *energy += 0.5 * hkd * n.dot(u) * n.dot(u);
   }
-  /* a fixed end moves its coupling term to the right-hand side */
-  const PetscReal w = w1 + (xn ? hkd : 0.0);
-  if (j >= nfl) p += w * xj;
-  if (i >= nfl) p -= w * xi;
+  if (!grad) {
+    /* a fixed end moves its coupling term to the right-hand side */
+    const PetscReal w = w1 + (xn ? hkd : 0.0);
+    if (j >= nfl) p += w * xj;
+    if (i >= nfl) p -= w * xi;
+  }
   if (i < nown) Map3(ro + 3 * i) += p;
   else if (fl) Map3(fl + 3 * i) += p;
   if (j < nown) Map3(ro + 3 * j) -= p;
@@ -172,8 +178,10 @@ static inline void PDSpringSlots(MSimImplicit imp, PetscInt i, PetscInt j, Petsc
 /* rhs += sum_s A_s^T (w1 d_s + w2 e_s) + coupling to fixed ends, at X. Without damping the springs
    with both ends owned go through the vectorized sweep (c = h2 k L/l along each spring) straight
    into rhs's array while the ghost positions travel, then those with a ghost or fixed end and
-   the halo, each adding to its owned end only; with damping, all through the slots. */
-static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *energy)
+   the halo, each adding to its owned end only; with damping, all through the slots. grad: Phi's
+   gradient in rhs's place (PDGradient_Springs), the sweep with c = h2 k (1 - L/l). */
+template <bool grad>
+static PetscErrorCode PDLocal_Springs(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *energy)
 {
   MSimImplicit       imp = term->imp;
   MSimSystem         sys = imp->sys;
@@ -188,8 +196,8 @@ static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, Petsc
   PetscCall(VecGetArrayRead(X, &x));
   if (!damped) {
     PetscReal es = 0;
-    MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, r, NULL, NULL, 0.0, h2, energy ? &es : NULL);
-    MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, 0.0, h2, energy ? &es : NULL);
+    MSimSpringSweepSlices(&sp.slices, &sys->sweep, x, r, NULL, NULL, grad ? h2 : 0.0, h2 * (grad ? -1 : 1), energy ? &es : NULL);
+    MSimSpringSweep(sp.ninner, sp.i.data(), sp.j.data(), sp.k.data(), sp.L.data(), x, r, grad ? h2 : 0.0, h2 * (grad ? -1 : 1), energy ? &es : NULL);
     if (energy) *energy += h2 * es;
     PetscCall(VecRestoreArrayRead(X, &x));
     PetscCall(MSimSystemGhostsEnd(sys, imp->step.tx, X, sys->xloc));
@@ -200,12 +208,12 @@ static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, Petsc
     PetscCall(VecGetArrayRead(sys->vloc, &xn));
     PetscCall(VecGetArray(sys->floc, &fl));
     PetscCall(PetscArrayzero(fl + 3 * sys->nown, 3 * (sys->nloc - sys->nown)));
-    MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) { PDSpringSlots(imp, i, j, k, L, x, xl, xn, r, fl, energy); });
+    MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) { PDSpringSlots<grad>(imp, i, j, k, L, x, xl, xn, r, fl, energy); });
     PetscCall(VecRestoreArray(sys->floc, &fl));
   } else {
     /* each adds to its owned end only; the halo's energy is its owners' */
-    for (PetscInt s = sp.ninner; s < sp.n; s++) PDSpringSlots(imp, sp.i[s], sp.j[s], sp.k[s], sp.L[s], x, xl, NULL, r, NULL, energy);
-    for (size_t s = 0; s < sp.hi.size(); s++) PDSpringSlots(imp, sp.hi[s], sp.hj[s], sp.hk[s], sp.hL[s], x, xl, NULL, r, NULL, NULL);
+    for (PetscInt s = sp.ninner; s < sp.n; s++) PDSpringSlots<grad>(imp, sp.i[s], sp.j[s], sp.k[s], sp.L[s], x, xl, NULL, r, NULL, energy);
+    for (size_t s = 0; s < sp.hi.size(); s++) PDSpringSlots<grad>(imp, sp.hi[s], sp.hj[s], sp.hk[s], sp.hL[s], x, xl, NULL, r, NULL, NULL);
   }
   PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
   PetscCall(VecRestoreArrayRead(X, &x));
@@ -215,12 +223,28 @@ static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, Petsc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static PetscErrorCode PDRHS_Springs(MSimImplicitTerm term, Vec X, Vec rhs, PetscReal *energy)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PDLocal_Springs<false>(term, X, rhs, energy));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* G += the springs' part of Phi's gradient (A's spring weights times X less PDRHS_Springs's part),
+   in the local step's passes (pd_gradient.cpp) */
+static PetscErrorCode PDGradient_Springs(MSimImplicitTerm term, Vec X, Vec G, PetscReal *energy)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PDLocal_Springs<true>(term, X, G, energy));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* springs_discrete_gradient.cpp: the discrete_gradient scheme's residual and Jacobian */
 PetscErrorCode MSimImplicitSpringsDiscreteGradient(MSimImplicitTerm, Vec, Vec);
 PetscErrorCode MSimImplicitSpringsDiscreteJacobian(MSimImplicitTerm, Vec, Mat);
 
 static const MSimImplicitTermOps SpringsOps = {.energy = Energy_Springs, .gradient = Gradient_Springs, .hessian_coefficients = HessianCoefficients_Springs, .pd_matrix = PDMatrix_Springs, .pd_begin = PDBegin_Springs,
-                                               .pd_rhs = PDRHS_Springs, .discrete_gradient = MSimImplicitSpringsDiscreteGradient, .discrete_jacobian = MSimImplicitSpringsDiscreteJacobian};
+                                               .pd_rhs = PDRHS_Springs, .pd_gradient = PDGradient_Springs, .discrete_gradient = MSimImplicitSpringsDiscreteGradient, .discrete_jacobian = MSimImplicitSpringsDiscreteJacobian};
 
 PetscErrorCode MSimImplicitTermCreate_Springs(MSimImplicitTerm term)
 {
