@@ -40,12 +40,17 @@ INVERTED = [("springs", ["-msim_volume", "0"]), ("volume", ["-msim_volume", "1"]
 
 
 def inverted(tmp):
+    """bunny.opts (45 of its 150 steps) in the three settings, and bunny_drop.opts (all its 60 steps,
+    frames every 2) with the springs alone and the barrier alone: the example column"""
     rows = []
-    for name, args in INVERTED:
-        out = os.path.join(tmp, f"bunny_{name}")
-        run(["-options_file", "examples/bunny.opts", "-msim_steps", "45", "-msim_output", out] + args, 2)
-        for t, J in tetcheck.ratios(os.path.join(out, "series.pvd")):
-            rows.append({"config": name, "t": f"{t:.2f}", "inverted": int((J <= 0).sum()), "below_jhat": int((J < 0.2).sum()), "J_min": f"{J.min():.4f}", "J_max": f"{J.max():.4f}"})
+    cases = [("bunny", ["-msim_steps", "45"], INVERTED), ("bunny_drop", [], [INVERTED[0], INVERTED[2]])]
+    for example, steps, confs in cases:
+        for name, args in confs:
+            out = os.path.join(tmp, f"{example}_{name}")
+            run(["-options_file", f"examples/{example}.opts"] + steps + ["-msim_output", out] + args, 2)
+            for t, J in tetcheck.ratios(os.path.join(out, "series.pvd")):
+                rows.append({"example": example, "config": name, "t": f"{t:.2f}", "inverted": int((J <= 0).sum()), "below_jhat": int((J < 0.2).sum()), "J_min": f"{J.min():.4f}", "J_max": f"{J.max():.4f}"})
+            print(example, name, "inverted tets per frame:", [r["inverted"] for r in rows if r["example"] == example and r["config"] == name], flush=True)
     msimrun.write_csv(os.path.join(HERE, "inverted.csv"), rows)
     return rows
 
@@ -69,10 +74,11 @@ def steps(tmp, nsteps=21, reps=3, extra=None):
     alternated between springs alone, the barrier alone (kv 0: its passes skip the tets the safe
     radii prove above jhat), the volume term without its barrier (kappa 0: Teschner's quadratic
     alone, no max_step) and the full term. extra: a second msim (another build) whose full term
-    is measured in the same alternation (the code before a change)."""
+    and barrier alone are measured in the same alternation (the code before a change)."""
     confs = [("springs", MSIM, ["-msim_volume", "0"]), ("barrier", MSIM, ["-msim_volume", "1", "-msim_volume_stiffness", "0"]), ("quadratic", MSIM, ["-msim_volume", "1", "-msim_volume_kappa", "0"]), ("volume", MSIM, ["-msim_volume", "1"])]
     if extra:
         confs.append(("volume_before", os.path.abspath(extra), ["-msim_volume", "1"]))
+        confs.append(("barrier_before", os.path.abspath(extra), ["-msim_volume", "1", "-msim_volume_stiffness", "0"]))
     best = {}
     for rep in range(reps):
         for name, exe, args in confs:
@@ -118,7 +124,7 @@ def plot(rows):
     import matplotlib.pyplot as plt
     fig, ax = plt.subplots(figsize=(6, 3.5))
     for name, label in (("springs", "springs alone"), ("volume", "with -msim_volume"), ("barrier", "barrier alone (kv 0)")):
-        r = [x for x in rows if x["config"] == name]
+        r = [x for x in rows if x["config"] == name and x.get("example", "bunny") == "bunny"]
         ax.plot([float(x["t"]) for x in r], [x["inverted"] for x in r], "o-", label=label)
     ax.set_xlabel("t (s)")
     ax.set_ylabel("inverted tets in the frame")
