@@ -78,8 +78,8 @@ def one_count(tmp, np_):
     name = "BDF2, L-BFGS 5, 8 iterations"
     if got and name in sizes:
         vec = 8 + 3 * N * N * 8  # a PETSc binary Vec: class id, size, 3 n doubles
-        want = 2 * M * vec + (M + 8) * 8 + len("pd_lbfgs")
-        check(sizes[name] - got[2] == want, f"np {np_}: the L-BFGS checkpoint is {sizes[name] - got[2]} bytes larger than plain PD's ({want}: {2 * M} vectors, {M + 8} scalars, the name)")
+        want = 2 * M * vec + (M + 9 + M * M) * 8 + len("pd_lbfgs")
+        check(sizes[name] - got[2] == want, f"np {np_}: the L-BFGS checkpoint is {sizes[name] - got[2]} bytes larger than plain PD's ({want}: {2 * M} vectors, {M + 9 + M * M} scalars with the Gram matrix, the name)")
     if np_ > 1:
         # another rank count: the pairs follow the vertices to their new owners
         name = "BDF2, L-BFGS 5, 8 iterations"

@@ -521,8 +521,8 @@ PetscErrorCode MSimPDLBFGSIterate(MSimPDLBFGS *st, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* the scalars before rho's m, in this order */
-enum { LB_M, LB_COUNT, LB_NEXT, LB_GAMMA, LB_SKIPPED, LB_FALLBACKS, LB_CUT, LB_BACKTRACKS, LB_NREAL };
+/* the scalars before rho's m and the Gram matrix's m^2 (of the slots, as rho), in this order */
+enum { LB_M, LB_COUNT, LB_NEXT, LB_GAMMA, LB_SKIPPED, LB_FALLBACKS, LB_CUT, LB_BACKTRACKS, LB_EXACT_ROWS, LB_NREAL };
 
 PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h)
 {
@@ -530,8 +530,9 @@ PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h)
 
   PetscFunctionBeginUser;
   h->name = "pd_lbfgs";
-  h->real = {(PetscReal)lb->m, (PetscReal)lb->count, (PetscReal)lb->next, lb->gamma, (PetscReal)lb->skipped, (PetscReal)st->fallbacks, (PetscReal)st->cut, (PetscReal)st->backtracks};
+  h->real = {(PetscReal)lb->m, (PetscReal)lb->count, (PetscReal)lb->next, lb->gamma, (PetscReal)lb->skipped, (PetscReal)st->fallbacks, (PetscReal)st->cut, (PetscReal)st->backtracks, (PetscReal)lb->exact_rows};
   h->real.insert(h->real.end(), lb->rho.begin(), lb->rho.end());
+  h->real.insert(h->real.end(), lb->gram.begin(), lb->gram.end()); /* the next apply's s_i^T A s_j */
   /* every slot, not only the count in use: the ring then goes on exactly where it was */
   h->vec = lb->S;
   h->vec.insert(h->vec.end(), lb->Y.begin(), lb->Y.end());
@@ -545,7 +546,7 @@ PetscErrorCode MSimPDLBFGSSetHistory(MSimPDLBFGS *st, const MSimSolverHistory *h
 
   PetscFunctionBeginUser;
   *taken = PETSC_FALSE;
-  if (h->name != "pd_lbfgs" || (PetscInt)h->real.size() != LB_NREAL + m || (PetscInt)h->vec.size() != 2 * m || h->real[LB_M] != m) PetscFunctionReturn(PETSC_SUCCESS);
+  if (h->name != "pd_lbfgs" || (PetscInt)h->real.size() != LB_NREAL + m + m * m || (PetscInt)h->vec.size() != 2 * m || h->real[LB_M] != m) PetscFunctionReturn(PETSC_SUCCESS);
   const PetscInt count = (PetscInt)h->real[LB_COUNT], next = (PetscInt)h->real[LB_NEXT];
   if (count < 0 || count > m || next < 0 || next >= m) PetscFunctionReturn(PETSC_SUCCESS);
   for (PetscInt k = 0; k < m; k++) {
@@ -553,10 +554,12 @@ PetscErrorCode MSimPDLBFGSSetHistory(MSimPDLBFGS *st, const MSimSolverHistory *h
     PetscCall(VecCopy(h->vec[m + k], lb->Y[k]));
     lb->rho[k] = h->real[LB_NREAL + k];
   }
+  for (PetscInt k = 0; k < m * m; k++) lb->gram[k] = h->real[LB_NREAL + m + k];
   lb->count      = count;
   lb->next       = next;
   lb->gamma      = h->real[LB_GAMMA];
   lb->skipped    = (PetscInt)h->real[LB_SKIPPED];
+  lb->exact_rows = (PetscInt)h->real[LB_EXACT_ROWS];
   st->fallbacks  = (PetscInt)h->real[LB_FALLBACKS];
   st->cut        = (PetscInt)h->real[LB_CUT];
   st->backtracks = (PetscInt)h->real[LB_BACKTRACKS];

@@ -78,8 +78,8 @@ PetscErrorCode MSimPDLBFGSBegin(MSimPDLBFGS *st, Vec X);
 PetscErrorCode MSimPDLBFGSIterate(MSimPDLBFGS *st, Vec X);
 
 /* For checkpoints: what the next solve reads besides X (MSimSolverHistory "pd_lbfgs"): the m
-   pairs' slots, their rho, the ring's count and next slot, gamma, and the counters -info reports
-   "so far". Get lends st's vectors; Set copies a restart's into st, if its m is st's. A field
+   pairs' slots, their rho and Gram matrix (the first apply of the next solve reads its rows), the
+   ring's count and next slot, gamma, and the counters -info reports "so far". Get lends st's vectors; Set copies a restart's into st, if its m is st's. A field
    that a solve reads from the one before must be added to both, or restarts stop repeating the run
    bit for bit (tests/pd_lbfgs_restart.py). */
 PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h);
