@@ -435,6 +435,15 @@ static PetscErrorCode Destroy_Obstacles(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* o's safe step for the rank's vertex v: a mesh takes v's distance at x from its last answers
+   (MSimMeshObstacleSafeStepVertex; the same numbers) */
+static PetscReal SafeStep(const MSimObstacle &o, PetscReal t, PetscInt v, const PetscScalar *x, const PetscReal u[3], PetscReal tmax)
+{
+  if (o.kind != MSIM_OBSTACLE_MESH) return MSimObstacleSafeStep(&o, t, x, u, tmax);
+  const PetscReal y[3] = {x[0] - o.v[0] * t, x[1] - o.v[1] * t, x[2] - o.v[2] * t}; /* as MSimObstacleSafeStep */
+  return MSimMeshObstacleSafeStepVertex(o.mesh, v, y, u, tmax);
+}
+
 static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimSystem         sys = term->imp->sys;
@@ -465,7 +474,7 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
     if (dmin && 0.5625 * dmin[v] * dmin[v] > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
     for (const MSimObstacle &o : ct->obs) {
-      const PetscReal t = MSimObstacleSafeStep(&o, term->imp->step.tx, x + 3 * v, u, a);
+      const PetscReal t = SafeStep(o, term->imp->step.tx, v, x + 3 * v, u, a);
       if (t < a) a = t;
     }
   }
@@ -497,7 +506,7 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
     const PetscReal u[3] = {PetscRealPart(x[3 * v] - a[3 * v]), PetscRealPart(x[3 * v + 1] - a[3 * v + 1]), PetscRealPart(x[3 * v + 2] - a[3 * v + 2])};
     PetscReal       s    = 1;
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
-    for (const MSimObstacle &o : ct->obs) s = PetscMin(s, MSimObstacleSafeStep(&o, term->imp->step.tx, a + 3 * v, u, s));
+    for (const MSimObstacle &o : ct->obs) s = PetscMin(s, SafeStep(o, term->imp->step.tx, v, a + 3 * v, u, s));
     if (s < 1)
       for (int c = 0; c < 3; c++) x[3 * v + c] = a[3 * v + c] + s * u[c];
   }
