@@ -34,9 +34,9 @@ def run(args, np):
     return p.stdout + p.stderr, (r1.children_user - r0.children_user) + (r1.children_system - r0.children_system), time.time() - t0
 
 
-# the bunny's three settings: springs alone, the full term (Teschner's quadratic and the barrier),
-# the barrier alone (kv 0)
-INVERTED = [("springs", ["-msim_volume", "0"]), ("volume", ["-msim_volume", "1"]), ("barrier", ["-msim_volume", "1", "-msim_volume_stiffness", "0"])]
+# the bunny's three settings: springs alone, the full term (Teschner's quadratic and the barrier;
+# -msim_volume_stiffness -1: its default, since bunny.opts sets 0), the barrier alone (kv 0)
+INVERTED = [("springs", ["-msim_volume", "0"]), ("volume", ["-msim_volume", "1", "-msim_volume_stiffness", "-1"]), ("barrier", ["-msim_volume", "1", "-msim_volume_stiffness", "0"])]
 
 
 def inverted(tmp):
@@ -61,7 +61,7 @@ def cost(tmp):
     for np in (1, 2):
         for rep in range(2):
             for vol in (0, 1):
-                log, cpu, wall = run(["-options_file", "examples/bunny.opts", "-msim_steps", "10", "-msim_output", os.path.join(tmp, "c"), "-msim_output_every", "10", "-msim_volume", str(vol), "-log_view"], np)
+                log, cpu, wall = run(["-options_file", "examples/bunny.opts", "-msim_steps", "10", "-msim_output", os.path.join(tmp, "c"), "-msim_output_every", "10", "-msim_volume", str(vol), "-msim_volume_stiffness", "-1", "-log_view"], np)
                 rows.append({"np": np, "rep": rep, "volume": vol, "cpu_s": f"{cpu:.2f}", "wall_s": f"{wall:.2f}", "step_event_s": f"{msimrun.event(log, 'MSimStep')[1]:.3f}", "volume_event_s": f"{msimrun.event(log, 'MSimVolume')[1]:.3f}"})
                 print(rows[-1], flush=True)
     msimrun.write_csv(os.path.join(HERE, "cost.csv"), rows)
@@ -75,9 +75,9 @@ def steps(tmp, nsteps=21, reps=3, extra=None):
     radii prove above jhat), the volume term without its barrier (kappa 0: Teschner's quadratic
     alone, no max_step) and the full term. extra: a second msim (another build) whose full term
     and barrier alone are measured in the same alternation (the code before a change)."""
-    confs = [("springs", MSIM, ["-msim_volume", "0"]), ("barrier", MSIM, ["-msim_volume", "1", "-msim_volume_stiffness", "0"]), ("quadratic", MSIM, ["-msim_volume", "1", "-msim_volume_kappa", "0"]), ("volume", MSIM, ["-msim_volume", "1"])]
+    confs = [("springs", MSIM, ["-msim_volume", "0"]), ("barrier", MSIM, ["-msim_volume", "1", "-msim_volume_stiffness", "0"]), ("quadratic", MSIM, ["-msim_volume", "1", "-msim_volume_stiffness", "-1", "-msim_volume_kappa", "0"]), ("volume", MSIM, ["-msim_volume", "1", "-msim_volume_stiffness", "-1"])]
     if extra:
-        confs.append(("volume_before", os.path.abspath(extra), ["-msim_volume", "1"]))
+        confs.append(("volume_before", os.path.abspath(extra), ["-msim_volume", "1", "-msim_volume_stiffness", "-1"]))
         confs.append(("barrier_before", os.path.abspath(extra), ["-msim_volume", "1", "-msim_volume_stiffness", "0"]))
     best = {}
     for rep in range(reps):
@@ -107,10 +107,10 @@ def limit():
     rows = []
     base = ["-options_file", "examples/bunny.opts", "-msim_integrator", "symplectic_euler", "-msim_steps", "1", "-msim_output", os.path.join(tempfile.gettempdir(), "lim")]
     for vol in (0, 1):
-        log, _, _ = run(base + ["-msim_volume", str(vol), "-msim_spectrum"], 1)
+        log, _, _ = run(base + ["-msim_volume", str(vol), "-msim_volume_stiffness", "-1", "-msim_spectrum"], 1)
         w = re.search(r"omega_max = (\S+) rad/s", log)
         hs = re.search(r"symplectic_euler h < (\S+) s", log)
-        log2, _, _ = run(base + ["-msim_volume", str(vol), "-msim_dt", "0.01"], 1)
+        log2, _, _ = run(base + ["-msim_volume", str(vol), "-msim_volume_stiffness", "-1", "-msim_dt", "0.01"], 1)
         g = re.search(r"stability limit h <= (\S+) of \S+ \(omega_max <= (\S+) from the (\w+)", log2)
         rows.append({"volume": vol, "slepc_omega_max": w.group(1), "slepc_h_symplectic": hs.group(1), "gershgorin_omega_max": g.group(2), "gershgorin_h_symplectic": g.group(1)})
         print(rows[-1], flush=True)
