@@ -107,7 +107,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   /* what is printed and kept of the scene, not what the scene is: read before the watch */
   PetscCall(PetscOptionsBool("-msim_scene_view", "Print the scene: counts, volume or area, mass, stiffness and rest-length ranges", NULL, view, &view, NULL));
   PetscCall(PetscOptionsBool("-msim_scene_keep_cells", "Keep the scene's cells when nothing draws or refines them (for code that reads them)", NULL, keep_cells, &keep_cells, NULL));
-  PetscCall(PetscOptionsBool("-msim_volume", "Tet scenes: a volume term per tet (Teschner) with an inversion barrier, so that no tet inverts in implicit steps (per PD step on the bunny +40-95%, the barrier alone with -msim_volume_stiffness 0 +16-32%: runs/self_contact/volume)", NULL, S.volume, &S.volume, NULL));
+  PetscCall(PetscOptionsBool("-msim_volume", "Tet scenes: a volume term per tet (Teschner) with an inversion barrier, so that no tet inverts in implicit steps (per PD step on the bunny: the full term +66-71%, the barrier alone with -msim_volume_stiffness 0, as examples/bunny.opts, +17-20%: runs/self_contact/volume)", NULL, S.volume, &S.volume, NULL));
   /* from here to MSimOptionsWatchEnd every option the user set that is read defines the scene
      (S.identity): whoever reads it, the scene, its generator, fixed vertices or a mesh reader */
   PetscCall(MSimOptionsWatchBegin(&watch));
