@@ -70,16 +70,9 @@ PetscErrorCode MSimImplicitPDGradient(void *ctx, Vec X, Vec G, PetscReal *phi, P
   *done = PETSC_TRUE;
   PetscCall(MSimImplicitPDSetUp(imp)); /* y and the step's reference are set up with A */
   PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, G, 0, 0));
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.pd_begin) PetscCall(imp->terms[k]->ops.pd_begin(imp->terms[k], X));
   /* the inertia pass with the first diagonal term fused, as MSimImplicitPDRHS */
-  PetscInt next = imp->nterms;
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.diagonal) {
-      PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], &w, &C));
-      next = k + 1;
-      break;
-    }
+  PetscInt next;
+  PetscCall(MSimImplicitPDLocalBegin(imp, X, &w, &C, &next));
   PetscCall(VecGetArrayWrite(G, &g));
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Y, &y));

@@ -205,6 +205,23 @@ PetscErrorCode MSimImplicitPDReweight(MSimImplicit imp, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimImplicitPDLocalBegin(MSimImplicit imp, Vec X, PetscReal *w, Vec *C, PetscInt *next)
+{
+  PetscFunctionBeginUser;
+  *w    = 0;
+  *C    = imp->Y;
+  *next = imp->nterms;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.pd_begin) PetscCall(imp->terms[k]->ops.pd_begin(imp->terms[k], X));
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.diagonal) {
+      PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], w, C));
+      *next = k + 1;
+      break;
+    }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* rhs = M y + the diagonal terms' w c + the other terms' local steps at X; with phi, also Phi(X)
    (the projections are optimal, so the PD energy equals Phi). The terms start what they need
    (the ghost exchange) before the inertia pass, so it travels meanwhile. */
@@ -219,16 +236,9 @@ PetscErrorCode MSimImplicitPDRHS(MSimImplicit imp, Vec X, Vec rhs, PetscReal *ph
   PetscFunctionBeginUser;
   PetscCall(PDReweight(imp, X));
   PetscCall(PetscLogEventBegin(MSIM_PDLocal, X, rhs, 0, 0));
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.pd_begin) PetscCall(imp->terms[k]->ops.pd_begin(imp->terms[k], X));
   /* the inertia pass with the first diagonal term fused (the only one so far) */
-  PetscInt next = imp->nterms;
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.diagonal) {
-      PetscCall(imp->terms[k]->ops.diagonal(imp->terms[k], &w, &C));
-      next = k + 1;
-      break;
-    }
+  PetscInt next;
+  PetscCall(MSimImplicitPDLocalBegin(imp, X, &w, &C, &next));
   PetscCall(VecGetArrayWrite(rhs, &r));
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Y, &y));

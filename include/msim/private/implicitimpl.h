@@ -253,6 +253,11 @@ PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w);
 /* PD's weights of state-dependent terms (contact) taken at X, A refactored where they changed
    (pd_steps.cpp); for Newton's Jacobian with the PD factor as preconditioner */
 PetscErrorCode MSimImplicitPDReweight(MSimImplicit imp, Vec X);
+/* The start of PD's local pass, shared by MSimImplicitPDRHS and MSimImplicitPDGradient: every
+   term's pd_begin at X (the ghost exchange starts), and the first diagonal term's weight w and
+   centre C (imp->Y and w = 0 where there is none), which the inertia pass takes in the same loop;
+   *next: the index after that term, where the other diagonal terms' pass starts. */
+PetscErrorCode MSimImplicitPDLocalBegin(MSimImplicit imp, Vec X, PetscReal *w, Vec *C, PetscInt *next);
 /* PD + L-BFGS's gradient (MSimPDProblem's gradient, pd_gradient.cpp): G = Phi's gradient at X
    (A X - rhs(X), without the product with A) and Phi(X), in the local step's passes; *done false
    (G untouched) where a term cannot give its part (pd_matrix without pd_gradient, or
