@@ -78,8 +78,16 @@ def one_count(tmp, np_):
     name = "BDF2, L-BFGS 5, 8 iterations"
     if got and name in sizes:
         vec = 8 + 3 * N * N * 8  # a PETSc binary Vec: class id, size, 3 n doubles
-        want = 2 * M * vec + (M + 9 + M * M) * 8 + len("pd_lbfgs")
-        check(sizes[name] - got[2] == want, f"np {np_}: the L-BFGS checkpoint is {sizes[name] - got[2]} bytes larger than plain PD's ({want}: {2 * M} vectors, {M + 9 + M * M} scalars with the Gram matrix, the name)")
+        want = 2 * M * vec + (M + 10 + M * M) * 8 + len("pd_lbfgs")
+        check(sizes[name] - got[2] == want, f"np {np_}: the L-BFGS checkpoint is {sizes[name] - got[2]} bytes larger than plain PD's ({want}: {2 * M} vectors, {M + 10 + M * M} scalars with the Gram matrix and its validity, the name)")
+    # pairs made without the fused gradient keep no Gram rows: a fused restart must not read them
+    ck = os.path.join(tmp, "unfused.ck")
+    base = SCENE + CASES["BDF2, L-BFGS 5, 8 iterations"]
+    r1 = mt.run(MSIM, base + ["-msim_steps", str(SPLIT), "-msim_checkpoint", ck, "-snes_pd_lbfgs_fused", "0"], np_, cwd=tmp)
+    r2 = mt.run(MSIM, base + ["-msim_steps", str(SPLIT + 2), "-msim_restart", ck, "-info"], np_, cwd=tmp)
+    afresh = [l for l in mt.lines(r2.stdout + r2.stderr) if "no Gram rows" in l]
+    check(r1.returncode == 0 and r2.returncode == 0 and len(afresh) >= 1,
+          f"np {np_}: a fused restart from pairs made with -snes_pd_lbfgs_fused 0 starts the history afresh ({len(afresh)} -info lines; rc {r1.returncode}, {r2.returncode})")
     if np_ > 1:
         # another rank count: the pairs follow the vertices to their new owners
         name = "BDF2, L-BFGS 5, 8 iterations"

@@ -43,6 +43,7 @@ PetscErrorCode MSimLBFGSReset(MSimLBFGS *lb)
   lb->count = lb->next = 0;
   lb->gamma            = 1;
   lb->sg_valid         = PETSC_FALSE;
+  lb->gram_valid       = PETSC_TRUE; /* no pairs: nothing to keep */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -316,6 +317,10 @@ PetscErrorCode MSimPDLBFGSBegin(MSimPDLBFGS *st, Vec X)
   if (st->use_fused && !done) PetscCall(PetscInfo(NULL, "pd: L-BFGS: this problem's gradient takes the product A x - rhs(x) (a term cannot give its part in the local step)\n"));
   st->fused     = done;
   st->rhs_valid = (PetscBool)!done;
+  if (done && !st->lb.gram_valid) {
+    PetscCall(PetscInfo(NULL, "pd: L-BFGS: the stored pairs have no Gram rows (made without the fused gradient): the history starts afresh\n"));
+    PetscCall(MSimLBFGSReset(&st->lb));
+  }
   if (!done) {
     PetscCall((*pd->rhs)(pd->ctx, X, st->rhs, &st->phi));
     PetscCall((*pd->apply)(pd->ctx, X, st->rhs, st->G));
@@ -443,6 +448,7 @@ static PetscErrorCode PushPair(MSimPDLBFGS *st, Vec X, PetscReal t)
     for (size_t q = 1; q < w.size(); q++) lb->gram[k * m + js[q]] = lb->gram[js[q] * m + k] = PetscRealPart(v[q]);
     sas = PetscRealPart(v[0]);
   }
+  if (!st->fused) lb->gram_valid = PETSC_FALSE;
   if (st->fused) {
     lb->gram[k * m + k] = sas;
     if (st->check) {
@@ -522,7 +528,7 @@ PetscErrorCode MSimPDLBFGSIterate(MSimPDLBFGS *st, Vec X)
 }
 
 /* the scalars before rho's m and the Gram matrix's m^2 (of the slots, as rho), in this order */
-enum { LB_M, LB_COUNT, LB_NEXT, LB_GAMMA, LB_SKIPPED, LB_FALLBACKS, LB_CUT, LB_BACKTRACKS, LB_EXACT_ROWS, LB_NREAL };
+enum { LB_M, LB_COUNT, LB_NEXT, LB_GAMMA, LB_SKIPPED, LB_FALLBACKS, LB_CUT, LB_BACKTRACKS, LB_EXACT_ROWS, LB_GRAM_VALID, LB_NREAL };
 
 PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h)
 {
@@ -530,7 +536,7 @@ PetscErrorCode MSimPDLBFGSGetHistory(MSimPDLBFGS *st, MSimSolverHistory *h)
 
   PetscFunctionBeginUser;
   h->name = "pd_lbfgs";
-  h->real = {(PetscReal)lb->m, (PetscReal)lb->count, (PetscReal)lb->next, lb->gamma, (PetscReal)lb->skipped, (PetscReal)st->fallbacks, (PetscReal)st->cut, (PetscReal)st->backtracks, (PetscReal)lb->exact_rows};
+  h->real = {(PetscReal)lb->m, (PetscReal)lb->count, (PetscReal)lb->next, lb->gamma, (PetscReal)lb->skipped, (PetscReal)st->fallbacks, (PetscReal)st->cut, (PetscReal)st->backtracks, (PetscReal)lb->exact_rows, (PetscReal)lb->gram_valid};
   h->real.insert(h->real.end(), lb->rho.begin(), lb->rho.end());
   h->real.insert(h->real.end(), lb->gram.begin(), lb->gram.end()); /* the next apply's s_i^T A s_j */
   /* every slot, not only the count in use: the ring then goes on exactly where it was */
@@ -560,6 +566,7 @@ PetscErrorCode MSimPDLBFGSSetHistory(MSimPDLBFGS *st, const MSimSolverHistory *h
   lb->gamma      = h->real[LB_GAMMA];
   lb->skipped    = (PetscInt)h->real[LB_SKIPPED];
   lb->exact_rows = (PetscInt)h->real[LB_EXACT_ROWS];
+  lb->gram_valid = (PetscBool)(h->real[LB_GRAM_VALID] != 0);
   st->fallbacks  = (PetscInt)h->real[LB_FALLBACKS];
   st->cut        = (PetscInt)h->real[LB_CUT];
   st->backtracks = (PetscInt)h->real[LB_BACKTRACKS];

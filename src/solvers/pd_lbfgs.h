@@ -28,6 +28,10 @@ typedef struct {
      (exact_rows counts them) */
   PetscReal                dad_scale;
   PetscInt                 exact_rows;
+  /* every stored pair's Gram row was kept (pairs pushed by a solve without track write none): a
+     tracked apply reads the Gram matrix only while this holds (a restart from a checkpoint that
+     a run with -snes_pd_lbfgs_fused 0 wrote) */
+  PetscBool                gram_valid;
   /* s . g of the newest pair and the next gradient, from the pass that made the pair: the first
      loop's first dot (valid for the g the pass saw, until Reset or Invalidate) */
   PetscScalar              sg;

@@ -472,7 +472,7 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
   for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
-    if (dmin && 0.5625 * dmin[v] * dmin[v] > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
+    if (dmin && dmin[v] > 0 && 0.5625 * dmin[v] * dmin[v] > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
     for (const MSimObstacle &o : ct->obs) {
       const PetscReal t = SafeStep(o, term->imp->step.tx, v, x + 3 * v, u, a);
       if (t < a) a = t;
