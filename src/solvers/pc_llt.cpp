@@ -2,7 +2,10 @@
    and stored by supernodes (supernodal.h), so up to four right-hand sides (PD's x, y and z
    columns) cost one sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a
    block-size-3 Vec's array, without the dense-matrix copies of KSPMatSolve.
-   Serially: Eigen's SimplicialLLT with AMD ordering. On several ranks: one level of domain
+   Serially: AMD ordering and the factor's structure from Eigen's SimplicialLLT, kept while A's
+   pattern is; the numbers by msim's left-looking supernodal factorization (supernodal_numeric.h),
+   which at a later set-up recomputes only the supernodes that A's changed entries reach (PD's
+   contact weights change a few rows' diagonal), bit for bit the full factorization. On several ranks: one level of domain
    decomposition (schur_cholesky.h), each rank factoring and sweeping its own rows, the interface
    rows of all ranks solved as one small dense Schur complement. MUMPS stays one option away
    (-pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps), for partitions whose interface is
@@ -11,7 +14,9 @@
 #include <msim/log.h>
 #include <msim/options.h>
 #include "supernodal.h"
+#include "supernodal_numeric.h"
 #include "schur_cholesky.h"
+#include <cstring>
 #include <petscksp.h>
 #include <Eigen/SparseCore>
 #include <Eigen/SparseCholesky>
@@ -30,7 +35,15 @@ typedef struct {
   msim::SchurCholesky   *schur;  /* several ranks */
   PetscReal              relax;     /* supernode amalgamation (supernodal.h) */
   PetscInt               max_width;
+  PetscBool              partial;   /* refactor only what A's changed entries reach */
+  msim::SupernodalCholesky numeric; /* serial: the kept analysis */
+  bool                   analyzed;
+  std::vector<int>       aptr, acol; /* A's lower triangle by rows, at the last factorization */
+  std::vector<double>    aval;
+  PetscInt               nfull, npartial;
 } PC_LLT;
+
+static PetscLogEvent LLT_Partial; /* -log_view: the factorizations that reused part of the last */
 
 /* PCShellGet/SetContext only act on a PC whose type name is "shell", so the data hangs on the PC
    in a container and dies with it. */
@@ -68,6 +81,7 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   PetscOptionsBegin(PetscObjectComm((PetscObject)pc), prefix, "msimllt: supernodal Cholesky", "PC");
   PetscCall(MSimOptionsReal("-pc_msimllt_relax", "Merge neighbouring supernodes while the stored entries, zeros included, grow by at most this fraction", "", ctx->relax, &ctx->relax, NULL));
   PetscCall(MSimOptionsInt("-pc_msimllt_max_width", "Widest merged supernode (columns)", "", ctx->max_width, &ctx->max_width, NULL));
+  PetscCall(PetscOptionsBool("-pc_msimllt_partial", "Refactor only the supernodes that the matrix's changed entries reach (one rank; same bits as a full refactorization)", "", ctx->partial, &ctx->partial, NULL));
   PetscOptionsEnd();
   PetscCheck(ctx->relax >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-%spc_msimllt_relax must be >= 0", prefix ? prefix : "");
   PetscCheck(ctx->max_width >= 1, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-%spc_msimllt_max_width must be >= 1 (got %" PetscInt_FMT ")", prefix ? prefix : "", ctx->max_width);
@@ -84,24 +98,55 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT " in %d supernodes, %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->LocalSupernodes(), ctx->schur->InterfaceSize()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  std::vector<Eigen::Triplet<double, int>> t;
-  for (PetscInt i = 0; i < n; i++) {
+  std::vector<int>    aptr(1, 0), acol;
+  std::vector<double> aval;
+  for (PetscInt i = 0; i < n; i++) { /* A's lower triangle by rows */
     PetscCall(MatGetRow(A, i, &ncols, &cols, &vals));
     for (PetscInt k = 0; k < ncols; k++)
-      if (cols[k] <= i) t.emplace_back((int)i, (int)cols[k], PetscRealPart(vals[k]));
+      if (cols[k] <= i) {
+        acol.push_back((int)cols[k]);
+        aval.push_back(PetscRealPart(vals[k]));
+      }
+    aptr.push_back((int)acol.size());
     PetscCall(MatRestoreRow(A, i, &ncols, &cols, &vals));
   }
-  SpMat S((int)n, (int)n);
-  S.setFromTriplets(t.begin(), t.end());
-  t.clear();
-  t.shrink_to_fit();
-  {
+  std::vector<char> dirty;
+  const bool        keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol;
+  if (!keep) { /* a new pattern: AMD and the factor's structure (Eigen's), then the analysis */
+    std::vector<Eigen::Triplet<double, int>> t;
+    t.reserve(acol.size());
+    for (PetscInt i = 0; i < n; i++)
+      for (int e = aptr[i]; e < aptr[i + 1]; e++) t.emplace_back((int)i, acol[e], aval[e]);
+    SpMat S((int)n, (int)n);
+    S.setFromTriplets(t.begin(), t.end());
     LLT llt(S);
     PetscCheck(llt.info() == Eigen::Success, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite");
     const SpMat &L = llt.matrixL().nestedExpression();
     ctx->factor.Build((int)n, L.outerIndexPtr(), L.innerIndexPtr(), L.valuePtr(), -1, ctx->relax, (int)ctx->max_width);
     ctx->perm.assign(llt.permutationP().indices().data(), llt.permutationP().indices().data() + n);
-  } /* Eigen's column storage goes: only the supernodal copy stays */
+    ctx->numeric.Analyze(ctx->factor, ctx->perm.data(), aptr, acol);
+    ctx->analyzed = true;
+  } else if (ctx->partial) { /* the supernodes holding a changed entry (bits compared: -0 is not 0) */
+    const std::vector<int> &sn = ctx->numeric.EntrySupernode();
+    dirty.assign(ctx->numeric.Supernodes(), 0);
+    for (size_t e = 0; e < aval.size(); e++)
+      if (std::memcmp(&aval[e], &ctx->aval[e], sizeof(double))) dirty[sn[e]] = 1;
+  }
+  /* the numbers always come from msim's factorization, so a factor is the same bits whichever
+     of full and partial made it (a restarted run factors from scratch) */
+  double done, total;
+  if (keep && ctx->partial) PetscCall(PetscLogEventBegin(LLT_Partial, pc, 0, 0, 0));
+  const int bad = ctx->numeric.Factor(ctx->factor, aval.data(), dirty.empty() ? nullptr : &dirty, &done, &total);
+  if (keep && ctx->partial) PetscCall(PetscLogEventEnd(LLT_Partial, pc, 0, 0, 0));
+  if (bad >= 0) ctx->analyzed = false; /* the next set-up starts afresh */
+  PetscCheck(bad < 0, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (pivot %d of the factor)", bad);
+  PetscCall(PetscLogFlops(done));
+  ctx->aptr.swap(aptr);
+  ctx->acol.swap(acol);
+  ctx->aval.swap(aval);
+  if (keep && ctx->partial) ctx->npartial++;
+  else ctx->nfull++;
+  PetscCall(PetscInfo(pc, "msimllt: %s factorization (%" PetscInt_FMT " full, %" PetscInt_FMT " partial so far): %.4g of %.4g Mflop\n", keep && ctx->partial ? "partial" : (keep ? "full (analysis kept)" : "full (new analysis)"), ctx->nfull, ctx->npartial, done * 1e-6, total * 1e-6));
   PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
   ctx->z.resize(n);
   PetscCall(PetscInfo(pc, "msimllt: n = %" PetscInt_FMT ", factor entries %" PetscInt64_FMT " in %d supernodes\n", n, (PetscInt64)ctx->factor.Entries(), ctx->factor.Supernodes()));
@@ -215,6 +260,8 @@ PetscErrorCode PCCreate_MSimLLT(PC pc)
   PC_LLT *ctx    = new PC_LLT();
   ctx->relax     = 0.3; /* runs/bench/README.md: 5-8% off the sweep of the benchmark cloth's factor */
   ctx->max_width = 16;
+  ctx->partial   = PETSC_TRUE;
+  if (!LLT_Partial) PetscCall(PetscLogEventRegister("MSimLLTPartial", MSIM_CLASSID, &LLT_Partial));
   PetscCall(PetscContainerSetPointer(c, ctx));
   PetscCall(PetscContainerSetUserDestroy(c, PCLLTDestroyContext));
   PetscCall(PetscObjectCompose((PetscObject)pc, "MSimLLT", (PetscObject)c));

@@ -81,6 +81,7 @@ public:
   int64_t Entries() const { return (int64_t)val_.size() + n_; }
 
 private:
+  friend class SupernodalCholesky; /* its numeric factorization fills val_ and invdiag_ in place */
   int                  n_ = 0;
   std::vector<int>     start_;   /* first column of each supernode; start_[nsn] = n */
   std::vector<int>     rptr_;    /* rows below supernode s: rows_[rptr_[s] .. rptr_[s+1]) */
