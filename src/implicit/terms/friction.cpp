@@ -7,9 +7,13 @@
    slower than eps_v is held by a stiff spring-like force. Gradient beta h^2 mu lambda f1(y)/y u;
    the Hessian beta h^2 mu lambda [f1(y)/y P + (f1'(y) y - f1(y))/y^3 u u^T] is PSD as it is (in
    the tangent plane its eigenvalues are f1'(y) >= 0 along u and f1(y)/y across), so no
-   projection. Everything lagged is recomputed from x_n per call (no state; it leaves x_n and the
-   step's times on the contact object so that the output's force at the step's result includes
-   friction, src/contact/contact_force.cpp). PD: its
+   projection. Everything lagged (the vertices within dhat at x_n, lambda, P and the obstacle's
+   shift) is computed once per step and kept (Lagged: keyed by x_n's id and state, the step's
+   times and kappa, so a restart or a new step recomputes it; the same numbers as the per-call
+   loop of msim/private/contactimpl.h, which cost 2 queries per vertex and obstacle per PD
+   iteration: +35% of a free PD step on the 101 x 101 drape, runs/contact/README.md). It leaves
+   x_n and the step's times on the contact object so that the output's force at the step's result
+   includes friction (src/contact/contact_force.cpp). PD: its
    gradient at the current iterate in the right-hand side, as the barrier's. A moving obstacle
    (-msim_contact_velocity) drags: the slip u is the displacement relative to it, P (x - x_n -
    v_o (tx - t)). */
@@ -19,27 +23,95 @@
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
 #include <cmath>
+#include <vector>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: x_n's lagged data kept for the step */
 
-/* f(v, lambda, P (3 x 3), u, y) for every owned vertex and obstacle in contact at x_n
-   (msim/private/contactimpl.h's loop, which the output's contact force shares); leaves the step's
-   x_n and times on the contact object for that output */
+/* x_n's part of the loop, for one step: per owned vertex and obstacle in contact at x_n (in
+   MSimContactForEachSliding's order), lambda, P and the obstacle's velocity v_o */
+typedef struct {
+  PetscInt  v;
+  PetscReal lambda, P[9], vo[3];
+} Sliding;
+
+typedef struct {
+  std::vector<Sliding> s;
+  PetscObjectId        id    = 0; /* x_n's, at its state: 0 none yet */
+  PetscObjectState     state = 0;
+  PetscReal            t = 0, tx = 0, kappa = 0;
+} Lagged;
+
+/* the step's lagged data, recomputed where x_n (its id or state), the step's times or kappa
+   changed since it was kept: the same expressions as MSimContactForEachSliding's */
+static PetscErrorCode GetLagged(MSimImplicitTerm term, MSimContact ct, const Lagged **lag)
+{
+  MSimImplicit     imp = term->imp;
+  MSimSystem       sys = imp->sys;
+  Lagged          *L   = (Lagged *)term->data;
+  PetscObjectId    id;
+  PetscObjectState state;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscObjectGetId((PetscObject)imp->Xn, &id));
+  PetscCall(PetscObjectStateGet((PetscObject)imp->Xn, &state));
+  if (id != L->id || state != L->state || imp->step.t != L->t || imp->step.tx != L->tx || ct->kappa != L->kappa) {
+    const PetscScalar *xn, *m;
+    const PetscReal    t = imp->step.t;
+    L->s.clear();
+    PetscCall(VecGetArrayRead(imp->Xn, &xn));
+    PetscCall(VecGetArrayRead(sys->mass, &m));
+    MSimContactForEachNear(ct, sys->nown, xn, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
+      PetscReal e, de, d2e;
+      Sliding   q;
+      if (d <= 0) return;
+      MSimBarrier(d, ct->dhat, &e, &de, &d2e);
+      q.v      = v;
+      q.lambda = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de);
+      for (int a = 0; a < 3; a++)
+        for (int c = 0; c < 3; c++) q.P[3 * a + c] = (a == c) - n[a] * n[c];
+      for (int c = 0; c < 3; c++) q.vo[c] = o.v[c];
+      L->s.push_back(q);
+    });
+    PetscCall(VecRestoreArrayRead(sys->mass, &m));
+    PetscCall(VecRestoreArrayRead(imp->Xn, &xn));
+    L->id    = id;
+    L->state = state;
+    L->t     = t;
+    L->tx    = imp->step.tx;
+    L->kappa = ct->kappa;
+  }
+  *lag = L;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* f(v, lambda, P (3 x 3), u, y) for every owned vertex and obstacle in contact at x_n, from the
+   step's lagged data (u and y as MSimContactForEachSliding computes them, which the output's
+   contact force uses); leaves the step's x_n and times on the contact object for that output */
 template <class F>
 static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec X, F &&f)
 {
   MSimImplicit       imp = term->imp;
-  MSimSystem         sys = imp->sys;
-  const PetscScalar *x, *xn, *m;
+  const PetscScalar *x, *xn;
+  const Lagged      *L;
 
   PetscFunctionBeginUser;
   ct->fr_xn = imp->Xn;
   ct->fr_t  = imp->step.t;
   ct->fr_tx = imp->step.tx;
   ct->fr_h  = imp->step.h;
+  PetscCall(GetLagged(term, ct, &L));
+  const PetscReal t = L->t, tx = L->tx;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Xn, &xn));
-  PetscCall(VecGetArrayRead(sys->mass, &m));
-  MSimContactForEachSliding(ct, sys->nown, x, xn, m, imp->step.t, imp->step.tx, f);
-  PetscCall(VecRestoreArrayRead(sys->mass, &m));
+  for (const Sliding &q : L->s) {
+    const PetscInt v = q.v;
+    PetscReal      u[3], y = 0;
+    for (int a = 0; a < 3; a++) {
+      u[a] = 0;
+      for (int c = 0; c < 3; c++) u[a] += q.P[3 * a + c] * PetscRealPart(x[3 * v + c] - xn[3 * v + c] - q.vo[c] * (tx - t)); /* as MSimContactForEachSliding's expression */
+      y += u[a] * u[a];
+    }
+    f(v, q.lambda, q.P, u, std::sqrt(y));
+  }
   PetscCall(VecRestoreArrayRead(imp->Xn, &xn));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -155,6 +227,8 @@ static PetscErrorCode Destroy_Friction(MSimImplicitTerm term)
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(term->imp->sys, &ct));
   if (ct && ct->fr_xn == term->imp->Xn) ct->fr_xn = NULL;
+  delete (Lagged *)term->data;
+  term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -167,6 +241,7 @@ PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(term->imp->sys, &ct));
   if (!ct || ct->mu == 0) PetscFunctionReturn(PETSC_SUCCESS); /* nothing per iteration */
-  term->ops = FrictionOps;
+  term->data = new Lagged();
+  term->ops  = FrictionOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
