@@ -1,10 +1,10 @@
 /* Left-looking supernodal Cholesky into a kept structure, and its partial refactorization
    (supernodal_numeric.h). Supernode s (columns c0 .. c1-1, rows R below) is computed in a dense
-   panel of w + m rows and w columns, row-major: A's entries scattered in, the updates of the
+   panel of w + m rows and w columns (blocks of 4 rows, one vector per column): A's entries scattered in, the updates of the
    supernodes below it subtracted in ascending order (each entry one dot product of a descendant's
-   two rows), then the panel's dense Cholesky, column by column. The dot products run four rows at
-   a time, each row's sum in its own register, so the order of every sum is fixed by the structure
-   alone: full and partial factorizations give the same bits. */
+   two rows), then the panel's dense Cholesky, column by column. Every entry's sum runs in one
+   register in a fixed order (its terms by ascending descendant, then ascending column), which the
+   structure alone sets: full and partial factorizations give the same bits. */
 #include "supernodal_numeric.h"
 #include <algorithm>
 #include <cmath>
@@ -57,7 +57,7 @@ void SupernodalCholesky::Analyze(const SupernodalFactor &F, const int *perm, con
         const int *R0 = F.rows_.data() + F.rptr_[s], *R1 = F.rows_.data() + F.rptr_[s + 1];
         pr = w + (int)(std::lower_bound(R0, R1, r) - R0); /* in the structure: A's pattern is in L's */
       }
-      off[e]  = (int64_t)pr * w + (c - c0);
+      off[e]  = (((int64_t)(pr >> 2) * w + (c - c0)) << 2) + (pr & 3);
       asn_[e] = s;
       aptr_[s + 1]++;
     }
@@ -74,7 +74,7 @@ void SupernodalCholesky::Analyze(const SupernodalFactor &F, const int *perm, con
   }
   /* flops per supernode (a multiply and a subtraction per term), and the largest panel */
   flops_.assign(nsn_, 0.0);
-  size_t panel = 0;
+  size_t panel = 0, tsize = 0;
   for (int s = 0; s < nsn_; s++) {
     const double w = F.start_[s + 1] - F.start_[s], m = F.rptr_[s + 1] - F.rptr_[s];
     flops_[s] += w * (w - 1) * (w + 1) / 3 + m * w * w; /* the panel's dense factor */
@@ -82,36 +82,55 @@ void SupernodalCholesky::Analyze(const SupernodalFactor &F, const int *perm, con
       const double wd = F.start_[ud_[k] + 1] - F.start_[ud_[k]], md = F.rptr_[ud_[k] + 1] - F.rptr_[ud_[k]];
       for (int jj = up_[k]; jj < uq_[k]; jj++) flops_[s] += 2 * wd * (md - jj);
     }
-    panel = std::max(panel, (size_t)(w + m) * (size_t)w);
+    panel = std::max(panel, (size_t)(w + m + 3) / 4 * (size_t)w);
+    for (int k = uptr_[s]; k < uptr_[s + 1]; k++) {
+      const size_t wd = F.start_[ud_[k] + 1] - F.start_[ud_[k]];
+      tsize = std::max(tsize, wd * (size_t)((uq_[k] - up_[k] + 3) / 4));
+    }
   }
-  panel_.assign(panel, 0.0);
+  panel_.assign(panel, V4{0, 0, 0, 0});
+  lrow_.assign(n, 0.0);
+  tbuf_.assign(tsize, V4{0, 0, 0, 0});
   map_.assign(n, -1);
   rel_.resize(n);
   redo_.assign(nsn_, 0);
 }
 
-/* sum_k a[k] b[k], k < len, four rows a0..a3 against one row b: four independent sums */
-static inline void Dot4(const double *a0, const double *a1, const double *a2, const double *a3, const double *b, int len, double *out)
-{
-  double s0 = 0, s1 = 0, s2 = 0, s3 = 0;
-  for (int k = 0; k < len; k++) {
-    const double bk = b[k];
-    s0 += a0[k] * bk;
-    s1 += a1[k] * bk;
-    s2 += a2[k] * bk;
-    s3 += a3[k] * bk;
-  }
-  out[0] = s0;
-  out[1] = s1;
-  out[2] = s2;
-  out[3] = s3;
-}
+/* lane l of a panel's 4-row block */
+static inline double &Lane(V4 *P, int w, int r, int c) { return ((double *)(P + (size_t)(r >> 2) * w + c))[r & 3]; }
 
-static inline double Dot1(const double *a, const double *b, int len)
+/* Supernode d's update of the panel of s: for d's rows ii >= jj in p .. md and jj < q (s's
+   columns), P(rel[ii], Rd[jj] - c0) -= row ii . row jj over d's w columns. Rows jj are transposed
+   into T (k-major, 4 per vector), so each of 4 rows ii times 4 rows jj is one vector FMA per k;
+   each entry's sum runs over k in order from 0. */
+static void UpdatePanel(V4 *P, int w, int c0, const double *Bd, int wd, const int *Rd, int md, int p, int q, const int *rel, V4 *T)
 {
-  double s = 0;
-  for (int k = 0; k < len; k++) s += a[k] * b[k];
-  return s;
+  const int nq = q - p, nb = (nq + 3) / 4;
+  double   *t  = (double *)T;
+  for (int k = 0; k < wd; k++)
+    for (int j = 0; j < 4 * nb; j++) t[((size_t)k * nb) * 4 + j] = j < nq ? Bd[(size_t)(p + j) * wd + k] : 0.0;
+  for (int ii = p; ii < md; ii += 4) {
+    const int U = std::min(4, md - ii), jmax = std::min(nq, ii + U - p); /* columns j <= the last row's */
+    const double *b0 = Bd + (size_t)ii * wd, *b1 = U > 1 ? b0 + wd : b0, *b2 = U > 2 ? b0 + 2 * wd : b0, *b3 = U > 3 ? b0 + 3 * wd : b0;
+    for (int jb = 0; jb < jmax; jb += 4) {
+      V4        a0 = {0, 0, 0, 0}, a1 = a0, a2 = a0, a3 = a0;
+      const V4 *tk = T + jb / 4;
+      for (int k = 0; k < wd; k++, tk += nb) {
+        const V4 x = *tk;
+        a0 += Splat(b0[k]) * x;
+        a1 += Splat(b1[k]) * x;
+        a2 += Splat(b2[k]) * x;
+        a3 += Splat(b3[k]) * x;
+      }
+      const V4 a[4] = {a0, a1, a2, a3};
+      for (int u = 0; u < U; u++) {
+        const int r = rel[ii + u];
+        if (r < 0) continue; /* outside s's structure: exact zeros (see Factor) */
+        const int jend = std::min(std::min(jb + 4, nq), ii + u - p + 1);
+        for (int j = jb; j < jend; j++) Lane(P, w, r, Rd[p + j] - c0) -= a[u][j - jb];
+      }
+    }
+  }
 }
 
 int SupernodalCholesky::Factor(SupernodalFactor &F, const double *aval, const std::vector<char> *dirty, double *done, double *total)
@@ -124,57 +143,52 @@ int SupernodalCholesky::Factor(SupernodalFactor &F, const double *aval, const st
     *total += flops_[s];
     if (!redo) continue;
     *done += flops_[s];
-    const int  c0 = F.start_[s], w = F.start_[s + 1] - c0, m = F.rptr_[s + 1] - F.rptr_[s], nr = w + m;
+    const int  c0 = F.start_[s], w = F.start_[s + 1] - c0, m = F.rptr_[s + 1] - F.rptr_[s], nr = w + m, nb = (nr + 3) / 4;
     const int *R  = F.rows_.data() + F.rptr_[s];
-    double    *P  = panel_.data();
-    std::fill(P, P + (size_t)nr * w, 0.0);
-    for (int k = aptr_[s]; k < aptr_[s + 1]; k++) P[aoff_[k]] = aval[aidx_[k]];
+    V4        *P  = panel_.data();
+    std::fill(P, P + (size_t)nb * w, V4{0, 0, 0, 0});
+    double *Pd = (double *)P;
+    for (int k = aptr_[s]; k < aptr_[s + 1]; k++) Pd[aoff_[k]] = aval[aidx_[k]];
     for (int c = 0; c < w; c++) map_[c0 + c] = c;
     for (int p = 0; p < m; p++) map_[R[p]] = w + p;
     for (int k = uptr_[s]; k < uptr_[s + 1]; k++) { /* the supernodes below, ascending */
-      const int     d = ud_[k], wd = F.start_[d + 1] - F.start_[d], md = F.rptr_[d + 1] - F.rptr_[d], p = up_[k], q = uq_[k];
-      const int    *Rd = F.rows_.data() + F.rptr_[d];
-      const double *Bd = F.val_.data() + F.vptr_[d] + (size_t)wd * (wd - 1) / 2;
-      int          *rel = rel_.data();
+      const int d = ud_[k], wd = F.start_[d + 1] - F.start_[d], md = F.rptr_[d + 1] - F.rptr_[d];
+      const int *Rd = F.rows_.data() + F.rptr_[d];
       /* a row of d outside s's structure meets d's rows in s's columns in no column of d, so its
          products are exact zeros (stored zeros of merged supernodes): skipped */
-      for (int ii = p; ii < md; ii++) rel[ii] = map_[Rd[ii]];
-      for (int jj = p; jj < q; jj++) {
-        const int     cj = Rd[jj] - c0;
-        const double *bj = Bd + (size_t)jj * wd;
-        int           ii = jj;
-        double        t[4];
-        for (; ii + 4 <= md; ii += 4) {
-          Dot4(Bd + (size_t)ii * wd, Bd + (size_t)(ii + 1) * wd, Bd + (size_t)(ii + 2) * wd, Bd + (size_t)(ii + 3) * wd, bj, wd, t);
-          for (int u = 0; u < 4; u++)
-            if (rel[ii + u] >= 0) P[(size_t)rel[ii + u] * w + cj] -= t[u];
-        }
-        for (; ii < md; ii++)
-          if (rel[ii] >= 0) P[(size_t)rel[ii] * w + cj] -= Dot1(Bd + (size_t)ii * wd, bj, wd);
-      }
+      for (int ii = up_[k]; ii < md; ii++) rel_[ii] = map_[Rd[ii]];
+      UpdatePanel(P, w, c0, F.val_.data() + F.vptr_[d] + (size_t)wd * (wd - 1) / 2, wd, Rd, md, up_[k], uq_[k], rel_.data(), tbuf_.data());
     }
     for (int c = 0; c < w; c++) map_[c0 + c] = -1;
     for (int p = 0; p < m; p++) map_[R[p]] = -1;
-    /* the panel's dense Cholesky: column c from the columns left of it */
+    /* the panel's dense Cholesky, column c from the columns left of it, 4 rows per vector */
     for (int c = 0; c < w; c++) {
-      const double *pc  = P + (size_t)c * w;
-      const double  dia = pc[c] - Dot1(pc, pc, c);
+      double dia = Lane(P, w, c, c);
+      for (int k = 0; k < c; k++) dia -= Lane(P, w, c, k) * Lane(P, w, c, k);
       if (!(dia > 0)) return c0 + c;
       const double ljj = std::sqrt(dia), inv = 1.0 / ljj;
-      P[(size_t)c * w + c] = ljj;
-      F.invdiag_[c0 + c]   = inv;
-      int    r             = c + 1;
-      double t[4];
-      for (; r + 4 <= nr; r += 4) {
-        Dot4(P + (size_t)r * w, P + (size_t)(r + 1) * w, P + (size_t)(r + 2) * w, P + (size_t)(r + 3) * w, pc, c, t);
-        for (int u = 0; u < 4; u++) P[(size_t)(r + u) * w + c] = (P[(size_t)(r + u) * w + c] - t[u]) * inv;
+      Lane(P, w, c, c)   = ljj;
+      F.invdiag_[c0 + c] = inv;
+      double *l = lrow_.data();
+      for (int k = 0; k < c; k++) l[k] = Lane(P, w, c, k);
+      const int first = (c + 1) >> 2;
+      for (int rb = first; rb < nb; rb++) {
+        V4       *pr = P + (size_t)rb * w;
+        V4        a  = {0, 0, 0, 0};
+        for (int k = 0; k < c; k++) a += pr[k] * Splat(l[k]);
+        const V4 v = (pr[c] - a) * Splat(inv);
+        if (rb == first)
+          for (int lane = 0; lane < 4; lane++) {
+            if (4 * rb + lane > c) pr[c][lane] = v[lane];
+          }
+        else pr[c] = v;
       }
-      for (; r < nr; r++) P[(size_t)r * w + c] = (P[(size_t)r * w + c] - Dot1(P + (size_t)r * w, pc, c)) * inv;
     }
     double *D = F.val_.data() + F.vptr_[s], *B = D + (size_t)w * (w - 1) / 2;
     for (int r = 1; r < w; r++)
-      for (int c = 0; c < r; c++) D[(size_t)r * (r - 1) / 2 + c] = P[(size_t)r * w + c];
-    std::copy(P + (size_t)w * w, P + (size_t)nr * w, B);
+      for (int c = 0; c < r; c++) D[(size_t)r * (r - 1) / 2 + c] = Lane(P, w, r, c);
+    for (int r = w; r < nr; r++)
+      for (int c = 0; c < w; c++) B[(size_t)(r - w) * w + c] = Lane(P, w, r, c);
   }
   return -1;
 }

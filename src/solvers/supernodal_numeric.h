@@ -38,7 +38,9 @@ private:
   std::vector<int64_t> aoff_;                /* offset aoff_[k] of s's dense panel */
   std::vector<int>     asn_;
   std::vector<double>  flops_;               /* per supernode */
-  std::vector<double>  panel_;               /* work: (w + m) x w, row-major */
+  std::vector<V4>      panel_;               /* work: (w + m) x w, blocks of 4 rows, one vector per column */
+  std::vector<V4>      tbuf_;                /* work: a descendant's rows in s's columns, transposed */
+  std::vector<double>  lrow_;                /* work: the row of the current pivot */
   std::vector<int>     map_, rel_;           /* work: a row's place in the current panel, -1 if none */
   std::vector<char>    redo_;
 };
