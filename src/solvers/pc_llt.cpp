@@ -2,8 +2,8 @@
    and stored by supernodes (supernodal.h), so up to four right-hand sides (PD's x, y and z
    columns) cost one sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a
    block-size-3 Vec's array, without the dense-matrix copies of KSPMatSolve.
-   Serially: AMD ordering and the factor's structure from Eigen's SimplicialLLT, kept while A's
-   pattern is; the numbers by msim's left-looking supernodal factorization (supernodal_numeric.h),
+   Serially: Eigen's AMD ordering and msim's symbolic factorization, kept while A's pattern is;
+   the numbers by msim's left-looking supernodal factorization (supernodal_numeric.h),
    which at a later set-up recomputes only the supernodes that A's changed entries reach (PD's
    contact weights change a few rows' diagonal), bit for bit the full factorization. On several ranks: one level of domain
    decomposition (schur_cholesky.h), each rank factoring and sweeping its own rows, the interface
@@ -19,13 +19,12 @@
 #include <cstring>
 #include <petscksp.h>
 #include <Eigen/SparseCore>
-#include <Eigen/SparseCholesky>
+#include <Eigen/OrderingMethods>
 #include <vector>
 
 PETSC_EXTERN PetscErrorCode PCCreate_Shell(PC); /* exported by PETSc, declared in no public header */
 
-typedef Eigen::SparseMatrix<double, Eigen::ColMajor, int>                  SpMat;
-typedef Eigen::SimplicialLLT<SpMat, Eigen::Lower, Eigen::AMDOrdering<int>> LLT;
+typedef Eigen::SparseMatrix<double, Eigen::ColMajor, int> SpMat;
 
 typedef struct {
   msim::SupernodalFactor factor; /* serial */
@@ -112,18 +111,23 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   }
   std::vector<char> dirty;
   const bool        keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol;
-  if (!keep) { /* a new pattern: AMD and the factor's structure (Eigen's), then the analysis */
+  if (!keep) { /* a new pattern: Eigen's AMD ordering (as its SimplicialLLT orders), the structure, the analysis */
     std::vector<Eigen::Triplet<double, int>> t;
     t.reserve(acol.size());
     for (PetscInt i = 0; i < n; i++)
       for (int e = aptr[i]; e < aptr[i + 1]; e++) t.emplace_back((int)i, acol[e], aval[e]);
-    SpMat S((int)n, (int)n);
+    SpMat S((int)n, (int)n), C;
     S.setFromTriplets(t.begin(), t.end());
-    LLT llt(S);
-    PetscCheck(llt.info() == Eigen::Success, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite");
-    const SpMat &L = llt.matrixL().nestedExpression();
-    ctx->factor.Build((int)n, L.outerIndexPtr(), L.innerIndexPtr(), L.valuePtr(), -1, ctx->relax, (int)ctx->max_width);
-    ctx->perm.assign(llt.permutationP().indices().data(), llt.permutationP().indices().data() + n);
+    C = S.selfadjointView<Eigen::Lower>();
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> pinv, p;
+    Eigen::AMDOrdering<int>                                        amd;
+    amd(C, pinv);
+    p = pinv.inverse();
+    ctx->perm.assign(p.indices().data(), p.indices().data() + n);
+    std::vector<int> colptr, row;
+    msim::SymbolicCholesky((int)n, ctx->perm.data(), aptr, acol, colptr, row);
+    const std::vector<double> zero(row.size(), 0.0); /* the numbers come from ctx->numeric */
+    ctx->factor.Build((int)n, colptr.data(), row.data(), zero.data(), -1, ctx->relax, (int)ctx->max_width);
     ctx->numeric.Analyze(ctx->factor, ctx->perm.data(), aptr, acol);
     ctx->analyzed = true;
   } else if (ctx->partial) { /* the supernodes holding a changed entry (bits compared: -0 is not 0) */

@@ -11,6 +11,53 @@
 
 namespace msim {
 
+void SymbolicCholesky(int n, const int *perm, const std::vector<int> &aptr, const std::vector<int> &acol, std::vector<int> &colptr, std::vector<int> &row)
+{
+  /* the strict upper pattern by rows of the permuted matrix: row k lists the columns c < k */
+  std::vector<int> uptr(n + 1, 0), ucol(aptr[n]);
+  for (int i = 0; i < n; i++)
+    for (int e = aptr[i]; e < aptr[i + 1]; e++)
+      if (acol[e] != i) uptr[std::max(perm[i], perm[acol[e]]) + 1]++;
+  for (int k = 0; k < n; k++) uptr[k + 1] += uptr[k];
+  {
+    std::vector<int> next(uptr.begin(), uptr.end() - 1);
+    for (int i = 0; i < n; i++)
+      for (int e = aptr[i]; e < aptr[i + 1]; e++)
+        if (acol[e] != i) ucol[next[std::max(perm[i], perm[acol[e]])]++] = std::min(perm[i], perm[acol[e]]);
+  }
+  /* the elimination tree, with path compression through ancestor */
+  std::vector<int> parent(n, -1), ancestor(n, -1), mark(n, -1);
+  for (int k = 0; k < n; k++)
+    for (int e = uptr[k]; e < uptr[k + 1]; e++)
+      for (int c = ucol[e]; c != -1 && c < k;) {
+        const int up = ancestor[c];
+        ancestor[c]  = k;
+        if (up == -1) parent[c] = k;
+        c = up;
+      }
+  /* row k of L: the columns on the tree paths from row k's entries up to k (ereach); counted, then
+     placed column by column in ascending k */
+  std::vector<int> count(n, 1);
+  auto             reach = [&](int k, auto &&visit) {
+    mark[k] = k;
+    for (int e = uptr[k]; e < uptr[k + 1]; e++)
+      for (int c = ucol[e]; mark[c] != k; c = parent[c]) {
+        mark[c] = k;
+        visit(c);
+      }
+  };
+  for (int k = 0; k < n; k++) reach(k, [&](int c) { count[c]++; });
+  colptr.assign(n + 1, 0);
+  for (int c = 0; c < n; c++) colptr[c + 1] = colptr[c] + count[c];
+  row.resize(colptr[n]);
+  std::vector<int> next(colptr.begin(), colptr.end() - 1);
+  std::fill(mark.begin(), mark.end(), -1);
+  for (int k = 0; k < n; k++) {
+    row[next[k]++] = k; /* the diagonal first: no row < k comes after it in column k */
+    reach(k, [&](int c) { row[next[c]++] = k; });
+  }
+}
+
 void SupernodalCholesky::Analyze(const SupernodalFactor &F, const int *perm, const std::vector<int> &aptr, const std::vector<int> &acol)
 {
   const int n = F.n_;

@@ -13,6 +13,11 @@
 #include <vector>
 
 namespace msim {
+/* The structure of L for A's lower triangle by rows (as Analyze takes it) in the ordering perm,
+   as CSC columns (colptr, row), each column's diagonal first and its rows ascending: the
+   elimination tree (Liu's algorithm) and each row's pattern from its subtree. */
+void SymbolicCholesky(int n, const int *perm, const std::vector<int> &aptr, const std::vector<int> &acol, std::vector<int> &colptr, std::vector<int> &row);
+
 class SupernodalCholesky {
 public:
   /* The kept analysis: the structure of F (built from a factor of A's pattern in the ordering
