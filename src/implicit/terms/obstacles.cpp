@@ -30,7 +30,6 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
-#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: max_step from the X whose distances the local step kept */
 
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
 {
@@ -39,19 +38,92 @@ static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+typedef struct {
+  std::vector<PetscReal> w;       /* per owned vertex: the weights in A */
+  std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
+  PetscBool              pending; /* next holds weights not yet taken */
+  PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
+  Vec                    diag = NULL; /* A's diagonal, for -msim_contact_pd_refactor's test */
+  /* a restart: w holds the checkpoint's weights (those the run's factor held), A was assembled
+     without them at set-up; `restored` makes the next reweight decide as the run would have
+     with them in A, and assemble them if it keeps them (PDReweight_Obstacles) */
+  Vec                    hist     = NULL;
+  PetscBool              restored = PETSC_FALSE;
+  /* set by the Hessian (-msim_contact_pc_pd_weight) around its reweight: the weights of each
+     Jacobian, where PD's own steps (also PD as another SNES's preconditioner) take them once a
+     time step */
+  PetscBool              at_jacobian = PETSC_FALSE;
+  /* per owned vertex, where its distances were last computed (anchor, 3 coordinates) and its
+     least distance to the obstacles there less dhat and a roundoff margin (ex; <= 0: none). The
+     distance is 1-Lipschitz in x, so at any x with |x - anchor| <= ex every obstacle is beyond
+     dhat: the barrier, its gradient, Hessian and PD weight are zero there and the queries are
+     skipped (Far), the same sums as with them; max_step takes ex + dhat - |x - anchor| as the
+     vertex's distance. Valid for one tx where obstacles move (anchors_tx). */
+  std::vector<PetscReal> anchor, ex;
+  PetscReal              anchors_tx = PETSC_MIN_REAL;
+} PDWeights;
+
+/* the anchors, reset (every vertex queried) at a new size or, where obstacles move, a new tx */
+static PDWeights *Anchors(MSimImplicitTerm term, MSimContact ct)
+{
+  PDWeights     *pw   = (PDWeights *)term->data;
+  const PetscInt nown = term->imp->sys->nown;
+  if ((PetscInt)pw->ex.size() != nown || (ct->moving && pw->anchors_tx != term->imp->step.tx)) {
+    pw->anchor.assign(3 * nown, 0.0);
+    pw->ex.assign(nown, -PETSC_MAX_REAL); /* none */
+    pw->anchors_tx = term->imp->step.tx;
+  }
+  return pw;
+}
+
+/* x's vertex v is within ex of its anchor: beyond dhat of every obstacle */
+static bool Far(const PDWeights *pw, PetscInt v, const PetscScalar *x)
+{
+  const PetscReal e = pw->ex[v];
+  if (!(e > 0)) return false;
+  const PetscReal *a = pw->anchor.data() + 3 * v, dx = x[3 * v] - a[0], dy = x[3 * v + 1] - a[1], dz = x[3 * v + 2] - a[2];
+  return dx * dx + dy * dy + dz * dz <= e * e;
+}
+
+/* f(v, o, d, n, H) for every owned vertex v and obstacle o within dhat (d may be <= 0), as
+   msim/private/contactimpl.h's MSimContactForEachNear (the output's contact force uses that one:
+   the same queries, the same order), except that a vertex Far from every obstacle is skipped
+   without a query; each queried vertex's anchor is set to x */
+template <class F>
+static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscBool hessian, F &&f)
+{
+  for (PetscInt v = 0; v < nown; v++) {
+    if (Far(pw, v, x)) continue;
+    PetscReal dmin = PETSC_MAX_REAL, xmax = 0;
+    for (const MSimObstacle &o : ct->obs) {
+      PetscReal n[3], H[9], y[3];
+      for (int c = 0; c < 3; c++) y[c] = x[3 * v + c] - o.v[c] * t; /* as MSimObstacleDistanceAt */
+      const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL) : MSimObstacleDistanceAt(&o, t, x + 3 * v, n, hessian ? H : NULL);
+      dmin              = PetscMin(dmin, d);
+      if (d < ct->dhat) f(v, o, d, n, H);
+    }
+    /* the margin covers the distances' roundoff (a few eps of the coordinates and the distance) */
+    for (int c = 0; c < 3; c++) {
+      pw->anchor[3 * v + c] = x[3 * v + c];
+      xmax                  = PetscMax(xmax, PetscAbsReal(x[3 * v + c]));
+    }
+    pw->ex[v] = dmin - ct->dhat - 1e-9 * (ct->dhat + PetscAbsReal(dmin) + xmax);
+  }
+}
+
 /* f(v, d, n, H, m) for every owned vertex v and obstacle within dhat (d may be <= 0), the
-   obstacles where they are when the scheme's unknown is (step.tx: moving obstacles); the loop is
-   msim/private/contactimpl.h's, which the output's contact force shares */
+   obstacles where they are when the scheme's unknown is (step.tx: moving obstacles) */
 template <class F>
 static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, PetscBool hessian, F &&f)
 {
   MSimSystem         sys = term->imp->sys;
+  PDWeights         *pw  = Anchors(term, ct);
   const PetscScalar *x, *m;
 
   PetscFunctionBeginUser;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  MSimContactForEachNear(ct, sys->nown, x, term->imp->step.tx, ct->dhat, hessian, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
+  NearLoop(pw, ct, sys->nown, x, term->imp->step.tx, hessian, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -112,28 +184,6 @@ static PetscErrorCode Gradient_Obstacles(MSimImplicitTerm term, Vec X, Vec G)
   if (ct) PetscCall(AddGradient(term, ct, X, G, 1.0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
-
-typedef struct {
-  std::vector<PetscReal> w;       /* per owned vertex: the weights in A */
-  std::vector<PetscReal> next;    /* the last computed, taken into w when A is next assembled */
-  PetscBool              pending; /* next holds weights not yet taken */
-  PetscReal              t = PETSC_MIN_REAL; /* the time step (its start) they were computed in */
-  Vec                    diag = NULL; /* A's diagonal, for -msim_contact_pd_refactor's test */
-  /* a restart: w holds the checkpoint's weights (those the run's factor held), A was assembled
-     without them at set-up; `restored` makes the next reweight decide as the run would have
-     with them in A, and assemble them if it keeps them (PDReweight_Obstacles) */
-  Vec                    hist     = NULL;
-  PetscBool              restored = PETSC_FALSE;
-  /* set by the Hessian (-msim_contact_pc_pd_weight) around its reweight: the weights of each
-     Jacobian, where PD's own steps (also PD as another SNES's preconditioner) take them once a
-     time step */
-  PetscBool              at_jacobian = PETSC_FALSE;
-  /* each owned vertex's least distance to the obstacles at the last PD local step's X (its id and
-     state): max_step from that X skips the vertices whose move cannot reach an obstacle */
-  std::vector<PetscReal> dmin;
-  PetscObjectId          dmin_id    = 0;
-  PetscObjectState       dmin_state = 0;
-} PDWeights;
 
 /* one 3 x 3 block per owned vertex near an obstacle, added into the assembled J */
 static PetscErrorCode Hessian_Obstacles(MSimImplicitTerm term, Vec X, PetscBool psd, Mat J)
@@ -275,6 +325,44 @@ static PetscErrorCode PDMatrix_Obstacles(MSimImplicitTerm term, Mat A)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* G += sign (the barrier's gradient at X) and, with e, *e += its energy, in one pass over the
+   vertices (each distance once): the same terms in the same order as AddGradient's and
+   LocalEnergy's; the far vertices skipped (their anchors then serve max_step from this X too).
+   Plus: sign +1, else -1 (PD's right-hand side). */
+template <bool Plus>
+static PetscErrorCode LocalPass(MSimImplicitTerm term, MSimContact ct, Vec X, Vec G, PetscReal *e)
+{
+  const PetscReal    w = term->imp->step.h2 * ct->kappa;
+  const PetscScalar *x, *ms;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactAddToVec(G, [&](PetscScalar *g) {
+    PetscFunctionBeginUser;
+    PetscCall(VecGetArrayRead(X, &x));
+    PetscCall(VecGetArrayRead(term->imp->sys->mass, &ms));
+    NearLoop(Anchors(term, ct), ct, term->imp->sys->nown, x, term->imp->step.tx, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+      PetscReal       b, db, d2b;
+      const PetscReal m  = PetscRealPart(ms[3 * v]);
+      const PetscReal dc = PetscMax(d, PETSC_SMALL * ct->dhat);
+      MSimBarrier(dc, ct->dhat, &b, &db, &d2b);
+      if (Plus)
+        for (int c = 0; c < 3; c++) g[3 * v + c] += w * m * db * n[c];
+      else
+        for (int c = 0; c < 3; c++) g[3 * v + c] -= w * m * db * n[c];
+      if (!e) return;
+      if (d <= 0) *e = PETSC_INFINITY;
+      else {
+        if (dc != d) MSimBarrier(d, ct->dhat, &b, &db, &d2b);
+        *e += w * m * b;
+      }
+    });
+    PetscCall(VecRestoreArrayRead(term->imp->sys->mass, &ms));
+    PetscCall(VecRestoreArrayRead(X, &x));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* PD: A x = rhs with A holding w_v: rhs += w_v x_v - the barrier's gradient at X, so that A X -
    rhs is Phi's gradient at X and the global step is X - A^-1 g(X) (with w = 0: the force alone,
    lagged) */
@@ -286,39 +374,7 @@ static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, Pet
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
-  {
-    /* the gradient and, with e, the energy in one pass over the vertices (each distance once):
-       the same terms in the same order as AddGradient's and LocalEnergy's; and every vertex's
-       least distance, for max_step from this X */
-    const PetscReal    w = term->imp->step.h2 * ct->kappa;
-    const PetscScalar *x, *ms;
-    pw->dmin.assign(term->imp->sys->nown, PETSC_MAX_REAL);
-    PetscCall(MSimContactAddToVec(rhs, [&](PetscScalar *g) {
-      PetscFunctionBeginUser;
-      PetscCall(VecGetArrayRead(X, &x));
-      PetscCall(VecGetArrayRead(term->imp->sys->mass, &ms));
-      MSimContactForEachNear(ct, term->imp->sys->nown, x, term->imp->step.tx, PETSC_MAX_REAL, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
-        PetscReal       b, db, d2b;
-        const PetscReal m = PetscRealPart(ms[3 * v]);
-        pw->dmin[v]       = PetscMin(pw->dmin[v], d);
-        if (!(d < ct->dhat)) return;
-        const PetscReal dc = PetscMax(d, PETSC_SMALL * ct->dhat);
-        MSimBarrier(dc, ct->dhat, &b, &db, &d2b);
-        for (int c = 0; c < 3; c++) g[3 * v + c] -= w * m * db * n[c];
-        if (!e) return;
-        if (d <= 0) *e = PETSC_INFINITY;
-        else {
-          if (dc != d) MSimBarrier(d, ct->dhat, &b, &db, &d2b);
-          *e += w * m * b;
-        }
-      });
-      PetscCall(VecRestoreArrayRead(term->imp->sys->mass, &ms));
-      PetscCall(VecRestoreArrayRead(X, &x));
-      PetscFunctionReturn(PETSC_SUCCESS);
-    }));
-    PetscCall(PetscObjectGetId((PetscObject)X, &pw->dmin_id));
-    PetscCall(PetscObjectStateGet((PetscObject)X, &pw->dmin_state));
-  }
+  PetscCall(LocalPass<false>(term, ct, X, rhs, e));
   if (!pw->w.empty()) {
     const PetscScalar *x;
     PetscScalar       *r;
@@ -450,29 +506,26 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
   MSimContact        ct;
   const PetscScalar *x, *y;
   PetscReal          a = *alpha;
-  const PetscReal   *dmin = NULL;
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
-  {
-    /* from the X of PD's last local step, whose distances that pass kept: a vertex whose move a
-       |u| is shorter than 0.75 of its distance cannot lower alpha (the distance is 1-Lipschitz, so
-       a hit comes after d / |u|, and the safe step is 0.8 of it; with a mesh's thickness,
-       conservative advancement covers 0.9 d / |u| at once), so its ray tests are skipped (the global step's max_step: 4% of a contact step before) */
-    PDWeights       *pw = (PDWeights *)term->data;
-    PetscObjectId    id;
-    PetscObjectState state;
-    PetscCall(PetscObjectGetId((PetscObject)X, &id));
-    PetscCall(PetscObjectStateGet((PetscObject)X, &state));
-    if (pw && id == pw->dmin_id && state == pw->dmin_state && (PetscInt)pw->dmin.size() == sys->nown) dmin = pw->dmin.data();
-  }
+  /* a vertex whose move a |u| is shorter than 0.75 of a lower bound on its distance (its anchor's:
+     ex + dhat - |x - anchor|) cannot lower alpha (the distance is 1-Lipschitz, so a hit comes after
+     d / |u|, and the safe step is 0.8 of it; with a mesh's thickness, conservative advancement
+     covers 0.9 d / |u| at once), so its ray tests are skipped (the global step's max_step: 4% of
+     a contact step before); the others give the same alpha as without the skip */
+  PDWeights *pw = Anchors(term, ct);
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(Y, &y));
   for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
-    if (dmin && dmin[v] > 0 && 0.5625 * dmin[v] * dmin[v] > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
+    if (pw->ex[v] > -ct->dhat) {
+      const PetscReal *an = pw->anchor.data() + 3 * v, dx[3] = {x[3 * v] - an[0], x[3 * v + 1] - an[1], x[3 * v + 2] - an[2]};
+      const PetscReal  lb = pw->ex[v] + ct->dhat - PetscSqrtReal(dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
+      if (lb > 0 && 0.5625 * lb * lb > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
+    }
     for (const MSimObstacle &o : ct->obs) {
       const PetscReal t = SafeStep(o, term->imp->step.tx, v, x + 3 * v, u, a);
       if (t < a) a = t;
