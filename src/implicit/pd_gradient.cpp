@@ -8,8 +8,14 @@
    - a term with no weight in A (the tets' volume, self-contact, friction, obstacles without PD
      weights): its pd_rhs adds -grad E, so g takes the negative of what it adds: G is negated
      around their pd_rhs (exact in floating point), no pass of their own;
-   - a term with weights in A but no pd_gradient (the obstacles' PD weights, which pd_reweight
-     also changes): not here; *done = false and the caller takes rhs and the product. */
+   - a term with weights in A and a pd_gradient (the obstacles' PD weights: their w_v x_v in
+     A x and in rhs cancel, so their part is the barrier's gradient alone);
+   - a term with weights in A but no pd_gradient: not here; *done = false and the caller takes
+     rhs and the product. Terms whose weights follow the state (pd_reweight) take them here, as
+     the local step would; where that changed A (a refactorization, once a time step at most),
+     *done = false as well, for this solve: the stored pairs' Gram rows s_i^T A s_j belong to the
+     old A, and a solve by the product keeps none, so the next fused solve starts its history
+     afresh. */
 #include <msim/implicit.h>
 #include <msim/log.h>
 #include <msim/private/systemimpl.h>
@@ -55,6 +61,7 @@ PetscErrorCode MSimImplicitPDGradient(void *ctx, Vec X, Vec G, PetscReal *phi, P
   PetscScalar       *g;
   PetscReal          energy = 0, w = 0;
   PetscBool          lagged = PETSC_FALSE; /* a term whose part is -(its pd_rhs) */
+  PetscBool          reweight = PETSC_FALSE;
   Vec                C      = imp->Y;
   const PetscInt     n      = 3 * sys->nown;
 
@@ -64,8 +71,19 @@ PetscErrorCode MSimImplicitPDGradient(void *ctx, Vec X, Vec G, PetscReal *phi, P
   if (imp->pd_pending) PetscFunctionReturn(PETSC_SUCCESS);
   for (PetscInt k = 0; k < imp->nterms; k++) {
     const MSimImplicitTermOps &o = imp->terms[k]->ops;
-    if (o.pd_reweight || (!o.diagonal && o.pd_matrix && !o.pd_gradient)) PetscFunctionReturn(PETSC_SUCCESS);
+    if ((o.pd_reweight && !o.pd_gradient) || (!o.diagonal && o.pd_matrix && !o.pd_gradient)) PetscFunctionReturn(PETSC_SUCCESS);
     if (o.pd_rhs && !o.pd_gradient) lagged = PETSC_TRUE;
+    if (o.pd_reweight) reweight = PETSC_TRUE;
+  }
+  if (reweight) {
+    PetscObjectState before = 0, after = 0;
+    if (imp->A) PetscCall(PetscObjectStateGet((PetscObject)imp->A, &before));
+    PetscCall(MSimImplicitPDReweight(imp, X));
+    if (imp->A) PetscCall(PetscObjectStateGet((PetscObject)imp->A, &after));
+    if (after != before) {
+      PetscCall(PetscInfo(NULL, "pd: the state's PD weights changed A at this gradient: this solve takes the product\n"));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
   }
   *done = PETSC_TRUE;
   PetscCall(MSimImplicitPDSetUp(imp)); /* y and the step's reference are set up with A */

@@ -328,7 +328,7 @@ static PetscErrorCode PDMatrix_Obstacles(MSimImplicitTerm term, Mat A)
 /* G += sign (the barrier's gradient at X) and, with e, *e += its energy, in one pass over the
    vertices (each distance once): the same terms in the same order as AddGradient's and
    LocalEnergy's; the far vertices skipped (their anchors then serve max_step from this X too).
-   Plus: sign +1, else -1 (PD's right-hand side). */
+   Plus: PD + L-BFGS's fused gradient (sign +1), else PD's right-hand side (-1). */
 template <bool Plus>
 static PetscErrorCode LocalPass(MSimImplicitTerm term, MSimContact ct, Vec X, Vec G, PetscReal *e)
 {
@@ -385,6 +385,18 @@ static PetscErrorCode PDRHS_Obstacles(MSimImplicitTerm term, Vec X, Vec rhs, Pet
     PetscCall(VecRestoreArray(rhs, &r));
     PetscCall(VecRestoreArrayRead(X, &x));
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* PD + L-BFGS's fused gradient (pd_gradient.cpp): the term's part of A X - rhs(X) is its weights'
+   w_v x_v less rhs's w_v x_v - grad B(X), that is grad B(X) alone: no product with A */
+static PetscErrorCode PDGradient_Obstacles(MSimImplicitTerm term, Vec X, Vec G, PetscReal *e)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (ct) PetscCall(LocalPass<true>(term, ct, X, G, e));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -614,7 +626,7 @@ static PetscErrorCode View_Obstacles(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps ObstaclesOps = {.energy = Energy_Obstacles, .gradient = Gradient_Obstacles, .hessian = Hessian_Obstacles, .pd_matrix = PDMatrix_Obstacles, .pd_rhs = PDRHS_Obstacles,
+static const MSimImplicitTermOps ObstaclesOps = {.energy = Energy_Obstacles, .gradient = Gradient_Obstacles, .hessian = Hessian_Obstacles, .pd_matrix = PDMatrix_Obstacles, .pd_rhs = PDRHS_Obstacles, .pd_gradient = PDGradient_Obstacles,
                                                  .pd_reweight = PDReweight_Obstacles, .max_step = MaxStep_Obstacles, .clamp = Clamp_Obstacles, .feasible_start = FeasibleStart_Obstacles, .view = View_Obstacles, .destroy = Destroy_Obstacles};
 
 PetscErrorCode MSimImplicitTermCreate_Obstacles(MSimImplicitTerm term)
