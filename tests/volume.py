@@ -4,7 +4,8 @@ positions (signed tet volumes computed here, runs/self_contact/volume/tetcheck.p
 volume_ratio field), at the rank count given:
 - a tet box squashed against its clamp by 50 g (Newton): with the term no tet is inverted in any
   frame; without it some frames have inverted tets (so the check can fail); the same with the
-  barrier alone (-msim_volume_stiffness 0, whose passes skip tets), with Newton and with PD;
+  barrier alone (-msim_volume_stiffness 0, whose passes skip tets), with Newton and with PD; with
+  PD, Phi (evaluated in full under -info) does not rise at any step PD's bound on Phi accepted;
 - the bunny (examples/bunny.opts, PD with Anderson, 12 steps: the springs alone invert tets from
   step 9 on): the same two checks;
 - at 2 ranks a box bent by 15 g with the barrier acting (J < 0.9) ends where 1 rank's does, to
@@ -61,6 +62,18 @@ def solid(name, args, np_, tmp, every, without=True):
         check(sum(1 for n in off if n > 0) > 0, f"np={np_} {name}: without it {sum(1 for n in off if n > 0)} of {len(off)} frames have inverted tets (> 0: the check can fail)")
 
 
+def bound_rises(name, args, np_):
+    """PD's bound on Phi (src/implicit/pd_steps.cpp, PDBound): the barrier alone gives it its
+    excess over its lagged model (pd_gap), from which PD leaves its Phi check out or sizes a
+    rejected step. With -info Phi is evaluated in full at both ends of every step the bound
+    accepted: it must not rise beyond roundoff (1e-12 |Phi| + 1e-20 J, as in
+    tests/contact_pd_refactor.py), and the bound must have accepted some steps"""
+    r = mt.run(MSIM, args + ["-info", ":vec"], np_)
+    pairs = [(float(a), float(b)) for a, b in re.findall(r"pd bound: .*\(found\).* Phi (\S+) -> (\S+)", r.stdout + r.stderr)]
+    rise = max((b - a - 1e-12 * abs(a) for a, b in pairs), default=0.0)
+    check(r.returncode == 0 and len(pairs) > 0 and rise <= 1e-20, f"np={np_} {name}: Phi did not rise at any of the {len(pairs)} steps PD's bound accepted (largest rise beyond 1e-12 |Phi|: {rise:.3g} J)")
+
+
 def guard_limit(extra, np_):
     r = mt.run(MSIM, BOX + ["-msim_integrator", "symplectic_euler", "-msim_steps", "1", "-msim_dt", "0.01"] + extra, np_)
     m = re.search(r"stability limit h <= (\S+)", r.stderr)
@@ -74,6 +87,7 @@ for np_ in mt.ranks():
         # Newton and with PD (the bunny's solver); the squash without the term inverts (above)
         solid("squashed box, barrier alone", BOX + NEWTON + ["-msim_volume_stiffness", "0"], np_, tmp, 2, without=False)
         solid("squashed box, barrier alone, PD", BOX + ["-msim_integrator", "implicit_euler", "-msim_steps", "20", "-snes_type", "pd", "-snes_max_it", "100", "-msim_volume_stiffness", "0"], np_, tmp, 2, without=False)
+        bound_rises("squashed box, barrier alone, PD", BOX + ["-msim_integrator", "implicit_euler", "-msim_steps", "20", "-snes_type", "pd", "-snes_max_it", "100", "-msim_volume", "1", "-msim_volume_stiffness", "0"], np_)
         if TETGEN:
             solid("bunny", ["-options_file", os.path.join(mt.ROOT, "examples", "bunny.opts"), "-msim_steps", "12"], np_, tmp, 1)
         if np_ > 1:

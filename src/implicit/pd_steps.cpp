@@ -11,9 +11,10 @@
 #include <cstring>
 #include <vector>
 
-/* the global step's feasibility work, counted in -log_view: max_step calls, the bound's
-   evaluations (PDBoundStep) and the halvings on Phi */
-static PetscLogEvent PD_MaxStep = 0, PD_Bound = 0, PD_Halving = 0;
+/* the global step's feasibility work, counted in -log_view: max_step calls, rejected steps whose
+   length the bound set or tried to (PDRetryHalve), the bound tried in place of the check
+   (PDProblemGlobal) and the halvings on Phi */
+static PetscLogEvent PD_MaxStep = 0, PD_Bound = 0, PD_BoundCheck = 0, PD_Halving = 0;
 
 /* A's diagonal from the weights of the terms that follow the state (pd_reweight: the obstacles,
    whose pd_matrix adds diagonal entries only): diag(A) = the fixed part's diagonal (kept with A at
@@ -118,6 +119,7 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
   if (!PD_MaxStep) {
     PetscCall(PetscLogEventRegister("MSimPDMaxStep", MSIM_CLASSID, &PD_MaxStep));
     PetscCall(PetscLogEventRegister("MSimPDBound", MSIM_CLASSID, &PD_Bound));
+    PetscCall(PetscLogEventRegister("MSimPDBoundCheck", MSIM_CLASSID, &PD_BoundCheck));
     PetscCall(PetscLogEventRegister("MSimPDHalving", MSIM_CLASSID, &PD_Halving));
   }
   PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
@@ -407,160 +409,271 @@ PetscErrorCode MSimImplicitPDSetPC(MSimImplicit imp, KSP ksp)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Whether PD may bound Phi along its global step from the contact terms alone (PDBoundStep): with
-   a factor (an exact solve), every term either a projection (the springs: their local step is
-   Phi's), a diagonal quadratic, a term that gives its own gap (pd_gap: the obstacles), or friction,
-   whose right-hand side is its gradient with no weight in A (its gap from its energy and gradient
-   ops). Any other term (self-contact, the tets' volume) keeps the halving on Phi. */
-static PetscErrorCode PDBoundAvailable(MSimImplicit imp, PetscBool *ok)
+/* Whether PD may bound Phi along its global step from the lagged terms alone (PDBound): with a
+   factor (an exact solve), every term either a projection (the springs: their local step is
+   Phi's), a diagonal quadratic, a term that gives its own gap (pd_gap: the obstacles, the tets'
+   barrier alone), or friction, whose right-hand side is its gradient with no weight in A (its gap
+   from its energy and gradient ops). Any other term (self-contact, Teschner's volume term) keeps
+   the halving on Phi. *cheap: every lagged term gives pd_gap, so the bound costs its product with A
+   and the terms' vertices or tets within reach, where friction's gap costs three of its passes. */
+static PetscErrorCode PDBoundAvailable(MSimImplicit imp, PetscBool *ok, PetscBool *cheap)
 {
   PetscBool gap = PETSC_FALSE;
 
   PetscFunctionBeginUser;
-  *ok = PETSC_FALSE;
+  *ok    = PETSC_FALSE;
+  *cheap = PETSC_TRUE;
   if (imp->pd_iterative) PetscFunctionReturn(PETSC_SUCCESS);
   for (PetscInt k = 0; k < imp->nterms; k++) {
     MSimImplicitTerm t = imp->terms[k];
     if (t->ops.pd_gap) gap = PETSC_TRUE;
     else if (t->ops.diagonal || (!t->ops.pd_rhs && !t->ops.energy) || !std::strcmp(t->type, MSIMTERMSPRINGS)) continue; /* no ops: not active */
-    else if (!std::strcmp(t->type, "friction") && t->ops.energy && t->ops.gradient) continue;
+    else if (!std::strcmp(t->type, "friction") && t->ops.energy && t->ops.gradient) *cheap = PETSC_FALSE;
     else PetscFunctionReturn(PETSC_SUCCESS);
   }
   *ok = gap;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The global step's length without evaluating Phi. X1 = A^-1 rhs minimizes the quadratic S(X) =
-   the springs' projections at X0 (and the diagonal terms) + each lagged term's model at X0
-   (E(X0) + grad E(X0).(X - X0) + sum_v w_v/2 |x_v - x0_v|^2, w_v its weights in A); S(X0) =
-   Phi(X0), and along X0 - alpha D (D = X0 - X1) S = Phi(X0) - (alpha - alpha^2/2) D^T A D. The
-   springs' Phi at X is at most their projections' energy at X (the projections are optimal only at
-   X0), so Phi(X0 - alpha D) <= Phi(X0) - (alpha - alpha^2/2) D^T A D + gap(alpha), gap the lagged
-   terms' excess over their models (pd_gap: only the vertices within reach of an obstacle), and
-   any alpha with gap(alpha) <= (alpha - alpha^2/2) D^T A D lowers Phi: no pass over the springs,
-   no local step at a rejected point. Tried: alpha0 (max_step's), then alpha0 / 2^j (j <= 12) in one
-   batch, then one secant step between the last failing and the first passing alpha. The bound is
-   conservative (it drops the springs' reprojection), so the alpha it accepts may be shorter than
-   the halving on Phi would take; found is false when none passes (the caller halves on Phi).
-   X holds X0 - alpha0 D on entry and X0 - acc D on return (untouched unless acc < alpha0). */
-static PetscErrorCode PDBoundStep(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha0, Vec X, PetscReal *acc, PetscBool *found)
-{
-  Vec                    W, Xa; /* work: A D or a gradient, and X0 - alpha D */
-  PetscReal              dad;
+/* The bound on Phi along the global step, without evaluating Phi. X1 = A^-1 rhs minimizes the
+   quadratic S(X) = the springs' projections at X0 (and the diagonal terms) + each lagged term's
+   model at X0 (E(X0) + grad E(X0).(X - X0) + sum_v w_v/2 |x_v - x0_v|^2, w_v its weights in A);
+   S(X0) = Phi(X0), and along X0 - alpha D (D = X0 - X1) S = Phi(X0) - (alpha - alpha^2/2) D^T A D.
+   The springs' Phi at X is at most their projections' energy at X (the projections are optimal
+   only at X0), so Phi(X0 - alpha D) <= Phi(X0) - (alpha - alpha^2/2) D^T A D + gap(alpha), gap the
+   lagged terms' excess over their models (pd_gap: only the vertices within reach of an obstacle,
+   the tets within reach of the barrier), and any alpha with gap(alpha) <= (alpha - alpha^2/2)
+   D^T A D lowers Phi: no pass over the springs, no local step at a rejected point. The model is
+   the right-hand side's at X0, so the bound is used only where the local step was taken at X0 as
+   it is now (`cached` in PDProblemGlobal). One PDBound per global step: D^T A D (the one product
+   with A) and friction's energy and slope at X0 are taken once, by PDBoundBegin, for the check
+   that the bound may leave out and for the retry it may size. */
+struct PDBound {
+  PetscBool              begun = PETSC_FALSE, ok = PETSC_FALSE; /* ok: available, D^T A D > 0 */
+  PetscBool              cheap = PETSC_FALSE;                   /* PDBoundAvailable's */
+  PetscBool              have_f0 = PETSC_FALSE;
+  PetscReal              dad = 0, f0 = 0; /* D^T A D, the excess at the step's alpha0 */
+  Vec                    W = NULL, Xa = NULL; /* work: A D or a gradient, and X0 - alpha D */
   std::vector<PetscInt>  lag; /* friction: its gap from its energy and gradient */
   std::vector<PetscReal> e0, slope;
   PetscInt               evals = 0;
+};
+
+static PetscErrorCode PDBoundBegin(MSimImplicit imp, Vec X0, Vec D, PDBound *b)
+{
+  PetscBool ok, cheap;
 
   PetscFunctionBeginUser;
-  *found = PETSC_FALSE;
-  *acc   = alpha0;
-  PetscCall(PetscLogEventBegin(PD_Bound, 0, 0, 0, 0));
-  PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&W));
-  PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&Xa));
-  if (!W) { /* made once, freed with D */
+  if (b->begun) PetscFunctionReturn(PETSC_SUCCESS);
+  b->begun = PETSC_TRUE;
+  PetscCall(PDBoundAvailable(imp, &ok, &cheap));
+  b->cheap = cheap;
+  if (!ok) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&b->W));
+  PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&b->Xa));
+  if (!b->W) { /* made once, freed with D */
+    Vec W, Xa;
     PetscCall(VecDuplicate(D, &W));
     PetscCall(VecDuplicate(D, &Xa));
     PetscCall(PetscObjectCompose((PetscObject)D, "MSimPDBoundWork", (PetscObject)W));
     PetscCall(PetscObjectCompose((PetscObject)D, "MSimPDBoundX", (PetscObject)Xa));
     PetscCall(VecDestroy(&W));
     PetscCall(VecDestroy(&Xa));
-    PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&W));
-    PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&Xa));
+    PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&b->W));
+    PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&b->Xa));
   }
-  PetscCall(MSimMatMultInterleaved3(imp->A, &imp->A3, D, NULL, W));
-  PetscCall(VecDot(D, W, &dad));
+  PetscCall(MSimMatMultInterleaved3(imp->A, &imp->A3, D, NULL, b->W));
+  PetscCall(VecDot(D, b->W, &b->dad));
   for (PetscInt k = 0; k < imp->nterms; k++) {
     MSimImplicitTerm t = imp->terms[k];
     PetscReal        e = 0, s;
     if (t->ops.pd_gap || t->ops.diagonal || (!t->ops.pd_rhs && !t->ops.energy) || !std::strcmp(t->type, MSIMTERMSPRINGS)) continue;
     PetscCall(t->ops.energy(t, X0, &e));
-    PetscCall(VecZeroEntries(W));
-    PetscCall(t->ops.gradient(t, X0, W));
-    PetscCall(VecDot(W, D, &s));
-    lag.push_back(k);
-    e0.push_back(e);
-    slope.push_back(s);
+    PetscCall(VecZeroEntries(b->W));
+    PetscCall(t->ops.gradient(t, X0, b->W));
+    PetscCall(VecDot(b->W, D, &s));
+    b->lag.push_back(k);
+    b->e0.push_back(e);
+    b->slope.push_back(s);
   }
-  /* gap(alpha) - (alpha - alpha^2/2) D^T A D for each alpha: <= 0 accepts it */
-  auto excess = [&](PetscInt n, const PetscReal *a, PetscReal *f) -> PetscErrorCode {
-    PetscFunctionBeginUser;
-    evals += n;
-    for (PetscInt j = 0; j < n; j++) f[j] = 0;
-    for (PetscInt k = 0; k < imp->nterms; k++)
-      if (imp->terms[k]->ops.pd_gap) PetscCall(imp->terms[k]->ops.pd_gap(imp->terms[k], X0, D, n, a, f));
-    for (size_t l = 0; l < lag.size(); l++)
-      for (PetscInt j = 0; j < n; j++) {
-        PetscReal e = 0;
-        PetscCall(VecWAXPY(Xa, -a[j], D, X0));
-        PetscCall(imp->terms[lag[l]]->ops.energy(imp->terms[lag[l]], Xa, &e));
-        f[j] += e - e0[l] + a[j] * slope[l];
-      }
-    for (PetscInt j = 0; j < n; j++) f[j] -= (a[j] - 0.5 * a[j] * a[j]) * dad;
-    PetscFunctionReturn(PETSC_SUCCESS);
-  };
-  if (dad > 0 && PetscIsNormalReal(dad)) {
-    PetscReal f0;
-    PetscCall(excess(1, &alpha0, &f0));
-    if (f0 <= 0) *found = PETSC_TRUE;
-    else {
-      const PetscInt nj = 12;
-      PetscReal      a[nj], f[nj];
-      for (PetscInt j = 0; j < nj; j++) a[j] = alpha0 * PetscPowReal(0.5, (PetscReal)(j + 1));
-      PetscCall(excess(nj, a, f));
-      for (PetscInt j = 0; j < nj && !*found; j++)
-        if (f[j] <= 0) {
-          /* the secant root of the excess between the failing alpha above and this one, 0.9 of
-             the way from this one: kept if it passes */
-          const PetscReal ahi = j ? a[j - 1] : alpha0, fhi = j ? f[j - 1] : f0;
-          *found = PETSC_TRUE;
-          *acc   = a[j];
-          if (PetscIsNormalReal(fhi)) {
-            PetscReal as = a[j] + 0.9 * (ahi - a[j]) * (-f[j]) / (fhi - f[j]), fs;
-            if (as > a[j] && as < ahi) {
-              PetscCall(excess(1, &as, &fs));
-              if (fs <= 0) *acc = as;
-            }
-          }
-        }
-    }
-  }
-  if (*found && *acc != alpha0) PetscCall(VecWAXPY(X, -*acc, D, X0));
-  {
-    /* with -info, Phi at both ends evaluated in full, as evidence that the bound held (tests) */
-    PetscBool info;
-    PetscReal p0 = 0, p1 = 0;
-    PetscCall(PetscInfoEnabled(VEC_CLASSID, &info));
-    if (info && *found) {
-      PetscCall(MSimImplicitObjective(imp, X0, &p0));
-      PetscCall(MSimImplicitObjective(imp, X, &p1));
-    }
-    PetscCall(PetscInfo(X0, "pd bound: alpha0 %g accepted %g (%s), D^T A D %g, %" PetscInt_FMT " evaluations, Phi %.17g -> %.17g\n", (double)alpha0, (double)*acc, *found ? "found" : "none: halving on Phi", (double)dad, evals, (double)p0, (double)p1));
-  }
-  PetscCall(PetscLogEventEnd(PD_Bound, 0, 0, 0, 0));
+  b->ok = (PetscBool)(b->dad > 0 && PetscIsNormalReal(b->dad));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Phi rose at X0 - alpha D: the step's length from the bound (PDBoundStep) where it applies, in
-   place of halvings that each cost a pass of every term (or, deferred, a local step). The bound
-   needs the global step's model: A and the right-hand side taken at X0, as `cached` says. found:
-   X = X0 - acc D, Phi(X) <= Phi(X0) */
-static PetscErrorCode PDBoundRetry(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, Vec X, PetscBool *found, PetscReal *acc)
+/* f[j] = gap(a[j]) - (a[j] - a[j]^2/2) D^T A D: <= 0 proves Phi(X0 - a[j] D) <= Phi(X0) */
+static PetscErrorCode PDBoundExcess(MSimImplicit imp, PDBound *b, Vec X0, Vec D, PetscInt n, const PetscReal *a, PetscReal *f)
 {
-  PetscBool ok;
+  PetscFunctionBeginUser;
+  b->evals += n;
+  for (PetscInt j = 0; j < n; j++) f[j] = 0;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.pd_gap) PetscCall(imp->terms[k]->ops.pd_gap(imp->terms[k], X0, D, n, a, f));
+  for (size_t l = 0; l < b->lag.size(); l++)
+    for (PetscInt j = 0; j < n; j++) {
+      PetscReal e = 0;
+      PetscCall(VecWAXPY(b->Xa, -a[j], D, X0));
+      PetscCall(imp->terms[b->lag[l]]->ops.energy(imp->terms[b->lag[l]], b->Xa, &e));
+      f[j] += e - b->e0[l] + a[j] * b->slope[l];
+    }
+  for (PetscInt j = 0; j < n; j++) f[j] -= (a[j] - 0.5 * a[j] * a[j]) * b->dad;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* whether the bound proves that Phi does not rise at X0 - alpha0 D, the step as it stands */
+static PetscErrorCode PDBoundPasses(MSimImplicit imp, PDBound *b, Vec X0, Vec D, PetscReal alpha0, PetscBool *pass)
+{
+  PetscFunctionBeginUser;
+  *pass = PETSC_FALSE;
+  PetscCall(PDBoundBegin(imp, X0, D, b));
+  if (!b->ok) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!b->have_f0) {
+    PetscCall(PDBoundExcess(imp, b, X0, D, 1, &alpha0, &b->f0));
+    b->have_f0 = PETSC_TRUE;
+  }
+  *pass = (PetscBool)(b->f0 <= 0);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* A step below alpha0, where the bound fails at alpha0: alpha0 / 2^j (j <= 12) in one batch, then
+   one secant step between the last failing and the first passing alpha. The bound is conservative
+   (it drops the springs' reprojection), so the alpha it accepts may be shorter than the halving on
+   Phi would take; found is false when none passes (the caller halves on Phi). */
+static PetscErrorCode PDBoundShorten(MSimImplicit imp, PDBound *b, Vec X0, Vec D, PetscReal alpha0, PetscReal *acc, PetscBool *found)
+{
+  const PetscInt nj = 12;
+  PetscReal      a[nj], f[nj];
 
   PetscFunctionBeginUser;
   *found = PETSC_FALSE;
-  *acc   = alpha;
-  PetscCall(PDBoundAvailable(imp, &ok));
-  if (!ok) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PDBoundStep(imp, X0, D, alpha, X, acc, found));
-  if (*found) imp->pd_rejected = PETSC_FALSE; /* a rejection costs no halving now: keep deferring */
+  *acc   = alpha0;
+  if (!b->ok || !b->have_f0) PetscFunctionReturn(PETSC_SUCCESS);
+  for (PetscInt j = 0; j < nj; j++) a[j] = alpha0 * PetscPowReal(0.5, (PetscReal)(j + 1));
+  PetscCall(PDBoundExcess(imp, b, X0, D, nj, a, f));
+  for (PetscInt j = 0; j < nj && !*found; j++)
+    if (f[j] <= 0) {
+      /* the secant root of the excess between the failing alpha above and this one, 0.9 of the
+         way from this one: kept if it passes */
+      const PetscReal ahi = j ? a[j - 1] : alpha0, fhi = j ? f[j - 1] : b->f0;
+      *found = PETSC_TRUE;
+      *acc   = a[j];
+      if (PetscIsNormalReal(fhi)) {
+        PetscReal as = a[j] + 0.9 * (ahi - a[j]) * (-f[j]) / (fhi - f[j]), fs;
+        if (as > a[j] && as < ahi) {
+          PetscCall(PDBoundExcess(imp, b, X0, D, 1, &as, &fs));
+          if (fs <= 0) *acc = as;
+        }
+      }
+    }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The global step's check the old way, at X = X0 - alpha D: Phi(X) by MSimImplicitObjective,
-   halving alpha until it does not rise above phi0 (Phi(x_k); cached: the local step's sum) */
-static PetscErrorCode PDHalve(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, PetscBool cached, PetscReal phi0, Vec X)
+/* -info: the bound's decision, and for a step it accepted Phi at both ends evaluated in full, as
+   evidence that the bound held (tests/contact_pd_refactor.py reads this line) */
+static PetscErrorCode PDBoundInfo(MSimImplicit imp, PDBound *b, Vec X0, Vec X, PetscReal alpha0, PetscReal acc, PetscBool found, const char *what)
+{
+  PetscBool info;
+  PetscReal p0 = 0, p1 = 0;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscInfoEnabled(VEC_CLASSID, &info));
+  if (!info) PetscFunctionReturn(PETSC_SUCCESS);
+  if (found) {
+    PetscCall(MSimImplicitObjective(imp, X0, &p0));
+    PetscCall(MSimImplicitObjective(imp, X, &p1));
+  }
+  PetscCall(PetscInfo(X0, "pd bound: alpha0 %g accepted %g (%s), %s, D^T A D %g, %" PetscInt_FMT " evaluations, Phi %.17g -> %.17g\n", (double)alpha0, (double)acc, found ? "found" : "none: halving on Phi", what, (double)b->dad, b->evals, (double)p0, (double)p1));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* How far a measured Phi may rise at X0 - alpha D and still count as not rising: the roundoff of
+   the global step itself. The bound takes X1 = A^-1 rhs as exact; a computed X1 has a residual r =
+   A X1 - rhs of about eps |A| |X1| (a backward-stable solve), which moves the model along the step
+   by alpha D^T r, at most alpha |D|_1 eps |A|_inf |X0|_inf. Where PD has converged to roundoff (a
+   free fall: x = y solves the step, Phi ~ 1e-27 J, each iterate moves by the solve's 1e-15 m)
+   that is the size of Phi's changes, up and down, and the bound passes while Phi is measured to
+   rise by about D^T A D (the 101 x 101 drape's first steps: 1.9e-27 J); in a step that moves, it
+   is eps |X0| |A D| against a decrease of D^T A D. Plus MSIM_PHI_ROUNDOFF |Phi| (solvers.h), the
+   evaluation's own, as PD + L-BFGS's line search takes it. No constant on the solve's term: on
+   that drape it is 100 to 1500 times the rises measured. */
+static PetscErrorCode PDPhiRoundoff(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, PetscReal phi0, PetscReal *tol)
+{
+  PetscReal d1, xinf, ainf;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecNorm(D, NORM_1, &d1));
+  PetscCall(VecNorm(X0, NORM_INFINITY, &xinf));
+  PetscCall(MatNorm(imp->A, NORM_INFINITY, &ainf));
+  *tol = MSIM_PHI_ROUNDOFF * PetscAbsReal(phi0) + PETSC_MACHINE_EPSILON * alpha * d1 * ainf * xinf;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Phi at X for the check's loop (PDRetryHalve): *phi = Phi(X); with phi NULL, X is an accepted
+   step whose Phi is not needed, and the caller's state follows it (the deferred check: the local
+   step at X, which the next global step reads) */
+typedef PetscErrorCode (*PDPhiAt)(MSimImplicit imp, void *ctx, Vec X, PetscReal *phi);
+
+/* The global step's check once Phi(X), X = X0 - alpha D, is known to be phi, against phi0 =
+   Phi(X0) summed the same way: one loop for the check done at once (PDHalve, Phi by
+   MSimImplicitObjective) and the deferred one (PDProblemRHS, Phi from the next local step), Phi at
+   a retried X by phi_at. A rise is answered by the bound where it applies (b not NULL): where it
+   fails at alpha, its longest shorter step that provably lowers Phi, with no Phi evaluation there.
+   Where it passes at alpha although Phi was measured to rise there, the bound and the measure
+   disagree: a rise within Phi's roundoff (PDPhiRoundoff; the free fall's) is taken as no rise and
+   alpha kept, a larger one means the bound does not model some term and it is not trusted
+   (halving on Phi, -info says so). Without the bound, or where it finds nothing: halving on Phi
+   until it does not rise (at most 30 times). */
+static PetscErrorCode PDRetryHalve(MSimImplicit imp, PDBound *b, Vec X0, Vec D, PetscReal alpha, PetscReal phi0, PetscReal phi, Vec X, PDPhiAt phi_at, void *ctx)
+{
+  PetscFunctionBeginUser;
+  imp->pd_rejected = (PetscBool)!(phi <= phi0);
+  if (imp->pd_rejected && b) {
+    PetscBool ok, cheap;
+    PetscCall(PDBoundAvailable(imp, &ok, &cheap));
+    if (!ok) b = NULL;
+  }
+  if (imp->pd_rejected && b) {
+    PetscBool pass, found = PETSC_FALSE;
+    PetscReal acc = alpha;
+    PetscCall(PetscLogEventBegin(PD_Bound, 0, 0, 0, 0));
+    PetscCall(PDBoundPasses(imp, b, X0, D, alpha, &pass));
+    if (pass) {
+      PetscReal tol;
+      PetscCall(PDPhiRoundoff(imp, X0, D, alpha, phi0, &tol));
+      found = (PetscBool)(phi - phi0 <= tol);
+      PetscCall(PetscInfo(X0, "pd bound: passes at alpha0 %g where Phi was measured to rise by %g (roundoff tolerance %g): %s\n", (double)alpha, (double)(phi - phi0), (double)tol, found ? "roundoff, alpha0 kept" : "the bound does not hold, halving on Phi"));
+    } else if (b->ok) {
+      PetscCall(PDBoundShorten(imp, b, X0, D, alpha, &acc, &found));
+      if (found) PetscCall(VecWAXPY(X, -acc, D, X0));
+    }
+    if (b->ok) PetscCall(PDBoundInfo(imp, b, X0, X, alpha, acc, found, "rejected step"));
+    PetscCall(PetscLogEventEnd(PD_Bound, 0, 0, 0, 0));
+    if (found) {
+      imp->pd_rejected = PETSC_FALSE; /* a rejection costs no halving now: keep deferring */
+      if (acc != alpha) PetscCall(phi_at(imp, ctx, X, NULL));
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
+  }
+  for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
+    PetscCall(PetscLogEventBegin(PD_Halving, 0, 0, 0, 0));
+    alpha *= 0.5;
+    PetscCall(VecWAXPY(X, -alpha, D, X0));
+    PetscCall(phi_at(imp, ctx, X, &phi));
+    PetscCall(PetscLogEventEnd(PD_Halving, 0, 0, 0, 0));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDObjectiveAt(MSimImplicit imp, void *, Vec X, PetscReal *phi)
+{
+  PetscFunctionBeginUser;
+  if (phi) PetscCall(MSimImplicitObjective(imp, X, phi));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The global step's check done at once, at X = X0 - alpha D: Phi(X) by MSimImplicitObjective
+   against phi0 (Phi(x_k); cached: the local step's sum), then PDRetryHalve. b: the step's bound
+   (NULL: none) */
+static PetscErrorCode PDHalve(MSimImplicit imp, PDBound *b, Vec X0, Vec D, PetscReal alpha, PetscBool cached, PetscReal phi0, Vec X)
 {
   PetscReal phi;
 
@@ -570,25 +683,12 @@ static PetscErrorCode PDHalve(MSimImplicit imp, Vec X0, Vec D, PetscReal alpha, 
      by roundoff near convergence, a cached Phi(x_k) a few ulp low would make every halving
      fail; compare like with like before halving */
   if (cached && !(phi <= phi0)) PetscCall(MSimImplicitObjective(imp, X0, &phi0));
-  imp->pd_rejected = (PetscBool)!(phi <= phi0);
-  if (imp->pd_rejected && cached) {
-    PetscBool found;
-    PetscReal acc;
-    PetscCall(PDBoundRetry(imp, X0, D, alpha, X, &found, &acc));
-    if (found) PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
-    PetscCall(PetscLogEventBegin(PD_Halving, 0, 0, 0, 0));
-    alpha *= 0.5;
-    PetscCall(VecWAXPY(X, -alpha, D, X0));
-    PetscCall(MSimImplicitObjective(imp, X, &phi));
-    PetscCall(PetscLogEventEnd(PD_Halving, 0, 0, 0, 0));
-  }
+  PetscCall(PDRetryHalve(imp, cached ? b : NULL, X0, D, alpha, phi0, phi, X, PDObjectiveAt, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* A deferred check still pending (the solver's last iterate, or an X that the next local step
-   does not get): done the old way, if the iterate is as the global step left it */
+   does not get): done at once, if the iterate is as the global step left it */
 static PetscErrorCode PDCheckResolve(MSimImplicit imp)
 {
   PetscObjectState state;
@@ -597,7 +697,10 @@ static PetscErrorCode PDCheckResolve(MSimImplicit imp)
   if (!imp->pd_pending) PetscFunctionReturn(PETSC_SUCCESS);
   imp->pd_pending = PETSC_FALSE;
   PetscCall(PetscObjectStateGet((PetscObject)imp->pd_px, &state));
-  if (state == imp->pd_pstate) PetscCall(PDHalve(imp, imp->pd_x0, imp->pd_d, imp->pd_alpha, PETSC_TRUE, imp->pd_phi0, imp->pd_px));
+  if (state == imp->pd_pstate) {
+    PDBound b;
+    PetscCall(PDHalve(imp, &b, imp->pd_x0, imp->pd_d, imp->pd_alpha, PETSC_TRUE, imp->pd_phi0, imp->pd_px));
+  }
   PetscCall(VecDestroy(&imp->pd_px)); /* the reference taken by the global step */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -606,6 +709,22 @@ static PetscErrorCode PDProblemFinish(void *ctx)
 {
   PetscFunctionBeginUser;
   PetscCall(PDCheckResolve((MSimImplicit)ctx));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the deferred check's Phi: the local step at X (into rhs, which the caller reads next) */
+struct PDLocalAtCtx {
+  Vec        rhs;
+  PetscReal *phi;
+};
+
+static PetscErrorCode PDLocalAt(MSimImplicit imp, void *ctx, Vec X, PetscReal *phi)
+{
+  PDLocalAtCtx *c = (PDLocalAtCtx *)ctx;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitPDRHS(imp, X, c->rhs, c->phi));
+  if (phi) *phi = *c->phi;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -625,28 +744,13 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
     if (X == imp->pd_px && state == imp->pd_pstate) {
       /* the global step's deferred check, with Phi(X) from this local step's passes (phi is set:
          a check is pending only where a term has a feasible set) and phi0 from the last one's:
-         like with like, as in PDHalve. A halved X gets its own local step. */
-      PetscReal alpha = imp->pd_alpha;
+         like with like, as in PDHalve. A retried X gets its own local step. */
+      PDBound      b;
+      PDLocalAtCtx c = {rhs, phi};
       imp->pd_pending = PETSC_FALSE;
       PetscCall(VecDestroy(&imp->pd_px)); /* the global step's reference; the caller's X lives on */
       PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
-      imp->pd_rejected = (PetscBool)!(*phi <= imp->pd_phi0);
-      if (imp->pd_rejected) {
-        PetscBool found;
-        PetscReal acc;
-        PetscCall(PDBoundRetry(imp, imp->pd_x0, imp->pd_d, alpha, X, &found, &acc));
-        if (found) {
-          if (acc != alpha) PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi)); /* X moved: its own local step */
-          PetscFunctionReturn(PETSC_SUCCESS);
-        }
-      }
-      for (PetscInt it = 0; it < 30 && !(*phi <= imp->pd_phi0); it++) {
-        PetscCall(PetscLogEventBegin(PD_Halving, 0, 0, 0, 0));
-        alpha *= 0.5;
-        PetscCall(VecWAXPY(X, -alpha, imp->pd_d, imp->pd_x0));
-        PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
-        PetscCall(PetscLogEventEnd(PD_Halving, 0, 0, 0, 0));
-      }
+      PetscCall(PDRetryHalve(imp, &b, imp->pd_x0, imp->pd_d, imp->pd_alpha, imp->pd_phi0, *phi, X, PDLocalAt, &c));
       PetscFunctionReturn(PETSC_SUCCESS);
     }
     PetscCall(PDCheckResolve(imp));
@@ -656,14 +760,23 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
 }
 
 /* The PD solver's global step from the current iterate guess; where a term has a feasible set
-   (contact barriers), the step from guess is shortened by the terms' max_step so that PD's
-   iterates stay inside it, and then halved until Phi does not rise: checked now, or, where the
-   solver allows it (defer_check) and Phi(guess) is the last local step's, by the next local step
-   at X (PDProblemRHS), which sums Phi(X) anyway: the separate evaluation cost 9% of a PD step of
-   the bunny with its volume barrier and most of contact's cost in PD on the cloth on the ball
-   (runs/contact/README.md). After a check that halved the step the next is done at once: a
-   deferred halving costs a local step, about 2.5 MSimImplicitObjective passes, and rejections
-   come in runs (the free 101 x 101 cloth on the ball halves in half its iterations). */
+   (contact barriers, the tets' barrier), the step from guess is shortened by the terms' max_step
+   so that PD's iterates stay inside it, and then checked: Phi must not rise along it. Three ways,
+   cheapest first:
+   - no check where no term's barrier is met along the step (pd_check);
+   - the bound on Phi (PDBound), where it applies and costs less than the check: it proves that
+     Phi does not rise without evaluating it (one product with A and the terms' elements within
+     reach, against a pass of every term), and sizes the step where the check finds a rise;
+   - the check, done now, or, where the solver allows it (defer_check) and Phi(guess) is the last
+     local step's, by the next local step at X (PDProblemRHS), which sums Phi(X) anyway: the
+     separate evaluation cost 9% of a PD step of the bunny with its volume barrier and most of
+     contact's cost in PD on the cloth on the ball (runs/contact/README.md). After a check that
+     halved the step the next is done at once: a deferred halving costs a local step, about 2.5
+     MSimImplicitObjective passes, and rejections come in runs (the free 101 x 101 cloth on the
+     ball halves in half its iterations).
+   The bound goes first only where the check would cost an evaluation of Phi (not deferred) and
+   every lagged term gives its own gap (PDBoundAvailable's cheap): a deferred check costs nothing
+   where it passes, and friction's gap costs three of its passes, more than the check's one. */
 static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
   MSimImplicit imp      = (MSimImplicit)ctx;
@@ -712,9 +825,25 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   if (!check) PetscFunctionReturn(PETSC_SUCCESS);
   /* With the barrier's force lagged in the right-hand side, D = A^-1 g(x_k) (A x - rhs(x) is
      Phi's gradient), a descent direction but not a contraction where the barrier is stiffer
-     than A: halve the step until Phi does not rise. Phi(x_k): the local step's, when it was
-     taken at guess as it is now. */
-  if (imp->pd.defer_check && cached && X == guess && !imp->pd_rejected) {
+     than A: the step must not raise Phi. Phi(x_k): the local step's, when it was taken at guess
+     as it is now. */
+  const PetscBool defer = (PetscBool)(imp->pd.defer_check && cached && X == guess && !imp->pd_rejected);
+  PDBound         b;
+  if (cached && !defer) {
+    PetscBool pass, ok, cheap;
+    PetscCall(PDBoundAvailable(imp, &ok, &cheap));
+    if (ok && cheap) {
+      PetscCall(PetscLogEventBegin(PD_BoundCheck, 0, 0, 0, 0));
+      PetscCall(PDBoundPasses(imp, &b, X0, D, alpha, &pass));
+      if (pass) PetscCall(PDBoundInfo(imp, &b, X0, X, alpha, alpha, PETSC_TRUE, "check left out"));
+      PetscCall(PetscLogEventEnd(PD_BoundCheck, 0, 0, 0, 0));
+      if (pass) {
+        imp->pd_rejected = PETSC_FALSE;
+        PetscFunctionReturn(PETSC_SUCCESS);
+      }
+    }
+  }
+  if (defer) {
     imp->pd_pending = PETSC_TRUE;
     imp->pd_alpha   = alpha;
     imp->pd_phi0    = imp->pd_phi;
@@ -727,7 +856,7 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
     PetscReal phi0 = 0;
     if (cached) phi0 = imp->pd_phi;
     else PetscCall(MSimImplicitObjective(imp, X0, &phi0));
-    PetscCall(PDHalve(imp, X0, D, alpha, cached, phi0, X));
+    PetscCall(PDHalve(imp, &b, X0, D, alpha, cached, phi0, X));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -120,10 +120,12 @@ typedef struct {
      (halving until it does not rise); a term without it always asks for the check */
   PetscErrorCode (*pd_check)(MSimImplicitTerm, PetscBool *needed) = NULL;
   /* optional, PD: a term whose right-hand side is its gradient at X0 with diagonal weights w_v in
-     A (obstacles) gives, for each step length alpha[j], gap[j] += E(X0 - alpha D) - E(X0) +
-     alpha grad E(X0).D - alpha^2/2 sum_v w_v |D_v|^2, summed over the ranks (+inf where a vertex
-     is inside): its excess over the global step's quadratic model, from which PD bounds Phi
-     without a pass over the other terms (pd_steps.cpp, PDBoundStep) */
+     A (obstacles; none: the tets' barrier) gives, for each step length alpha[j], gap[j] +=
+     E(X0 - alpha D) - E(X0) + alpha grad E(X0).D - alpha^2/2 sum_v w_v |D_v|^2, summed over the
+     ranks (+inf where it cannot say): its excess over the global step's quadratic model, from
+     which PD bounds Phi without a pass over the other terms, to leave the check out or to size a
+     rejected step (pd_steps.cpp, PDBound). Called after max_step with its X (as X0) and Y (as D,
+     unchanged), alpha[j] at most its step */
   PetscErrorCode (*pd_gap)(MSimImplicitTerm, Vec X0, Vec D, PetscInt n, const PetscReal alpha[], PetscReal gap[]) = NULL;
   /* a term whose feasible set moves with time (moving obstacles): A holds x_n on entry; moves the
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate

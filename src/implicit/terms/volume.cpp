@@ -9,24 +9,32 @@
    Bouaziz's volume projection with a weight in the matrix. Schemes whose unknown is not x_{n+1}
    (midpoint, Newmark) are refused while the barrier is on, as the obstacles' are. With kv = 0
    (the barrier alone) every pass skips the tets the safe radii prove above jhat (msim/volume.h),
-   and PD's Phi check (pd_check) is asked for only where some tet may come below jhat and, with
-   the barrier alone, where the barrier's excess over its lagged model may outweigh the global
-   step's decrease of its quadratic model (PDCheck_Volume). */
+   and PD's Phi check (pd_check) is asked for only where some tet may come below jhat; with the
+   barrier alone the term gives PD's bound on Phi its excess over its lagged model (pd_gap), from
+   which PD leaves the check out or sizes a rejected step (pd_steps.cpp, PDBound). */
 #include <msim/implicit.h>
 #include <msim/volume.h>
 #include <msim/volume_kernels.hpp>
-#include <msim/solvers.h> /* MSimMatMultInterleaved3 */
+#include <vector>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: whether D is the step max_step saw */
 
-/* term->data: what the last max_step saw, for PD's check after it */
+/* term->data: what the last max_step saw, for PD's check after it. rec: with the barrier alone,
+   each tet of max_step's list (T.active: every tet it could not prove above jhat along the step;
+   all of them without a reference) as V0, 1/V0, b(J0), b'(J0), dJ(x0).y / (the tet's 6 V) and its
+   4 vertices' x0 and y (max_step's local slots), so that pd_gap evaluates the barrier at
+   x0 - a y for any a without a new exchange (a Phi evaluation between max_step and pd_gap
+   overwrites the slots) */
 typedef struct {
-  PetscBool barrier; /* its motion may meet the barrier (J < jhat) */
-  PetscReal gap;     /* this rank's barrier excess over its linear model at X - alpha Y */
-  PetscReal alpha;   /* max_step's step */
-  Vec       Y, W;    /* the step (the caller's, alive until its check) and a work Vec for A Y */
-  PetscInt  checks, skipped; /* bounds tried, checks they left out (-info) */
+  PetscBool             barrier; /* its motion may meet the barrier (J < jhat) */
+  PetscReal             alpha;   /* max_step's step */
+  PetscObjectId         yid;     /* the step Y max_step saw, and its state */
+  PetscObjectState      ystate;
+  std::vector<PetscReal> rec;
 } VolumeData;
+
+enum { REC_V0, REC_IV0, REC_B0, REC_DB0, REC_GY, REC_X, REC_Y = REC_X + 12, REC_N = REC_Y + 12 };
 
 static PetscErrorCode Energy_Volume(MSimImplicitTerm term, Vec X, PetscReal *e)
 {
@@ -70,46 +78,44 @@ static PetscErrorCode PDRHS_Volume(MSimImplicitTerm term, Vec X, Vec rhs, PetscR
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* With the barrier alone, this rank's sum over the tets of the last max_step's list (T.active:
-   every tet it could not prove above jhat along the step; all of them without a reference) of
-   V0 (b(J1) - b(J0) + a b'(J0) dJ(x0).y), x0 and y the local slots max_step just filled, J1 at
-   x0 - a y: the barrier's excess over its linear model at the step's end (a: max_step's).
-   Elsewhere J stays above jhat, where b, b' are zero. */
-static PetscReal BarrierGapLocal(MSimSystem sys, bool all, PetscReal a)
+/* With the barrier alone, max_step's list of tets at x0 and y, the local slots it just filled
+   (VolumeData's rec): each tet's V0, b(J0), b'(J0) and dJ(x0).y. Elsewhere J stays above jhat
+   along the step, where b, b' are zero. */
+static void BarrierRecords(MSimSystem sys, bool all, std::vector<PetscReal> &rec)
 {
   const MSimTets         &T = sys->tets;
   const msim::TetMaterial m = {0.0, T.kappa, T.jhat};
   const PetscScalar      *xl, *yl;
-  PetscReal               gap = 0;
-  const size_t            n   = all ? T.V0.size() : T.active.size();
+  const size_t            n = all ? T.V0.size() : T.active.size();
 
+  rec.resize(REC_N * n);
   PetscCallAbort(PETSC_COMM_SELF, VecGetArrayRead(sys->xloc, &xl));
   PetscCallAbort(PETSC_COMM_SELF, VecGetArrayRead(T.yloc, &yl));
   for (size_t k = 0; k < n; k++) {
     const size_t    c  = all ? k : (size_t)T.active[k];
     const PetscInt *q4 = T.slot.data() + 4 * c;
     const double   *x[4] = {xl + 3 * q4[0], xl + 3 * q4[1], xl + 3 * q4[2], xl + 3 * q4[3]};
-    double          g[12], x1[12], b0, db0, b1;
+    double          g[12], *r = rec.data() + REC_N * k;
     const double    J0 = msim::TetVolumeGradient(x, g) * T.iV0[c];
     double          gy = 0;
     for (int q = 0; q < 4; q++)
       for (int i = 0; i < 3; i++) {
         const double y = yl[3 * q4[q] + i];
         gy += g[3 * q + i] * y;
-        x1[3 * q + i] = x[q][i] - a * y;
+        r[REC_X + 3 * q + i] = x[q][i];
+        r[REC_Y + 3 * q + i] = y;
       }
-    const double J1 = msim::TetSignedVolume(x1, x1 + 3, x1 + 6, x1 + 9) * T.iV0[c];
-    msim::TetPsi(m, J0, &b0, &db0, NULL);
-    msim::TetPsi(m, J1, &b1, NULL, NULL);
-    gap += T.V0[c] * (b1 - b0 + a * db0 * gy * T.iV0[c]);
+    r[REC_V0]  = T.V0[c];
+    r[REC_IV0] = T.iV0[c];
+    r[REC_GY]  = gy;
+    msim::TetPsi(m, J0, &r[REC_B0], &r[REC_DB0], NULL);
   }
   PetscCallAbort(PETSC_COMM_SELF, VecRestoreArrayRead(T.yloc, &yl));
   PetscCallAbort(PETSC_COMM_SELF, VecRestoreArrayRead(sys->xloc, &xl));
-  return gap;
 }
 
 /* term->data (VolumeData): whether the last max_step's motion may meet the barrier, and with the
-   barrier alone its excess over its model at the full step, for PDCheck_Volume */
+   barrier alone the tets pd_gap needs */
 static PetscErrorCode MaxStep_Volume(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimImplicit    imp = term->imp;
@@ -121,47 +127,62 @@ static PetscErrorCode MaxStep_Volume(MSimImplicitTerm term, Vec X, Vec Y, PetscR
 
   PetscFunctionBeginUser;
   PetscCall(MSimSystemVolumeMaxStep(sys, imp->step.tx, X, Y, alpha, &vd->barrier));
-  vd->Y     = Y;
   vd->alpha = *alpha;
-  vd->gap   = PETSC_INFINITY; /* no bound: the check, as before */
-  if (vd->barrier && T.kv == 0) vd->gap = BarrierGapLocal(sys, !ref, *alpha);
+  vd->rec.clear();
+  PetscCall(PetscObjectGetId((PetscObject)Y, &vd->yid));
+  PetscCall(PetscObjectStateGet((PetscObject)Y, &vd->ystate));
+  if (vd->barrier && term->ops.pd_gap && imp->A) BarrierRecords(sys, !ref, vd->rec);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* PD's global step checks Phi along its step only where the barrier may be met: elsewhere the
    term is Teschner's quadratic, lagged in the right-hand side as with -msim_volume_kappa 0, which
-   never asks for that check. Saves an evaluation of Phi (every term's pass) per PD iteration.
-   With the barrier alone (kv = 0) and a full step from a factor, the check is also left out where
-   Phi provably does not rise. The step X1 = X0 - Y = A^-1 rhs(X0) minimises the global step's
-   quadratic model S (the springs' projections at X0, inertia and the diagonal terms, and the
-   barrier's linear model at X0), with S(X0) = Phi(X0) and S(X1) = Phi(X0) - Y^T A Y / 2; the
-   springs' energy at X1 is at most their projections' energy, so Phi(X1) <= Phi(X0) - Y^T A Y / 2
-   + gap, gap = the barrier's excess over its linear model at X1 (BarrierGapLocal, the few tets
-   within reach of jhat; h^2 times it in Phi). gap <= Y^T A Y / 2: no check (one product with A
-   instead of a pass of every term and the halvings). The other terms with a feasible set ask for
-   their own check; the model is the right-hand side's at X0, as PD's loops take it. */
+   never asks for that check. Saves an evaluation of Phi (every term's pass) per PD iteration. */
 static PetscErrorCode PDCheck_Volume(MSimImplicitTerm term, PetscBool *needed)
 {
-  MSimImplicit imp = term->imp;
-  VolumeData  *vd  = (VolumeData *)term->data;
-  PetscReal    gap = vd->gap, yay;
-  const double a   = vd->alpha;
-  PetscInt     feasible = 0;
+  PetscFunctionBeginUser;
+  *needed = ((VolumeData *)term->data)->barrier;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* PD's bound on Phi (pd_steps.cpp, PDBound), with the barrier alone (kv = 0): the right-hand side
+   holds the barrier's gradient at X0 and A no weight of it, so gap[j] += h^2 sum_t V0 (b(J(x0 -
+   a_j y)) - b(J0) + a_j b'(J0) dJ(x0).y), the barrier's excess over its linear model, summed over
+   the ranks. Only the tets of max_step's list (the ~160 of the bunny's 9,549 within reach of jhat
+   along the step); so D must be the step max_step saw (same Vec, unchanged) and a_j at most its
+   alpha, else no bound (+inf). X0 is max_step's X: the records hold its positions. */
+static PetscErrorCode PDGap_Volume(MSimImplicitTerm term, Vec X0, Vec D, PetscInt n, const PetscReal alpha[], PetscReal gap[])
+{
+  MSimImplicit            imp = term->imp;
+  const MSimTets         &T   = imp->sys->tets;
+  const msim::TetMaterial m   = {0.0, T.kappa, T.jhat};
+  VolumeData             *vd  = (VolumeData *)term->data;
+  PetscObjectId           id;
+  PetscObjectState        state;
+  std::vector<PetscReal>  g(n, 0.0);
+  const size_t            nt = vd->rec.size() / REC_N;
 
   PetscFunctionBeginUser;
-  *needed = vd->barrier;
-  /* the bound is at max_step's alpha: the step's, where no other term has a feasible set */
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.max_step) feasible++;
-  if (!vd->barrier || imp->pd_iterative || !imp->A || feasible > 1) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCallMPI(MPIU_Allreduce(MPI_IN_PLACE, &gap, 1, MPIU_REAL, MPIU_SUM, imp->sys->comm));
-  if (!(gap < PETSC_INFINITY)) PetscFunctionReturn(PETSC_SUCCESS);
-  if (!vd->W) PetscCall(VecDuplicate(vd->Y, &vd->W));
-  PetscCall(MSimMatMultInterleaved3(imp->A, &imp->A3, vd->Y, NULL, vd->W));
-  PetscCall(VecDot(vd->Y, vd->W, &yay));
-  *needed = (PetscBool)!(imp->step.h2 * gap <= (a - 0.5 * a * a) * PetscRealPart(yay));
-  vd->checks++;
-  if (!*needed) vd->skipped++;
+  (void)X0;
+  PetscCall(PetscObjectGetId((PetscObject)D, &id));
+  PetscCall(PetscObjectStateGet((PetscObject)D, &state));
+  for (PetscInt j = 0; j < n; j++) {
+    if (id != vd->yid || state != vd->ystate || !(alpha[j] <= vd->alpha)) {
+      g[j] = PETSC_INFINITY;
+      continue;
+    }
+    const double a = alpha[j];
+    for (size_t k = 0; k < nt; k++) {
+      const double *r = vd->rec.data() + REC_N * k;
+      double        x1[12], b1;
+      for (int i = 0; i < 12; i++) x1[i] = r[REC_X + i] - a * r[REC_Y + i];
+      const double J1 = msim::TetSignedVolume(x1, x1 + 3, x1 + 6, x1 + 9) * r[REC_IV0];
+      msim::TetPsi(m, J1, &b1, NULL, NULL);
+      g[j] += r[REC_V0] * (b1 - r[REC_B0] + a * r[REC_DB0] * r[REC_GY] * r[REC_IV0]);
+    }
+  }
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, g.data(), (PetscMPIInt)n, MPIU_REAL, MPIU_SUM, imp->sys->comm));
+  for (PetscInt j = 0; j < n; j++) gap[j] += imp->step.h2 * g[j];
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -170,8 +191,6 @@ static PetscErrorCode Destroy_Volume(MSimImplicitTerm term)
   VolumeData *vd = (VolumeData *)term->data;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscInfo(NULL, "volume: PD's Phi check left out by the barrier's bound in %" PetscInt_FMT " of %" PetscInt_FMT " steps that reached it\n", vd->skipped, vd->checks));
-  PetscCall(VecDestroy(&vd->W));
   delete vd;
   term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -186,7 +205,7 @@ static PetscErrorCode View_Volume(MSimImplicitTerm term, PetscViewer viewer)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps VolumeOps = {.energy = Energy_Volume, .gradient = Gradient_Volume, .hessian = Hessian_Volume, .pd_rhs = PDRHS_Volume, .max_step = MaxStep_Volume, .pd_check = PDCheck_Volume, .view = View_Volume, .destroy = Destroy_Volume};
+static const MSimImplicitTermOps VolumeOps = {.energy = Energy_Volume, .gradient = Gradient_Volume, .hessian = Hessian_Volume, .pd_rhs = PDRHS_Volume, .max_step = MaxStep_Volume, .pd_check = PDCheck_Volume, .pd_gap = PDGap_Volume, .view = View_Volume, .destroy = Destroy_Volume};
 
 PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
 {
@@ -200,7 +219,10 @@ PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
   if (T.kappa == 0) { /* no barrier: every step is feasible */
     term->ops.max_step = NULL;
     term->ops.pd_check = NULL;
+    term->ops.pd_gap   = NULL;
     term->ops.destroy  = NULL;
-  } else term->data = new VolumeData{PETSC_TRUE, PETSC_INFINITY, 1, NULL, NULL, 0, 0};
+  } else term->data = new VolumeData{PETSC_TRUE, 1, 0, 0, {}};
+  /* Teschner's quadratic (kv > 0) is lagged too, over every tet: no pd_gap (PD halves on Phi) */
+  if (T.kv != 0) term->ops.pd_gap = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
