@@ -90,10 +90,15 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   ctx->n = n;
   PetscCall(PetscLogEventBegin(MSIM_LLTFactor, pc, 0, 0, 0)); /* -log_view: one per factorization */
   if (size > 1) {
-    delete ctx->schur;
-    ctx->schur = new msim::SchurCholesky();
-    PetscCall(ctx->schur->SetUp(A, ctx->relax, (int)ctx->max_width));
+    bool   was_partial;
+    double done, total;
+    if (!ctx->schur) ctx->schur = new msim::SchurCholesky();
+    PetscCall(ctx->schur->SetUp(A, ctx->relax, (int)ctx->max_width, ctx->partial, LLT_Partial, &was_partial, &done, &total));
+    PetscCall(PetscLogFlops(done));
     PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
+    if (was_partial) ctx->npartial++;
+    else ctx->nfull++;
+    PetscCall(PetscInfo(pc, "msimllt: %s local factorization (%" PetscInt_FMT " full, %" PetscInt_FMT " partial so far): %.4g of %.4g Mflop\n", was_partial ? "partial" : "full", ctx->nfull, ctx->npartial, done * 1e-6, total * 1e-6));
     PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT " in %d supernodes, %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->LocalSupernodes(), ctx->schur->InterfaceSize()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }

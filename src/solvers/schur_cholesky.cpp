@@ -1,5 +1,7 @@
-/* SchurCholesky (schur_cholesky.h). The local factor is Eigen's SimplicialLLT of the owned block
-   ordered [interior by AMD | interface]: its trailing block L_SS gives this rank's part of the
+/* SchurCholesky (schur_cholesky.h). The local factor is msim's supernodal Cholesky
+   (supernodal_numeric.h) of the owned block ordered [interior by Eigen's AMD | interface], its
+   analysis kept while the block's pattern is, refactored in part when only some of its entries
+   changed (as the serial factor; the dense Schur complement is redone each time): its trailing block L_SS gives this rank's part of the
    Schur complement, A_SS - A_SI A_II^-1 A_IS = L_SS L_SS^T, and its forward sweep over the interior
    columns leaves b_S - L_SI L_II^-1 b_I in the interface rows, the Schur right-hand side. */
 #include "schur_cholesky.h"
@@ -7,6 +9,7 @@
 #include <Eigen/SparseCholesky>
 #include <Eigen/Dense>
 #include <unordered_map>
+#include <cstring>
 
 namespace msim {
 typedef Eigen::SparseMatrix<double, Eigen::ColMajor, int> SpMat;
@@ -18,7 +21,7 @@ static inline size_t UpperRow(size_t N, size_t r)
   return r * N - r * (r - 1) / 2;
 }
 
-PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width)
+PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool partial, PetscLogEvent partial_event, bool *was_partial, double *done, double *total)
 {
   Mat                Ad, Ao;
   const PetscInt    *colmap, *cols;
@@ -45,50 +48,59 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width)
   ninterior_  = (PetscInt)interior.size();
   ninterface_ = (PetscInt)interface.size();
 
-  /* local numbering: interior rows in AMD order, then the interface rows */
-  std::vector<PetscInt> pos(nlocal_);
-  for (PetscInt k = 0; k < ninterior_; k++) pos[interior[k]] = k;
-  for (PetscInt k = 0; k < ninterface_; k++) pos[interface[k]] = ninterior_ + k;
-  std::vector<Eigen::Triplet<double, int>> t;
+  /* the diagonal block's lower triangle by rows, in the owned rows' numbering */
+  std::vector<int>    aptr(1, 0), acol;
+  std::vector<double> aval;
   for (PetscInt i = 0; i < nlocal_; i++) {
     PetscCall(MatGetRow(Ad, i, &ncols, &cols, &vals));
-    for (PetscInt q = 0; q < ncols; q++) t.emplace_back((int)pos[i], (int)pos[cols[q]], PetscRealPart(vals[q]));
+    for (PetscInt q = 0; q < ncols; q++)
+      if (cols[q] <= i) {
+        acol.push_back((int)cols[q]);
+        aval.push_back(PetscRealPart(vals[q]));
+      }
+    aptr.push_back((int)acol.size());
     PetscCall(MatRestoreRow(Ad, i, &ncols, &cols, &vals));
   }
-  perm_.resize(nlocal_);
-  {
+  const bool        keep = analyzed_ && iface == iface_ && aptr == aptr_ && acol == acol_;
+  std::vector<char> dirty;
+  if (!keep) { /* local numbering: interior rows in AMD order, then the interface rows; the analysis */
+    std::vector<PetscInt> pos(nlocal_);
+    for (PetscInt k = 0; k < ninterior_; k++) pos[interior[k]] = k;
     std::vector<Eigen::Triplet<double, int>> tI;
-    for (const auto &e : t)
-      if (e.row() < ninterior_ && e.col() <= e.row()) tI.push_back(e);
+    for (PetscInt i = 0; i < nlocal_; i++)
+      for (int e = aptr[i]; e < aptr[i + 1]; e++)
+        if (!iface[i] && !iface[acol[e]]) tI.emplace_back((int)std::max(pos[i], pos[acol[e]]), (int)std::min(pos[i], pos[acol[e]]), aval[e]);
     SpMat AI((int)ninterior_, (int)ninterior_);
     AI.setFromTriplets(tI.begin(), tI.end());
     Eigen::SimplicialLLT<SpMat, Eigen::Lower, Eigen::AMDOrdering<int>> amd;
     amd.analyzePattern(AI);
+    perm_.resize(nlocal_);
     for (PetscInt k = 0; k < ninterior_; k++) perm_[interior[k]] = amd.permutationP().indices()[k];
     for (PetscInt k = 0; k < ninterface_; k++) perm_[interface[k]] = (int)(ninterior_ + k);
+    std::vector<int> colptr, row;
+    SymbolicCholesky((int)nlocal_, perm_.data(), aptr, acol, colptr, row);
+    const std::vector<double> zero(row.size(), 0.0); /* the numbers come from numeric_ */
+    local_.Build((int)nlocal_, colptr.data(), row.data(), zero.data(), (int)ninterior_, relax, max_width);
+    numeric_.Analyze(local_, perm_.data(), aptr, acol);
+    analyzed_ = true;
+    iface_    = iface;
+  } else if (partial) { /* the supernodes holding a changed entry (bits compared) */
+    const std::vector<int> &sn = numeric_.EntrySupernode();
+    dirty.assign(numeric_.Supernodes(), 0);
+    for (size_t e = 0; e < aval.size(); e++)
+      if (std::memcmp(&aval[e], &aval_[e], sizeof(double))) dirty[sn[e]] = 1;
   }
-  std::vector<Eigen::Triplet<double, int>> tl;
-  for (PetscInt i = 0; i < nlocal_; i++) {
-    PetscCall(MatGetRow(Ad, i, &ncols, &cols, &vals));
-    for (PetscInt q = 0; q < ncols; q++) {
-      const int r = perm_[i], c = perm_[cols[q]];
-      if (c <= r) tl.emplace_back(r, c, PetscRealPart(vals[q]));
-    }
-    PetscCall(MatRestoreRow(Ad, i, &ncols, &cols, &vals));
-  }
-  t.clear();
-  SpMat S((int)nlocal_, (int)nlocal_);
-  S.setFromTriplets(tl.begin(), tl.end());
-  tl.clear();
-  Eigen::MatrixXd Lss = Eigen::MatrixXd::Zero(ninterface_, ninterface_);
-  {
-    Eigen::SimplicialLLT<SpMat, Eigen::Lower, Eigen::NaturalOrdering<int>> llt(S);
-    PetscCheck(llt.info() == Eigen::Success, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite");
-    const SpMat &L = llt.matrixL().nestedExpression();
-    local_.Build((int)nlocal_, L.outerIndexPtr(), L.innerIndexPtr(), L.valuePtr(), (int)ninterior_, relax, max_width);
-    for (PetscInt j = ninterior_; j < nlocal_; j++)
-      for (int p = L.outerIndexPtr()[j]; p < L.outerIndexPtr()[j + 1]; p++) Lss(L.innerIndexPtr()[p] - ninterior_, j - ninterior_) = L.valuePtr()[p];
-  }
+  *was_partial = keep && partial;
+  if (*was_partial) PetscCall(PetscLogEventBegin(partial_event, 0, 0, 0, 0));
+  const int bad = numeric_.Factor(local_, aval.data(), dirty.empty() ? nullptr : &dirty, done, total);
+  if (*was_partial) PetscCall(PetscLogEventEnd(partial_event, 0, 0, 0, 0));
+  if (bad >= 0) analyzed_ = false;
+  PetscCheck(bad < 0, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (local pivot %d)", bad);
+  aptr_.swap(aptr);
+  acol_.swap(acol);
+  aval_.swap(aval);
+  Eigen::MatrixXd Lss(ninterface_, ninterface_);
+  numeric_.TrailingBlock(local_, (int)ninterior_, Lss.data());
 
   /* the interface rows of every rank, numbered rank by rank */
   std::vector<PetscMPIInt> nper(size), off(size + 1, 0);

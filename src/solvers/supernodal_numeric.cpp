@@ -137,6 +137,7 @@ void SupernodalCholesky::Analyze(const SupernodalFactor &F, const int *perm, con
   }
   panel_.assign(panel, V4{0, 0, 0, 0});
   lrow_.assign(n, 0.0);
+  ljj_.assign(n, 0.0);
   tbuf_.assign(tsize, V4{0, 0, 0, 0});
   map_.assign(n, -1);
   rel_.resize(n);
@@ -216,6 +217,7 @@ int SupernodalCholesky::Factor(SupernodalFactor &F, const double *aval, const st
       const double ljj = std::sqrt(dia), inv = 1.0 / ljj;
       Lane(P, w, c, c)   = ljj;
       F.invdiag_[c0 + c] = inv;
+      ljj_[c0 + c]       = ljj;
       double *l = lrow_.data();
       for (int k = 0; k < c; k++) l[k] = Lane(P, w, c, k);
       const int first = (c + 1) >> 2;
@@ -238,5 +240,22 @@ int SupernodalCholesky::Factor(SupernodalFactor &F, const double *aval, const st
       for (int c = 0; c < w; c++) B[(size_t)(r - w) * w + c] = Lane(P, w, r, c);
   }
   return -1;
+}
+void SupernodalCholesky::TrailingBlock(const SupernodalFactor &F, int c0, double *out) const
+{
+  const int n = F.n_, N = n - c0;
+  std::fill(out, out + (size_t)N * N, 0.0);
+  for (int s = 0; s < nsn_; s++) {
+    const int s0 = F.start_[s], w = F.start_[s + 1] - s0, m = F.rptr_[s + 1] - F.rptr_[s];
+    if (s0 < c0) continue;
+    const double *D = F.val_.data() + F.vptr_[s], *B = D + (size_t)w * (w - 1) / 2;
+    const int    *R = F.rows_.data() + F.rptr_[s];
+    for (int c = 0; c < w; c++) {
+      double *col = out + (size_t)(s0 + c - c0) * N;
+      col[s0 + c - c0] = ljj_[s0 + c];
+      for (int r = c + 1; r < w; r++) col[s0 + r - c0] = D[(size_t)r * (r - 1) / 2 + c];
+      for (int p = 0; p < m; p++) col[R[p] - c0] = B[(size_t)p * w + c];
+    }
+  }
 }
 } // namespace msim

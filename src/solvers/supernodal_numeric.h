@@ -30,6 +30,9 @@ public:
      they reach are recomputed. Returns -1, or the first column whose pivot is not positive.
      *done, *total: the flops of the recomputed supernodes and of all of them. */
   int Factor(SupernodalFactor &F, const double *aval, const std::vector<char> *dirty, double *done, double *total);
+  /* L's trailing block, rows and columns c0 .. n-1 (no supernode may straddle c0: Build's split),
+     into out, column-major, (n - c0)^2 doubles, its upper part zero */
+  void TrailingBlock(const SupernodalFactor &F, int c0, double *out) const;
   /* the supernode of each A entry's column (to mark dirty supernodes), in Analyze's order */
   const std::vector<int> &EntrySupernode() const { return asn_; }
   int                     Supernodes() const { return nsn_; }
@@ -46,6 +49,7 @@ private:
   std::vector<V4>      panel_;               /* work: (w + m) x w, blocks of 4 rows, one vector per column */
   std::vector<V4>      tbuf_;                /* work: a descendant's rows in s's columns, transposed */
   std::vector<double>  lrow_;                /* work: the row of the current pivot */
+  std::vector<double>  ljj_;                 /* L's diagonal (F keeps its inverse) */
   std::vector<int>     map_, rel_;           /* work: a row's place in the current panel, -1 if none */
   std::vector<char>    redo_;
 };
