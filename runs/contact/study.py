@@ -4,7 +4,7 @@ without contact, for each integrator and solver against h; explicit stability wi
 against the guard; friction on an incline against g (sin - mu cos) t^2/2; the cost targets on the
 benchmark cloth draped on a ball (analytic sphere and a >= 10^4-triangle mesh sphere).
 Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|meshcheck|newton|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
-       [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh]
+       [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh] [--cases 'NAME;NAME'] [--repeat R]
 Small sizes by default (2 shared cores); --bench-n 101 is the benchmark cloth. Costs: PETSc's
 MSimStep event (wall, ms per step; this machine is shared, so they vary by tens of %) and the
 run's CPU time per step."""
@@ -283,9 +283,12 @@ def newton(a, tmp):
     |dx| < 1e-6, 300 iterations) for the final state's distance. Per case: CPU ms per step over
     steps 5-24 (24-step run less the 4-step run, user time), Newton and CG iterations per step,
     the fraction of Newton iterations whose step max_step cut (the line search's PetscInfo), steps
-    at the 20-iteration cap, mean |g| at the steps' ends, the contact force (mean of the last 5
+    at the iteration cap (20; 300 for the converged cases), mean |g| at the steps' ends, the contact force (mean of the last 5
     steps; m g = 9.81 N), vertices within dhat, the least gap to the ball at the end, and the
-    compressed springs' dropped curvature (spring_compression)"""
+    compressed springs' dropped curvature (spring_compression). The ntr cases: the trust region
+    (Steihaug-CG in the PD factor's norm) on the PSD-projected and on the true Hessian, their cut
+    share counted from ntr's -info lines (trial steps cut by max_step over trial steps).
+    --cases picks cases by name; --repeat R takes each CPU time as the min of R alternated runs"""
     cloth = ["-msim_cloth_n", a.bench_n, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", 1 / 30, "-msim_steps", "24"]
     cg = ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]
     mumps = ["-msim_pc_pd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_ksp_ew", "0"]
@@ -296,18 +299,47 @@ def newton(a, tmp):
              "sphere kappa x 10 -msim_contact_pc_pd_weight": ball + kappa10 + ["-msim_contact_pc_pd_weight"], "sphere -msim_step_atol 1e-2 -msim_contact_pc_pd_weight": ball + ["-msim_step_atol", "1e-2", "-msim_contact_pc_pd_weight"],
              "sphere -snes_ksp_ew_rtolmax 0.1 -snes_ksp_ew_rtol0 0.1": ball + ["-snes_ksp_ew_rtolmax", "0.1", "-snes_ksp_ew_rtol0", "0.1"],
              "sphere MUMPS": ball + mumps, "corners (no contact) MUMPS": ["-msim_fix", "corners"] + mumps, "plane MUMPS": ["-msim_contact_plane", "0,0,1,-0.1", "-msim_friction", "0.3"] + mumps}
+    # the trust region (-snes_type ntr: Steihaug-CG, the PD factor as its norm; src/solvers/ntr.cpp)
+    # with the same rule (|dx| < 1e-3, 20 iterations), on the PSD-projected Hessian (-msim_psd 1)
+    # and on the true, indefinite one (ntr's default, -msim_psd 0)
+    ntr = ["-snes_type", "ntr", "-ksp_type", "stcg", "-snes_ksp_ew", "0"]
+    pdw = ["-msim_contact_pc_pd_weight"]
+    cases.update({"sphere ntr -msim_psd 1": ball + ntr + ["-msim_psd", "1"], "sphere ntr (true Hessian)": ball + ntr + ["-msim_psd", "0"],
+                  "sphere ntr -msim_psd 1 -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "1"] + pdw,
+                  "sphere ntr (true Hessian) -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "0"] + pdw,
+                  "sphere ntr (true Hessian) kappa x 10 -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "0"] + kappa10 + pdw,
+                  "sphere ntr -msim_psd 1 kappa x 10 -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "1"] + kappa10 + pdw,
+                  "none ntr (true Hessian)": ntr + ["-msim_psd", "0"], "plane ntr (true Hessian)": ["-msim_contact_plane", "0,0,1,-0.1", "-msim_friction", "0.3"] + ntr + ["-msim_psd", "0"]})
+    # converged steps: |g| <= 1% of |h^2 m g|_2, the residual gravity alone leaves at the first
+    # iterate (h^2 g M / sqrt(nv) for nv equal masses M / nv), no step rule, 300 iterations at most
+    conv = ["-msim_step_atol", "0", "-snes_atol", f"{0.01 * G * (1 / 30) ** 2 / int(a.bench_n):.3g}", "-snes_max_it", "300"]
+    cases.update({"converged: sphere -msim_contact_pc_pd_weight": ball + pdw + conv, "converged: sphere ntr (true Hessian) -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "0"] + pdw + conv,
+                  "converged: sphere ntr -msim_psd 1 -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "1"] + pdw + conv,
+                  "converged: sphere ntr (true Hessian)": ball + ntr + ["-msim_psd", "0"] + conv, "converged: sphere": ball + conv,
+                  "converged: corners (no contact)": ["-msim_fix", "corners"] + conv, "converged: corners (no contact) ntr (true Hessian)": ["-msim_fix", "corners"] + ntr + ["-msim_psd", "0"] + conv})
     if int(a.bench_n) <= 41:
         cases["reference: sphere MUMPS |dx| < 1e-6"] = ball + mumps + ["-msim_step_atol", "1e-6", "-snes_max_it", "300"]
+    pick = [c for c in cases if not a.cases or any(c == want for want in a.cases.split(";"))]
     ref = None
     rows = []
-    for name in sorted(cases, key=lambda c: not c.startswith("reference")):
+    for name in sorted(pick, key=lambda c: not c.startswith("reference")):
         args = cloth + cg + cases[name]
         csv, fin = os.path.join(tmp, "n.csv"), os.path.join(tmp, "final.bin")
-        rc, err, log, cpu = run(a.msim, args + ["-msim_monitor_csv", csv, "-msim_view_final", "binary:" + fin, "-info", ":snes"])
-        _, _, _, cpu4 = run(a.msim, [x if x != "24" else "4" for x in args])
+        # CPU: the min over --repeat runs of each length, alternated (this host is shared)
+        cpu, cpu4 = np.inf, np.inf
+        for _ in range(a.repeat):
+            rc, err, log, c24 = run(a.msim, args + ["-msim_monitor_csv", csv, "-msim_view_final", "binary:" + fin, "-info", ":snes"])
+            _, _, _, c4 = run(a.msim, [x if x != "24" else "4" for x in args])
+            cpu, cpu4 = min(cpu, c24), min(cpu4, c4)
         mon = [r for r in read_csv(csv) if int(r["step"]) >= 5] if rc == 0 else []
         col = lambda k: np.array([float(r[k]) for r in mon]) if mon else np.array([np.nan])
+        # Newton iterations whose step max_step cut: the energy line search's lines (newtonls),
+        # ntr's accepted steps and the trial steps it cut
         searches = [ln for ln in log.splitlines() if "energy line search: lambda" in ln]
+        if "ntr" in cases[name]:
+            trials = [ln for ln in log.splitlines() if "SNESSolve_NTR(): ntr: rho" in ln or "ntr: step rejected" in ln]
+            ncut = sum("ntr: trial step cut to" in ln for ln in log.splitlines())
+            searches = ["max_step 1.)"] * (len(trials) - ncut) + ["cut"] * ncut
         x = np.array(msimtest_read(fin)).reshape(-1, 3) if rc == 0 else None
         if name.startswith("reference"):
             ref = x
@@ -315,13 +347,17 @@ def newton(a, tmp):
         comp = spring_compression(x) if x is not None else (float("nan"),) * 2
         rows.append(dict(n=a.bench_n, case=name, ok=int(rc == 0), cpu_ms_per_step=round(1e3 * (cpu - cpu4) / 20, 2), newton_its_per_step=round(col("nonlinear_its").mean(), 2),
                          cg_its_per_step=round(col("linear_its").mean(), 1), cut_by_max_step=round(sum("max_step 1.)" not in ln for ln in searches) / max(len(searches), 1), 3),
-                         steps_at_cap=int((col("nonlinear_its") >= 20).sum()), mean_gnorm=f"{col('residual').mean():.2e}", contact_fz=round(col("contact_fz")[-5:].mean(), 3),
+                         steps_at_cap=int((col("nonlinear_its") >= int([x for i, x in enumerate(args) if i and args[i - 1] == "-snes_max_it"][-1])).sum()), mean_gnorm=f"{col('residual').mean():.2e}", contact_fz=round(col("contact_fz")[-5:].mean(), 3),
                          contact_n_last=int(col("contact_n")[-1]) if mon else -1, least_gap_mm=round(1e3 * gap, 4),
                          dropped_curvature_median_m=round(comp[0], 2), dropped_curvature_p90_m=round(comp[1], 2),
                          dist_ref_rms_mm=round(1e3 * float(np.sqrt(((x - ref) ** 2).sum(axis=1).mean())), 2) if ref is not None and x is not None else float("nan"),
                          note="" if rc == 0 else err.strip().splitlines()[-1][:150]))
         print(rows[-1], flush=True)
-    msimrun.write_csv(os.path.join(HERE, f"newton_n{a.bench_n}.csv"), rows)
+    path = os.path.join(HERE, f"newton_n{a.bench_n}.csv")
+    if a.cases and os.path.exists(path):  # the rows of the cases run replace theirs, the others stay
+        done = {r["case"] for r in rows}
+        rows = [r for r in read_csv(path) if r["case"] not in done] + rows
+    msimrun.write_csv(path, rows)
 
 
 def msimtest_read(path):
@@ -370,6 +406,8 @@ def main():
     p.add_argument("--msim", default=msimrun.MSIM)
     p.add_argument("--solvers", help="targets: pd10,newton_cg (default both)")
     p.add_argument("--obstacles", help="targets: none,sphere,mesh (default all)")
+    p.add_argument("--cases", help="newton: the cases to run, by name, separated by ';' (default all); their rows replace theirs in the CSV")
+    p.add_argument("--repeat", type=int, default=1, help="newton: CPU time as the min over this many runs")
     a = p.parse_args()
     tmp = tempfile.mkdtemp(prefix="msim_contact_study_")
     for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets), ("meshcheck", meshcheck), ("newton", newton)):
