@@ -30,6 +30,7 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: max_step from the X whose distances the local step kept */
 
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
 {
@@ -61,6 +62,13 @@ typedef struct {
      vertex's distance. Valid for one tx where obstacles move (anchors_tx). */
   std::vector<PetscReal> anchor, ex;
   PetscReal              anchors_tx = PETSC_MIN_REAL;
+  /* each owned vertex's least distance to the obstacles at the last PD local step's X (its id and
+     state), dhat for a vertex skipped there (Far: a lower bound): max_step from that X skips the
+     vertices whose move cannot reach an obstacle without the anchors' square root */
+  std::vector<PetscReal> dmin;
+  PetscObjectId          dmin_id    = 0;
+  PetscObjectState       dmin_state = 0;
+  PetscReal              dmin_tx    = 0; /* where the obstacles were */
 } PDWeights;
 
 /* the anchors, reset (every vertex queried) at a new size or, where obstacles move, a new tx */
@@ -88,12 +96,16 @@ static bool Far(const PDWeights *pw, PetscInt v, const PetscScalar *x)
 /* f(v, o, d, n, H) for every owned vertex v and obstacle o within dhat (d may be <= 0), as
    msim/private/contactimpl.h's MSimContactForEachNear (the output's contact force uses that one:
    the same queries, the same order), except that a vertex Far from every obstacle is skipped
-   without a query; each queried vertex's anchor is set to x */
+   without a query; each queried vertex's anchor is set to x. With dmin: each vertex's least
+   distance (dhat where skipped) */
 template <class F>
-static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscBool hessian, F &&f)
+static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscBool hessian, PetscReal *dmins, F &&f)
 {
   for (PetscInt v = 0; v < nown; v++) {
-    if (Far(pw, v, x)) continue;
+    if (Far(pw, v, x)) {
+      if (dmins) dmins[v] = ct->dhat;
+      continue;
+    }
     PetscReal dmin = PETSC_MAX_REAL, xmax = 0;
     for (const MSimObstacle &o : ct->obs) {
       PetscReal n[3], H[9], y[3];
@@ -108,6 +120,7 @@ static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscSc
       xmax                  = PetscMax(xmax, PetscAbsReal(x[3 * v + c]));
     }
     pw->ex[v] = dmin - ct->dhat - 1e-9 * (ct->dhat + PetscAbsReal(dmin) + xmax);
+    if (dmins) dmins[v] = dmin;
   }
 }
 
@@ -123,7 +136,7 @@ static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, 
   PetscFunctionBeginUser;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  NearLoop(pw, ct, sys->nown, x, term->imp->step.tx, hessian, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
+  NearLoop(pw, ct, sys->nown, x, term->imp->step.tx, hessian, NULL, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -335,12 +348,15 @@ static PetscErrorCode LocalPass(MSimImplicitTerm term, MSimContact ct, Vec X, Ve
   const PetscReal    w = term->imp->step.h2 * ct->kappa;
   const PetscScalar *x, *ms;
 
+  PDWeights         *pw = Anchors(term, ct);
+
   PetscFunctionBeginUser;
+  pw->dmin.resize(term->imp->sys->nown);
   PetscCall(MSimContactAddToVec(G, [&](PetscScalar *g) {
     PetscFunctionBeginUser;
     PetscCall(VecGetArrayRead(X, &x));
     PetscCall(VecGetArrayRead(term->imp->sys->mass, &ms));
-    NearLoop(Anchors(term, ct), ct, term->imp->sys->nown, x, term->imp->step.tx, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+    NearLoop(pw, ct, term->imp->sys->nown, x, term->imp->step.tx, PETSC_FALSE, pw->dmin.data(), [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
       PetscReal       b, db, d2b;
       const PetscReal m  = PetscRealPart(ms[3 * v]);
       const PetscReal dc = PetscMax(d, PETSC_SMALL * ct->dhat);
@@ -360,6 +376,9 @@ static PetscErrorCode LocalPass(MSimImplicitTerm term, MSimContact ct, Vec X, Ve
     PetscCall(VecRestoreArrayRead(X, &x));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
+  PetscCall(PetscObjectGetId((PetscObject)X, &pw->dmin_id));
+  PetscCall(PetscObjectStateGet((PetscObject)X, &pw->dmin_state));
+  pw->dmin_tx = term->imp->step.tx;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -527,13 +546,24 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
      d / |u|, and the safe step is 0.8 of it; with a mesh's thickness, conservative advancement
      covers 0.9 d / |u| at once), so its ray tests are skipped (the global step's max_step: 4% of
      a contact step before); the others give the same alpha as without the skip */
-  PDWeights *pw = Anchors(term, ct);
+  PDWeights       *pw = Anchors(term, ct);
+  const PetscReal *dmin = NULL;
+  {
+    /* from the X of PD's last local step, whose distances (or dhat) that pass kept */
+    PetscObjectId    id;
+    PetscObjectState state;
+    PetscCall(PetscObjectGetId((PetscObject)X, &id));
+    PetscCall(PetscObjectStateGet((PetscObject)X, &state));
+    if (id == pw->dmin_id && state == pw->dmin_state && pw->dmin_tx == term->imp->step.tx && (PetscInt)pw->dmin.size() == sys->nown) dmin = pw->dmin.data();
+  }
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(Y, &y));
   for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
-    if (pw->ex[v] > -ct->dhat) {
+    if (dmin) {
+      if (dmin[v] > 0 && 0.5625 * dmin[v] * dmin[v] > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* as below */
+    } else if (pw->ex[v] > -ct->dhat) {
       const PetscReal *an = pw->anchor.data() + 3 * v, dx[3] = {x[3 * v] - an[0], x[3 * v + 1] - an[1], x[3 * v + 2] - an[2]};
       const PetscReal  lb = pw->ex[v] + ct->dhat - PetscSqrtReal(dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
       if (lb > 0 && 0.5625 * lb * lb > a * a * (u[0] * u[0] + u[1] * u[1] + u[2] * u[2])) continue; /* 0.75 d > a |u|: the safe step, 0.8 of a hit at >= d / |u|, is then > a */
