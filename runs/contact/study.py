@@ -4,7 +4,7 @@ without contact, for each integrator and solver against h; explicit stability wi
 against the guard; friction on an incline against g (sin - mu cos) t^2/2; the cost targets on the
 benchmark cloth draped on a ball (analytic sphere and a >= 10^4-triangle mesh sphere).
 Usage: /usr/bin/python3 runs/contact/study.py [rest|stability|friction|targets|meshcheck|newton|plot|all] [--n 11] [--bench-n 41] [--msim PATH]
-       [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh] [--cases 'NAME;NAME'] [--repeat R]
+       [--solvers pd10,newton_cg] [--obstacles none,sphere,mesh] [--cases 'NAME;NAME'] [--repeat R] [--out CSV]
 Small sizes by default (2 shared cores); --bench-n 101 is the benchmark cloth. Costs: PETSc's
 MSimStep event (wall, ms per step; this machine is shared, so they vary by tens of %) and the
 run's CPU time per step."""
@@ -353,7 +353,7 @@ def newton(a, tmp):
                          dist_ref_rms_mm=round(1e3 * float(np.sqrt(((x - ref) ** 2).sum(axis=1).mean())), 2) if ref is not None and x is not None else float("nan"),
                          note="" if rc == 0 else err.strip().splitlines()[-1][:150]))
         print(rows[-1], flush=True)
-    path = os.path.join(HERE, f"newton_n{a.bench_n}.csv")
+    path = os.path.join(HERE, a.out or f"newton_n{a.bench_n}.csv")
     if a.cases and os.path.exists(path):  # the rows of the cases run replace theirs, the others stay
         done = {r["case"] for r in rows}
         rows = [r for r in read_csv(path) if r["case"] not in done] + rows
@@ -408,6 +408,7 @@ def main():
     p.add_argument("--obstacles", help="targets: none,sphere,mesh (default all)")
     p.add_argument("--cases", help="newton: the cases to run, by name, separated by ';' (default all); their rows replace theirs in the CSV")
     p.add_argument("--repeat", type=int, default=1, help="newton: CPU time as the min over this many runs")
+    p.add_argument("--out", help="newton: the CSV to write here (default newton_n<bench-n>.csv)")
     a = p.parse_args()
     tmp = tempfile.mkdtemp(prefix="msim_contact_study_")
     for part, fn in (("rest", rest), ("stability", stability), ("friction", friction), ("targets", targets), ("meshcheck", meshcheck), ("newton", newton)):
