@@ -204,8 +204,18 @@ static PetscErrorCode PDRHS_Friction(MSimImplicitTerm term, Vec X, Vec rhs, Pets
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
-  PetscCall(AddGradient(term, ct, X, rhs, -1.0));
-  if (e) PetscCall(LocalEnergy(term, ct, X, e));
+  if (!e) PetscCall(AddGradient(term, ct, X, rhs, -1.0));
+  else {
+    /* AddGradient's and LocalEnergy's terms in one pass over the sliding vertices (same order) */
+    const PetscReal w = term->imp->step.h2 * ct->mu, eps = ct->eps_v * term->imp->step.h, sign = -1.0;
+    PetscCall(MSimContactAddToVec(rhs, [&](PetscScalar *g) {
+      return ForEachSliding(term, ct, X, [&](PetscInt v, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
+        const PetscReal f1y = MSimFrictionF1OverY(y, eps);
+        for (int c = 0; c < 3; c++) g[3 * v + c] += sign * w * lambda * f1y * u[c];
+        *e += w * lambda * MSimFrictionF0(y, eps);
+      });
+    }));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
