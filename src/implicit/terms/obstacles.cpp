@@ -419,7 +419,7 @@ static PetscErrorCode PDGradient_Obstacles(MSimImplicitTerm term, Vec X, Vec G, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* PD's bound on Phi along the global step (pd_steps.cpp, PDBoundStep): the right-hand side holds
+/* PD's bound on Phi along the global step (pd_steps.cpp, PDBound): the right-hand side holds
    the barrier's model at X0, its gradient and the factored weights w_v, so the step minimizes the
    springs' projections plus B(X0) + g.(X - X0) + sum_v w_v/2 |x_v - x0_v|^2; gap[j] is B's excess
    over that model at X0 - alpha[j] D. One distance per vertex and obstacle at X0; a vertex whose
