@@ -138,6 +138,7 @@ void SupernodalCholesky::Analyze(const SupernodalFactor &F, const int *perm, con
   panel_.assign(panel, V4{0, 0, 0, 0});
   lrow_.assign(n, 0.0);
   ljj_.assign(n, 0.0);
+  cofs_.resize(n);
   tbuf_.assign(tsize, V4{0, 0, 0, 0});
   map_.assign(n, -1);
   rel_.resize(n);
@@ -151,12 +152,13 @@ static inline double &Lane(V4 *P, int w, int r, int c) { return ((double *)(P + 
    columns), P(rel[ii], Rd[jj] - c0) -= row ii . row jj over d's w columns. Rows jj are transposed
    into T (k-major, 4 per vector), so each of 4 rows ii times 4 rows jj is one vector FMA per k;
    each entry's sum runs over k in order from 0. */
-static void UpdatePanel(V4 *P, int w, int c0, const double *Bd, int wd, const int *Rd, int md, int p, int q, const int *rel, V4 *T)
+static void UpdatePanel(V4 *P, int w, int c0, const double *Bd, int wd, const int *Rd, int md, int p, int q, const int *rel, V4 *T, int *cofs)
 {
   const int nq = q - p, nb = (nq + 3) / 4;
   double   *t  = (double *)T;
   for (int k = 0; k < wd; k++)
     for (int j = 0; j < 4 * nb; j++) t[((size_t)k * nb) * 4 + j] = j < nq ? Bd[(size_t)(p + j) * wd + k] : 0.0;
+  for (int j = 0; j < nq; j++) cofs[j] = 4 * (Rd[p + j] - c0); /* column j's place in a panel row */
   for (int ii = p; ii < md; ii += 4) {
     const int U = std::min(4, md - ii), jmax = std::min(nq, ii + U - p); /* columns j <= the last row's */
     const double *b0 = Bd + (size_t)ii * wd, *b1 = U > 1 ? b0 + wd : b0, *b2 = U > 2 ? b0 + 2 * wd : b0, *b3 = U > 3 ? b0 + 3 * wd : b0;
@@ -174,8 +176,15 @@ static void UpdatePanel(V4 *P, int w, int c0, const double *Bd, int wd, const in
       for (int u = 0; u < U; u++) {
         const int r = rel[ii + u];
         if (r < 0) continue; /* outside s's structure: exact zeros (see Factor) */
+        double   *row  = (double *)(P + (size_t)(r >> 2) * w) + (r & 3);
         const int jend = std::min(std::min(jb + 4, nq), ii + u - p + 1);
-        for (int j = jb; j < jend; j++) Lane(P, w, r, Rd[p + j] - c0) -= a[u][j - jb];
+        if (jend == jb + 4) { /* a whole block of 4 columns, below the diagonal */
+          row[cofs[jb]] -= a[u][0];
+          row[cofs[jb + 1]] -= a[u][1];
+          row[cofs[jb + 2]] -= a[u][2];
+          row[cofs[jb + 3]] -= a[u][3];
+        } else
+          for (int j = jb; j < jend; j++) row[cofs[j]] -= a[u][j - jb];
       }
     }
   }
@@ -205,7 +214,7 @@ int SupernodalCholesky::Factor(SupernodalFactor &F, const double *aval, const st
       /* a row of d outside s's structure meets d's rows in s's columns in no column of d, so its
          products are exact zeros (stored zeros of merged supernodes): skipped */
       for (int ii = up_[k]; ii < md; ii++) rel_[ii] = map_[Rd[ii]];
-      UpdatePanel(P, w, c0, F.val_.data() + F.vptr_[d] + (size_t)wd * (wd - 1) / 2, wd, Rd, md, up_[k], uq_[k], rel_.data(), tbuf_.data());
+      UpdatePanel(P, w, c0, F.val_.data() + F.vptr_[d] + (size_t)wd * (wd - 1) / 2, wd, Rd, md, up_[k], uq_[k], rel_.data(), tbuf_.data(), cofs_.data());
     }
     for (int c = 0; c < w; c++) map_[c0 + c] = -1;
     for (int p = 0; p < m; p++) map_[R[p]] = -1;

@@ -50,7 +50,7 @@ private:
   std::vector<V4>      tbuf_;                /* work: a descendant's rows in s's columns, transposed */
   std::vector<double>  lrow_;                /* work: the row of the current pivot */
   std::vector<double>  ljj_;                 /* L's diagonal (F keeps its inverse) */
-  std::vector<int>     map_, rel_;           /* work: a row's place in the current panel, -1 if none */
+  std::vector<int>     map_, rel_, cofs_;           /* work: a row's place in the current panel, -1 if none */
   std::vector<char>    redo_;
 };
 } // namespace msim
