@@ -19,8 +19,9 @@
    energy line search asks max_step itself), and judged by the model's decrease along the cut
    step. Without it an infeasible trial point (Phi = inf) was rejected and quartered the radius
    (14 times in 9 steps of a 41 x 41 cloth dropped on a ball), and feasible steps went up to the
-   barrier (4.7e-8 m from the ball): tests/contact_ntr.py's 21 x 21 drop stopped 6 of its 90 steps
-   at the 50-iteration cap, 1 with the cut (under |dx| < 1e-3 and 20 iterations, 15 against 2).
+   barrier (4.7e-8 m from the ball): tests/contact_ntr.py's 21 x 21 drop stopped 8 of its 150 steps
+   at the 50-iteration cap, 1 with the cut (under |dx| < 1e-3 and 20 iterations, 90 steps: 15
+   against 2).
    The region is measured in P's norm: with the contact-free PD factor as P (the default) it does
    not see the barrier's stiffness, the cut steps stay at 0.2-5% of CG's, and the drape still
    fails; -msim_contact_pc_pd_weight puts the barrier in P (runs/contact/README.md, "The trust
