@@ -297,6 +297,30 @@ static void ClearCells(MSimMeshObstacle mo)
   mo->refs.clear();
 }
 
+/* A cell's candidates from the tree: the triangles within lim = R + slack of the centre c. Each lies
+   in the cube of half-width lim around c, so the tree's boxes and the triangles' own boxes that miss
+   the cube hold none, and the rest are kept by their distance dc <= lim: the same set, and sorted
+   by (dc, triangle) the same list, as the exact triangle-cube test (CGAL's all_intersected_primitives)
+   followed by the distance gave, without that test (half of a cell's collection) */
+struct CollectTraits {
+  MSimMeshObstacle mo;
+  const PetscReal *c;
+  PetscReal        lim;
+  bool             go_further() const { return true; }
+  bool             do_intersect(const CGAL::Bbox_3 &q, const CGAL::AABB_node<Traits> &node) const { return CGAL::do_overlap(q, node.bbox()); }
+  void             intersection(const CGAL::Bbox_3 &q, const Primitive &pr)
+  {
+    const Triangle &T = *pr.id();
+    if (!CGAL::do_overlap(q, T.bbox())) return;
+    PetscReal p[3], e[3], dc = 0;
+    int       region;
+    ClosestOnTriangle(c, T, p, &region, e);
+    for (int k = 0; k < 3; k++) dc += (c[k] - p[k]) * (c[k] - p[k]);
+    dc = std::sqrt(dc);
+    if (dc <= lim) mo->pool.push_back({&T, dc});
+  }
+};
+
 /* x's cell (collected on its first query); false outside the grid, where the tree answers */
 static bool MeshCell(MSimMeshObstacle mo, const PetscReal x[3], MeshCellT *C)
 {
@@ -341,16 +365,8 @@ static bool MeshCell(MSimMeshObstacle mo, const PetscReal x[3], MeshCellT *C)
     slot              = HashSlot(mo->slots, key);
     const PetscReal R = mo->band + mo->smax;
     const size_t    off = mo->pool.size();
-    mo->near.clear();
-    mo->tree.all_intersected_primitives(K::Iso_cuboid_3(Point(C->c[0] - R - slack, C->c[1] - R - slack, C->c[2] - R - slack), Point(C->c[0] + R + slack, C->c[1] + R + slack, C->c[2] + R + slack)), std::back_inserter(mo->near));
-    for (const auto &id : mo->near) {
-      PetscReal p[3], e[3], dc = 0;
-      int       region;
-      ClosestOnTriangle(C->c, *id, p, &region, e);
-      for (int c = 0; c < 3; c++) dc += (C->c[c] - p[c]) * (C->c[c] - p[c]);
-      dc = std::sqrt(dc);
-      if (dc <= R + slack) mo->pool.push_back({&*id, dc});
-    }
+    CollectTraits collect{mo, C->c, R + slack};
+    mo->tree.traversal(CGAL::Bbox_3(C->c[0] - R - slack, C->c[1] - R - slack, C->c[2] - R - slack, C->c[0] + R + slack, C->c[1] + R + slack, C->c[2] + R + slack), collect);
     std::sort(mo->pool.begin() + off, mo->pool.end(), [](const _n_MSimMeshObstacle::Candidate &a, const _n_MSimMeshObstacle::Candidate &b) { return a.dc < b.dc || (a.dc == b.dc && a.T < b.T); });
     mo->slots[slot] = {key, (uint32_t)off, (uint32_t)(mo->pool.size() - off), ~(uint32_t)0};
     mo->ncells++;
@@ -493,6 +509,19 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mo, const char **file, PetscInt *ntri
   if (closed) *closed = mo->closed;
 }
 
+/* x's offset q from the surface's bounding box (0 inside it) and |q|^2: x - clamp(x, lo, hi), the
+   same numbers as the branches x < lo ? x - lo : (x > hi ? x - hi : 0) (inside, x - x = +0), without
+   them (every query starts here, and the branches were its costliest line) */
+static inline PetscReal BoxOffset(MSimMeshObstacle mo, const PetscReal x[3], PetscReal q[3])
+{
+  PetscReal db2 = 0;
+  for (int c = 0; c < 3; c++) {
+    q[c] = x[c] - std::min(std::max(x[c], mo->lo[c]), mo->hi[c]);
+    db2 += q[c] * q[c];
+  }
+  return db2;
+}
+
 /* cube_bound: beyond the band, the band itself may stand in as a lower bound (see below); the
    conservative advancement of MSimMeshObstacleSafeStep needs the true distance there (a constant
    lower bound would advance by 0.9 dhat a step and cut a long move short) */
@@ -503,11 +532,8 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
      the barrier, friction and the contact force skip a vertex farther than dhat < band, a safe step
      shorter than the bound is the whole step, and conservative advancement stays safe on a lower
      bound. Skips the tree's query for most of a cloth draped over a small obstacle. */
-  PetscReal db2 = 0, q[3];
-  for (int c = 0; c < 3; c++) {
-    q[c] = x[c] < mo->lo[c] ? x[c] - mo->lo[c] : (x[c] > mo->hi[c] ? x[c] - mo->hi[c] : 0.0);
-    db2 += q[c] * q[c];
-  }
+  PetscReal q[3];
+  const PetscReal db2 = BoxOffset(mo, x, q);
   if (lower) *lower = 0; /* *lower: a lower bound of x's distance to the surface, where it is > band (else 0) */
   if (db2 > mo->band * mo->band) {
     const PetscReal db = std::sqrt(db2);
@@ -615,13 +641,15 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], Pe
    band, so the answers stay the same bit for bit. */
 enum { MEMO_SLOTS = 3 };
 
+/* the vertex query within the band around the box (kept out of line: most calls, a cloth's vertices
+   far from a small obstacle and friction's at x_n, end at the box test, and this part's register
+   saves and stack frame were a third of their cost; callgrind, runs/contact/README.md) */
+static PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9]);
+
 PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
 {
-  PetscReal db2 = 0, q[3];
-  for (int c = 0; c < 3; c++) {
-    q[c] = x[c] < mo->lo[c] ? x[c] - mo->lo[c] : (x[c] > mo->hi[c] ? x[c] - mo->hi[c] : 0.0);
-    db2 += q[c] * q[c];
-  }
+  PetscReal       q[3];
+  const PetscReal db2 = BoxOffset(mo, x, q);
   if (db2 > mo->band * mo->band) { /* Distance's first answer, the same operations */
     const PetscReal db = std::sqrt(db2);
     for (int c = 0; c < 3; c++) n[c] = q[c] / db;
@@ -629,6 +657,11 @@ PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const 
       for (int k = 0; k < 9; k++) H[k] = 0;
     return db - mo->thickness;
   }
+  return DistanceVertexNear(mo, v, x, q, db2, n, H);
+}
+
+static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9])
+{
   if (v < 0 || !mo->use_cells) return Distance(mo, x, n, H, true); /* the kept answers are the cache path's */
   if (mo->memo.size() < MEMO_SLOTS * (size_t)(v + 1)) mo->memo.resize(MEMO_SLOTS * (size_t)(v + 1), _n_MSimMeshObstacle::Answer{{0, 0, 0}, 0, 0, {0, 0, 0}, {0}});
   if (mo->far.size() <= (size_t)v) mo->far.resize((size_t)v + 1, _n_MSimMeshObstacle::Far{{0, 0, 0}, 0});

@@ -4,7 +4,8 @@
    (tests/data/meshes/sheet.obj), with moves from 1e-5 to 2 bands long (so a point stays in its cell,
    crosses into the next or jumps far, and crosses the surface), and with thickness 0 and 0.3 band:
    - the cached distance, normal and Hessian equal the tree path's (MSimMeshObstacleSetCache off) to
-     roundoff;
+     roundoff (the cells' candidates are gathered by box overlap and their distance to the cell's
+     centre, the tree path by CGAL's exact triangle-cube test: the same triangles);
    - the distance equals brute force's: the nearest of all triangles (the closest point computed
      here by another method: the plane's foot if inside the triangle, else the nearest of the three
      edges), signed by the parity of a ray's crossings counted over all triangles, where within the
