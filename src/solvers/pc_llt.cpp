@@ -1,11 +1,12 @@
-/* PC type "msimllt": msim's sparse Cholesky for the constant PD matrix, factored once in PCSetUp
-   and stored by supernodes (supernodal.h), so up to four right-hand sides (PD's x, y and z
-   columns) cost one sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a
-   block-size-3 Vec's array, without the dense-matrix copies of KSPMatSolve.
+/* PC type "msimllt": msim's sparse Cholesky for PD's matrix, factored in PCSetUp and stored by
+   supernodes (supernodal.h), so up to four right-hand sides (PD's x, y and z columns) cost one
+   sweep of the factor. PCMSimLLTSolveInterleaved takes them straight from a block-size-3 Vec's
+   array, without the dense-matrix copies of KSPMatSolve.
    Serially: Eigen's AMD ordering and msim's symbolic factorization, kept while A's pattern is;
-   the numbers by msim's left-looking supernodal factorization (supernodal_numeric.h),
-   which at a later set-up recomputes only the supernodes that A's changed entries reach (PD's
-   contact weights change a few rows' diagonal), bit for bit the full factorization. On several ranks: one level of domain
+   the numbers by msim's left-looking supernodal factorization (supernodal_numeric.h), which at a
+   later set-up recomputes only the supernodes that A's changed entries reach (PD's contact
+   weights change a few rows' diagonal), bit for bit the full factorization (-pc_msimllt_partial
+   0 refactors in full). On several ranks: one level of domain
    decomposition (schur_cholesky.h), each rank factoring and sweeping its own rows, the interface
    rows of all ranks solved as one small dense Schur complement. MUMPS stays one option away
    (-pd_pc_type cholesky -pd_pc_factor_mat_solver_type mumps), for partitions whose interface is
@@ -278,6 +279,6 @@ PetscErrorCode PCCreate_MSimLLT(PC pc)
   PetscCall(PCShellSetSetUp(pc, PCSetUp_LLT));
   PetscCall(PCShellSetApply(pc, PCApply_LLT));
   PetscCall(PCShellSetMatApply(pc, PCMatApply_LLT));
-  PetscCall(PCShellSetName(pc, "msimllt: sparse Cholesky (Eigen, AMD), supernodal solves of up to 4 right-hand sides at once; on several ranks, local factors and a dense interface Schur complement"));
+  PetscCall(PCShellSetName(pc, "msimllt: sparse Cholesky (AMD, supernodal, refactored in part where the matrix changed), supernodal solves of up to 4 right-hand sides at once; on several ranks, local factors and a dense interface Schur complement"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
