@@ -595,12 +595,20 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PDWeights *pw = Anchors(term, ct);
   PetscCall(VecGetArrayRead(A, &a));
   PetscCall(VecGetArray(X, &x));
   for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal u[3] = {PetscRealPart(x[3 * v] - a[3 * v]), PetscRealPart(x[3 * v + 1] - a[3 * v + 1]), PetscRealPart(x[3 * v + 2] - a[3 * v + 2])};
     PetscReal       s    = 1;
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
+    if (pw->ex[v] > -ct->dhat) {
+      /* max_step's skip with alpha = 1, from the anchor's lower bound on the distance at A: the
+         safe step then exceeds 1 and s stays 1 */
+      const PetscReal *an = pw->anchor.data() + 3 * v, dx[3] = {a[3 * v] - an[0], a[3 * v + 1] - an[1], a[3 * v + 2] - an[2]};
+      const PetscReal  lb = pw->ex[v] + ct->dhat - PetscSqrtReal(dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2]);
+      if (lb > 0 && 0.5625 * lb * lb > u[0] * u[0] + u[1] * u[1] + u[2] * u[2]) continue;
+    }
     for (const MSimObstacle &o : ct->obs) s = PetscMin(s, SafeStep(o, term->imp->step.tx, v, a + 3 * v, u, s));
     if (s < 1)
       for (int c = 0; c < 3; c++) x[3 * v + c] = a[3 * v + c] + s * u[c];
