@@ -9,8 +9,9 @@ runs/contact/pd_refactor.py's default), tests/contact_pd_refactor.py's runs, the
 with Anderson(5) and with L-BFGS(8) (their checks are not deferred), free falls (no obstacle; and the
 21 x 21 drape's first 3 steps, above the ball), and the bunny (examples/bunny.opts, self-contact
 off, 20 steps) with the barrier alone (-msim_volume_stiffness 0), the full term and, 3 steps, with
-self-contact; 10 steps of it with plain PD (the check deferred); examples/bunny_drop.opts's first
-20 steps (the barrier, the floor and friction).
+self-contact; 10 steps of it with plain PD (the check deferred) and with PD + L-BFGS(8); examples/bunny_drop.opts's first
+20 steps (the barrier, the floor and friction); the two bunnies' 1-step runs (the set-up, to take off
+their CPU time).
 Usage: pd_bounds.py run MSIM OUTDIR [--np 1,2] [--cases a,b]
        pd_bounds.py compare OUTDIR_BEFORE OUTDIR_AFTER     (prints a table)
        pd_bounds.py cpu MSIM_BEFORE MSIM_AFTER [--cases a,b] [--reps 3]   (CPU user s, alternated, min)
@@ -50,6 +51,9 @@ CASES = {
     "freefall101": ["-msim_cloth_n", "101", "-msim_steps", "24"] + H + PD10,
     "freefall21_ball": ["-msim_cloth_n", "21", "-msim_steps", "3", "-msim_friction", "0.3"] + PD10 + H + BALL,
     "bunny_barrier": BUNNY + ["-msim_steps", "20", "-msim_volume", "-msim_volume_stiffness", "0"],
+    "bunny_barrier_1step": BUNNY + ["-msim_steps", "1", "-msim_volume", "-msim_volume_stiffness", "0"],
+    "bunny_drop_1step": ["-options_file", "examples/bunny_drop.opts", "-msim_steps", "1", "-msim_output", "/tmp/pd_bounds_bunny", "-msim_output_every", "1000"],
+    "bunny_lbfgs": BUNNY + ["-msim_steps", "10", "-msim_volume", "-msim_volume_stiffness", "0", "-snes_pd_anderson", "0", "-snes_pd_lbfgs", "8"],
     "bunny_full": BUNNY + ["-msim_steps", "5", "-msim_volume", "-msim_volume_stiffness", "-1"],
     "bunny_plainpd": BUNNY + ["-msim_steps", "10", "-msim_volume", "-msim_volume_stiffness", "0", "-snes_pd_anderson", "0"],
     "bunny_drop": ["-options_file", "examples/bunny_drop.opts", "-msim_steps", "20", "-msim_output", "/tmp/pd_bounds_bunny", "-msim_output_every", "1000"],

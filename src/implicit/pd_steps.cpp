@@ -450,7 +450,6 @@ static PetscErrorCode PDBoundAvailable(MSimImplicit imp, PetscBool *ok, PetscBoo
    that the bound may leave out and for the retry it may size. */
 struct PDBound {
   PetscBool              begun = PETSC_FALSE, ok = PETSC_FALSE; /* ok: available, D^T A D > 0 */
-  PetscBool              cheap = PETSC_FALSE;                   /* PDBoundAvailable's */
   PetscBool              have_f0 = PETSC_FALSE;
   PetscReal              dad = 0, f0 = 0; /* D^T A D, the excess at the step's alpha0 */
   Vec                    W = NULL, Xa = NULL; /* work: A D or a gradient, and X0 - alpha D */
@@ -467,7 +466,6 @@ static PetscErrorCode PDBoundBegin(MSimImplicit imp, Vec X0, Vec D, PDBound *b)
   if (b->begun) PetscFunctionReturn(PETSC_SUCCESS);
   b->begun = PETSC_TRUE;
   PetscCall(PDBoundAvailable(imp, &ok, &cheap));
-  b->cheap = cheap;
   if (!ok) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundWork", (PetscObject *)&b->W));
   PetscCall(PetscObjectQuery((PetscObject)D, "MSimPDBoundX", (PetscObject *)&b->Xa));
