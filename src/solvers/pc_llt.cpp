@@ -81,7 +81,7 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   PetscOptionsBegin(PetscObjectComm((PetscObject)pc), prefix, "msimllt: supernodal Cholesky", "PC");
   PetscCall(MSimOptionsReal("-pc_msimllt_relax", "Merge neighbouring supernodes while the stored entries, zeros included, grow by at most this fraction", "", ctx->relax, &ctx->relax, NULL));
   PetscCall(MSimOptionsInt("-pc_msimllt_max_width", "Widest merged supernode (columns)", "", ctx->max_width, &ctx->max_width, NULL));
-  PetscCall(PetscOptionsBool("-pc_msimllt_partial", "Refactor only the supernodes that the matrix's changed entries reach (one rank; same bits as a full refactorization)", "", ctx->partial, &ctx->partial, NULL));
+  PetscCall(PetscOptionsBool("-pc_msimllt_partial", "Refactor only the supernodes that the matrix's changed entries reach (on several ranks, of each rank's local factor; same bits as a full refactorization)", "", ctx->partial, &ctx->partial, NULL));
   PetscOptionsEnd();
   PetscCheck(ctx->relax >= 0, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-%spc_msimllt_relax must be >= 0", prefix ? prefix : "");
   PetscCheck(ctx->max_width >= 1, PetscObjectComm((PetscObject)pc), PETSC_ERR_ARG_OUTOFRANGE, "-%spc_msimllt_max_width must be >= 1 (got %" PetscInt_FMT ")", prefix ? prefix : "", ctx->max_width);
