@@ -265,7 +265,7 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
     PetscCall(VecDestroy(&G));
   }
   if (lm > 0) {
-    PetscCall(PetscInfo(snes, "pd: L-BFGS(%" PetscInt_FMT ") so far: fell back to the plain PD step %" PetscInt_FMT " times, %" PetscInt_FMT " steps shortened by a feasible set, %" PetscInt_FMT " by a backtrack, %" PetscInt_FMT " pairs of negative curvature skipped\n", lm, lbp->fallbacks, lbp->cut, lbp->backtracks, lbp->lb.skipped));
+    PetscCall(PetscInfo(snes, "pd: L-BFGS(%" PetscInt_FMT ") so far: fell back to the plain PD step %" PetscInt_FMT " times, %" PetscInt_FMT " of them for steps leaving a feasible set, %" PetscInt_FMT " by a backtrack, %" PetscInt_FMT " pairs of negative curvature skipped\n", lm, lbp->fallbacks, lbp->cut, lbp->backtracks, lbp->lb.skipped));
   }
   PetscCall(VecDestroy(&rhs));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -55,7 +55,8 @@ PetscErrorCode MSimLBFGSApply(MSimLBFGS *lb, Vec g, Vec d, PetscErrorCode (*h0)(
    does not lower Phi by Armijo's rule (to roundoff: it may pass a rise of MSIM_PHI_ROUNDOFF |Phi|,
    as msim's energy line search does; |Phi| counts gravity from the origin) is replaced by the
    plain PD step (which never raises Phi; its rhs from A x - g, one product) and the history
-   restarts. Steps are shortened to the problem's feasible set (max_step). The pairs carry over
+   restarts, as it does for a step that would leave the problem's feasible set (max_step < 1:
+   shortened, it crawled along the barrier; pd_lbfgs.cpp). The pairs carry over
    from one solve to the next (the next time step's Hessian is close; the inertia term's y_n
    cancels in y). */
 typedef struct {
@@ -66,7 +67,7 @@ typedef struct {
   Vec            D, Xt, Rt, Gt;  /* direction (the step is x - t D), trial iterate, its rhs and gradient */
   PetscReal      phi;            /* Phi at the current iterate */
   PetscBool      first;
-  PetscInt       fallbacks, cut; /* plain PD steps taken instead; steps a feasible set shortened */
+  PetscInt       fallbacks, cut; /* plain PD steps taken instead; steps that would leave a feasible set (PD's instead) */
   PetscInt       backtracks;     /* steps shortened once by Phi's parabola */
   PetscBool      use_fused;      /* -snes_pd_lbfgs_fused: the gradient from the local step's passes where the problem can */
   PetscBool      check;          /* -snes_pd_lbfgs_check: compare g and s^T A s with the products (PetscInfo) */
