@@ -743,12 +743,16 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
       /* the global step's deferred check, with Phi(X) from this local step's passes (phi is set:
          a check is pending only where a term has a feasible set) and phi0 from the last one's:
          like with like, as in PDHalve. A retried X gets its own local step. */
-      PDBound      b;
-      PDLocalAtCtx c = {rhs, phi};
+      PDBound          b;
+      PDLocalAtCtx     c = {rhs, phi};
+      PetscObjectState astate;
       imp->pd_pending = PETSC_FALSE;
       PetscCall(VecDestroy(&imp->pd_px)); /* the global step's reference; the caller's X lives on */
       PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi));
-      PetscCall(PDRetryHalve(imp, &b, imp->pd_x0, imp->pd_d, imp->pd_alpha, imp->pd_phi0, *phi, X, PDLocalAt, &c));
+      /* the bound models Phi along D with the A that D was solved with: a reweight in this local
+         step (new contact weights) would make it claim too little, so it then halves on Phi */
+      PetscCall(PetscObjectStateGet((PetscObject)imp->A, &astate));
+      PetscCall(PDRetryHalve(imp, astate == imp->pd_astate ? &b : NULL, imp->pd_x0, imp->pd_d, imp->pd_alpha, imp->pd_phi0, *phi, X, PDLocalAt, &c));
       PetscFunctionReturn(PETSC_SUCCESS);
     }
     PetscCall(PDCheckResolve(imp));
@@ -806,6 +810,7 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   /* the solution into D and max_step from guess itself, still the local step's X (same id and
      state), whose distances the obstacles kept: then x_k's copy, and X = x_k - alpha D */
   PetscCall(MSimImplicitPDSolve(imp, rhs, guess, D));
+  PetscCall(PetscObjectStateGet((PetscObject)imp->A, &imp->pd_astate));
   PetscCall(VecAYPX(D, -1.0, guess)); /* D = x_k - A^-1 rhs */
   PetscCall(PetscLogEventBegin(PD_MaxStep, 0, 0, 0, 0));
   PetscCall(MSimImplicitMaxStep(imp, guess, D, &alpha));

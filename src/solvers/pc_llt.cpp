@@ -38,6 +38,8 @@ typedef struct {
   PetscBool              partial;   /* refactor only what A's changed entries reach */
   msim::SupernodalCholesky numeric; /* serial: the kept analysis */
   bool                   analyzed;
+  PetscReal              analyzed_relax;     /* the options the kept analysis was made with */
+  PetscInt               analyzed_max_width;
   std::vector<int>       aptr, acol; /* A's lower triangle by rows, at the last factorization */
   std::vector<double>    aval;
   PetscInt               nfull, npartial;
@@ -116,7 +118,8 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     PetscCall(MatRestoreRow(A, i, &ncols, &cols, &vals));
   }
   std::vector<char> dirty;
-  const bool        keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol;
+  /* the analysis is kept for the same pattern and the same amalgamation options (which shape the supernodes) */
+  const bool        keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol && ctx->relax == ctx->analyzed_relax && ctx->max_width == ctx->analyzed_max_width;
   if (!keep) { /* a new pattern: Eigen's AMD ordering (as its SimplicialLLT orders), the structure, the analysis */
     std::vector<Eigen::Triplet<double, int>> t;
     t.reserve(acol.size());
@@ -135,7 +138,9 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     const std::vector<double> zero(row.size(), 0.0); /* the numbers come from ctx->numeric */
     ctx->factor.Build((int)n, colptr.data(), row.data(), zero.data(), -1, ctx->relax, (int)ctx->max_width);
     ctx->numeric.Analyze(ctx->factor, ctx->perm.data(), aptr, acol);
-    ctx->analyzed = true;
+    ctx->analyzed           = true;
+    ctx->analyzed_relax     = ctx->relax;
+    ctx->analyzed_max_width = ctx->max_width;
   } else if (ctx->partial) { /* the supernodes holding a changed entry (bits compared: -0 is not 0) */
     const std::vector<int> &sn = ctx->numeric.EntrySupernode();
     dirty.assign(ctx->numeric.Supernodes(), 0);

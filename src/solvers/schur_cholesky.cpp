@@ -61,7 +61,7 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool par
     aptr.push_back((int)acol.size());
     PetscCall(MatRestoreRow(Ad, i, &ncols, &cols, &vals));
   }
-  const bool        keep = analyzed_ && iface == iface_ && aptr == aptr_ && acol == acol_;
+  const bool        keep = analyzed_ && iface == iface_ && aptr == aptr_ && acol == acol_ && relax == relax_ && max_width == max_width_;
   std::vector<char> dirty;
   if (!keep) { /* local numbering: interior rows in AMD order, then the interface rows; the analysis */
     std::vector<PetscInt> pos(nlocal_);
@@ -82,8 +82,10 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool par
     const std::vector<double> zero(row.size(), 0.0); /* the numbers come from numeric_ */
     local_.Build((int)nlocal_, colptr.data(), row.data(), zero.data(), (int)ninterior_, relax, max_width);
     numeric_.Analyze(local_, perm_.data(), aptr, acol);
-    analyzed_ = true;
-    iface_    = iface;
+    analyzed_  = true;
+    iface_     = iface;
+    relax_     = relax;
+    max_width_ = max_width;
   } else if (partial) { /* the supernodes holding a changed entry (bits compared) */
     const std::vector<int> &sn = numeric_.EntrySupernode();
     dirty.assign(numeric_.Supernodes(), 0);
@@ -95,7 +97,12 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool par
   const int bad = numeric_.Factor(local_, aval.data(), dirty.empty() ? nullptr : &dirty, done, total);
   if (*was_partial) PetscCall(PetscLogEventEnd(partial_event, 0, 0, 0, 0));
   if (bad >= 0) analyzed_ = false;
-  PetscCheck(bad < 0, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (local pivot %d)", bad);
+  { /* every rank learns of a failed pivot before the collective steps below, so the error is
+       raised on all of them (one rank returning alone would leave the others in MPI_Allgather) */
+    int worst = bad;
+    PetscCallMPI(MPI_Allreduce(&bad, &worst, 1, MPI_INT, MPI_MAX, comm_));
+    PetscCheck(worst < 0, comm_, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (a rank's local factor met a non-positive pivot)");
+  }
   aptr_.swap(aptr);
   acol_.swap(acol);
   aval_.swap(aval);

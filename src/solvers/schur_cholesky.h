@@ -34,6 +34,8 @@ private:
   SupernodalFactor         local_;                   /* interior columns first, interface last */
   SupernodalCholesky       numeric_;                 /* its kept analysis */
   bool                     analyzed_ = false;
+  double                   relax_     = -1; /* the amalgamation options the kept analysis was made with */
+  int                      max_width_ = -1;
   std::vector<char>        iface_;                   /* the owned rows coupled to other ranks' */
   std::vector<int>         aptr_, acol_;             /* the diagonal block's lower triangle at the last factorization */
   std::vector<double>      aval_;

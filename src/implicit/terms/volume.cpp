@@ -129,9 +129,12 @@ static PetscErrorCode MaxStep_Volume(MSimImplicitTerm term, Vec X, Vec Y, PetscR
   PetscCall(MSimSystemVolumeMaxStep(sys, imp->step.tx, X, Y, alpha, &vd->barrier));
   vd->alpha = *alpha;
   vd->rec.clear();
+  vd->yid    = 0; /* no direction recorded: pd_gap answers +inf (no bound) */
+  vd->ystate = 0;
+  if (vd->barrier && !(term->ops.pd_gap && imp->A)) PetscFunctionReturn(PETSC_SUCCESS); /* the records were not built: an empty list would claim no excess */
   PetscCall(PetscObjectGetId((PetscObject)Y, &vd->yid));
   PetscCall(PetscObjectStateGet((PetscObject)Y, &vd->ystate));
-  if (vd->barrier && term->ops.pd_gap && imp->A) BarrierRecords(sys, !ref, vd->rec);
+  if (vd->barrier) BarrierRecords(sys, !ref, vd->rec);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
