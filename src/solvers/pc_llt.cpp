@@ -133,20 +133,11 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     amd(C, pinv);
     p = pinv.inverse();
     ctx->perm.assign(p.indices().data(), p.indices().data() + n);
-    std::vector<int> colptr, row;
-    msim::SymbolicCholesky((int)n, ctx->perm.data(), aptr, acol, colptr, row);
-    const std::vector<double> zero(row.size(), 0.0); /* the numbers come from ctx->numeric */
-    ctx->factor.Build((int)n, colptr.data(), row.data(), zero.data(), -1, ctx->relax, (int)ctx->max_width);
-    ctx->numeric.Analyze(ctx->factor, ctx->perm.data(), aptr, acol);
+    ctx->numeric.AnalyzeOrdering(ctx->factor, (int)n, ctx->perm.data(), aptr, acol, -1, ctx->relax, (int)ctx->max_width);
     ctx->analyzed           = true;
     ctx->analyzed_relax     = ctx->relax;
     ctx->analyzed_max_width = ctx->max_width;
-  } else if (ctx->partial) { /* the supernodes holding a changed entry (bits compared: -0 is not 0) */
-    const std::vector<int> &sn = ctx->numeric.EntrySupernode();
-    dirty.assign(ctx->numeric.Supernodes(), 0);
-    for (size_t e = 0; e < aval.size(); e++)
-      if (std::memcmp(&aval[e], &ctx->aval[e], sizeof(double))) dirty[sn[e]] = 1;
-  }
+  } else if (ctx->partial) ctx->numeric.MarkChanged(aval, ctx->aval, dirty);
   /* the numbers always come from msim's factorization, so a factor is the same bits whichever
      of full and partial made it (a restarted run factors from scratch) */
   double done, total;

@@ -77,21 +77,12 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool par
     perm_.resize(nlocal_);
     for (PetscInt k = 0; k < ninterior_; k++) perm_[interior[k]] = amd.permutationP().indices()[k];
     for (PetscInt k = 0; k < ninterface_; k++) perm_[interface[k]] = (int)(ninterior_ + k);
-    std::vector<int> colptr, row;
-    SymbolicCholesky((int)nlocal_, perm_.data(), aptr, acol, colptr, row);
-    const std::vector<double> zero(row.size(), 0.0); /* the numbers come from numeric_ */
-    local_.Build((int)nlocal_, colptr.data(), row.data(), zero.data(), (int)ninterior_, relax, max_width);
-    numeric_.Analyze(local_, perm_.data(), aptr, acol);
+    numeric_.AnalyzeOrdering(local_, (int)nlocal_, perm_.data(), aptr, acol, (int)ninterior_, relax, max_width);
     analyzed_  = true;
     iface_     = iface;
     relax_     = relax;
     max_width_ = max_width;
-  } else if (partial) { /* the supernodes holding a changed entry (bits compared) */
-    const std::vector<int> &sn = numeric_.EntrySupernode();
-    dirty.assign(numeric_.Supernodes(), 0);
-    for (size_t e = 0; e < aval.size(); e++)
-      if (std::memcmp(&aval[e], &aval_[e], sizeof(double))) dirty[sn[e]] = 1;
-  }
+  } else if (partial) numeric_.MarkChanged(aval, aval_, dirty);
   *was_partial = keep && partial;
   if (*was_partial) PetscCall(PetscLogEventBegin(partial_event, 0, 0, 0, 0));
   const int bad = numeric_.Factor(local_, aval.data(), dirty.empty() ? nullptr : &dirty, done, total);

@@ -8,6 +8,7 @@
 #include "supernodal_numeric.h"
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 namespace msim {
 
@@ -188,6 +189,22 @@ static void UpdatePanel(V4 *P, int w, int c0, const double *Bd, int wd, const in
       }
     }
   }
+}
+
+void SupernodalCholesky::AnalyzeOrdering(SupernodalFactor &F, int n, const int *perm, const std::vector<int> &aptr, const std::vector<int> &acol, int split, double relax, int max_width)
+{
+  std::vector<int> colptr, row;
+  SymbolicCholesky(n, perm, aptr, acol, colptr, row);
+  const std::vector<double> zero(row.size(), 0.0); /* the numbers come from Factor */
+  F.Build(n, colptr.data(), row.data(), zero.data(), split, relax, max_width);
+  Analyze(F, perm, aptr, acol);
+}
+
+void SupernodalCholesky::MarkChanged(const std::vector<double> &aval, const std::vector<double> &old, std::vector<char> &dirty) const
+{
+  dirty.assign(nsn_, 0);
+  for (size_t e = 0; e < aval.size(); e++)
+    if (std::memcmp(&aval[e], &old[e], sizeof(double))) dirty[asn_[e]] = 1;
 }
 
 int SupernodalCholesky::Factor(SupernodalFactor &F, const double *aval, const std::vector<char> *dirty, double *done, double *total)

@@ -25,6 +25,13 @@ public:
      numbering (row i: columns acol[aptr[i] .. aptr[i+1]), each <= i), whose values Factor takes in
      that order. */
   void Analyze(const SupernodalFactor &F, const int *perm, const std::vector<int> &aptr, const std::vector<int> &acol);
+  /* The whole analysis for the ordering perm: L's structure (SymbolicCholesky), F built on it
+     with no numbers yet (split at column split, -1 for none; relax, max_width: amalgamation),
+     and Analyze. The serial factor and each rank's local one take this same path. */
+  void AnalyzeOrdering(SupernodalFactor &F, int n, const int *perm, const std::vector<int> &aptr, const std::vector<int> &acol, int split, double relax, int max_width);
+  /* dirty := the supernodes holding an entry of aval whose bits differ from old's (-0 is not 0:
+     a partial refactorization must give the full one's bits), for Factor */
+  void MarkChanged(const std::vector<double> &aval, const std::vector<double> &old, std::vector<char> &dirty) const;
   /* F's values from A's (aval, in Analyze's order). dirty: nullptr for all supernodes, else the
      supernodes whose columns hold a changed entry of A (nsn flags): those and every supernode
      they reach are recomputed. Returns -1, or the first column whose pivot is not positive.
@@ -33,8 +40,6 @@ public:
   /* L's trailing block, rows and columns c0 .. n-1 (no supernode may straddle c0: Build's split),
      into out, column-major, (n - c0)^2 doubles, its upper part zero */
   void TrailingBlock(const SupernodalFactor &F, int c0, double *out) const;
-  /* the supernode of each A entry's column (to mark dirty supernodes), in Analyze's order */
-  const std::vector<int> &EntrySupernode() const { return asn_; }
   int                     Supernodes() const { return nsn_; }
 
 private:
