@@ -52,10 +52,10 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in mt.ranks():
             out, csv = os.path.join(tmp, f"out_{np_}"), os.path.join(tmp, f"mon_{np_}.csv")
-            r = mt.run(exe, BALL + ["-msim_output", out, "-msim_output_every", "1", "-msim_monitor_csv", csv, "-info", ":snes"], np_)
+            r = mt.run_info(exe, BALL + ["-msim_output", out, "-msim_output_every", "1", "-msim_monitor_csv", csv], np_, "snes")
             rows = mt.read_csv(csv) if os.path.exists(csv) else []
             if check(r.returncode == 0 and len(rows) == STEPS + 1, f"np {np_}: ntr drops the cloth on the ball for {STEPS} steps ({len(rows) - 1} run)" + ("" if r.returncode == 0 else ": " + r.stderr.strip()[-300:])):
-                info = r.stdout.splitlines()
+                info = r.info.splitlines()
                 infeasible = sum("ntr: trial point outside the feasible set" in ln or "ntr: step rejected (rho -1," in ln for ln in info)
                 cuts = sum("ntr: trial step cut to" in ln for ln in info)
                 check(infeasible == 0, f"np {np_}: no trial point outside the feasible set ({infeasible}; {cuts} trial steps cut by max_step)")

@@ -44,7 +44,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in mt.ranks():
             csv, out = os.path.join(tmp, f"m_{np_}.csv"), os.path.join(tmp, f"frames_{np_}")
-            r = mt.run(MSIM, RUN + ["-msim_monitor_csv", csv, "-msim_output", out, "-msim_output_every", 1, "-info", ":snes"], np_)
+            r = mt.run_info(MSIM, RUN + ["-msim_monitor_csv", csv, "-msim_output", out, "-msim_output_every", 1], np_, "snes")
             rows = mt.read_csv(csv) if r.returncode == 0 else []
             if not check(len(rows) == STEPS + 1, f"np={np_}: {STEPS} PD + L-BFGS-8 steps on the ball" + ("" if r.returncode == 0 else ": " + r.stderr.strip()[-300:])):
                 continue
@@ -53,7 +53,7 @@ def main():
             check(e[k] <= e[0] + 1e-9, f"np={np_}: total energy never above its start: largest {e[k]:.6g} J (step {k}) <= {e[0]:.3g} J")
             floor = MASS * np.finfo(float).eps ** 2
             worst, n, prev = -np.inf, 0, None
-            for it, phi in ((int(a), float(b)) for a, b in INFO.findall(r.stdout)):
+            for it, phi in ((int(a), float(b)) for a, b in INFO.findall(r.info)):
                 if it > 0 and prev is not None:
                     worst = max(worst, (phi - prev) / (1e-12 * abs(prev) + floor))
                     n += 1

@@ -141,8 +141,8 @@ def bound_checks(check, np_, drape, tmp):
         logs[b] = (energies(log), halvings(log))
     (e0, h0), (e1, h1) = logs["0"], logs["1"]
     check(e1 + h1 < e0 + h0, f"np={np_} drape: the bound takes fewer Phi evaluations + rejected-step retries ({e1} + {h1}) than halving on Phi ({e0} + {h0})")
-    r = mt.run(MSIM, drape + ["-info", ":vec"], np_)
-    pairs = [(float(a), float(b)) for a, b in re.findall(r"pd bound: .*\(found\).* Phi (\S+) -> (\S+)", r.stdout + r.stderr)]
+    r = mt.run_info(MSIM, drape, np_, "vec")
+    pairs = [(float(a), float(b)) for a, b in re.findall(r"pd bound: .*\(found\).* Phi (\S+) -> (\S+)", r.info)]
     rise = max((b - a - 1e-12 * abs(a) for a, b in pairs), default=0.0)
     check(r.returncode == 0 and pairs and rise <= 1e-20, f"np={np_} drape: Phi did not rise at any of the {len(pairs)} steps the bound accepted (largest rise beyond 1e-12 |Phi|: {rise:.3g} J)")
     base = ["-msim_cloth_n", N, "-msim_steps", 4] + H + CONVERGED + BALL + ["-msim_friction", "0.3"]

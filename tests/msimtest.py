@@ -66,6 +66,21 @@ def run(exe, args=(), np=1, cwd=None, **kw):
     return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, **kw)
 
 
+def run_info(exe, args=(), np=1, classes="", cwd=None, **kw):
+    """runs exe like run() with PETSc's -info written to one file per rank (PETSc names them
+    info.RANK in a temporary directory): ranks that share stdout can cut a line of one rank into
+    another's (a test once read a spliced number), files cannot. The process gets .info, every
+    rank's lines in rank order, as stdout would have held them unspliced"""
+    import glob
+    import tempfile
+    with tempfile.TemporaryDirectory() as tmp:
+        base = os.path.join(tmp, "info")
+        r = run(exe, list(args) + ["-info", base + (":" + classes if classes else "")], np, cwd=cwd, **kw)
+        files = sorted(glob.glob(base + ".*"), key=lambda f: int(f.rsplit(".", 1)[1]))
+        r.info = "".join(open(f, errors="replace").read() for f in files)
+    return r
+
+
 def popen(exe, args=(), np=1, cwd=None, **kw):
     """starts exe in the background (a new session, so that kill_all reaches its ranks)"""
     kw.setdefault("start_new_session", True)
@@ -113,11 +128,13 @@ def positions(path):
     return np.array(read_view(path)).reshape(-1, 3)
 
 
-def final_positions(exe, args, np, tmp, name="final", cwd=None):
+def final_positions(exe, args, np, tmp, name="final", cwd=None, info=None):
     """runs exe with -msim_view_final into tmp/NAME_NP.txt; (n, 3) positions, or None when the run
-    failed (its stderr's tail printed), and the finished process"""
+    failed (its stderr's tail printed), and the finished process; info (a class list, "" for all)
+    runs it with run_info's -info files"""
     path = os.path.join(tmp, f"{name}_{np}.txt")
-    r = run(exe, list(args) + ["-msim_view_final", view_ascii(path)], np, cwd=cwd)
+    args = list(args) + ["-msim_view_final", view_ascii(path)]
+    r = run(exe, args, np, cwd=cwd) if info is None else run_info(exe, args, np, info, cwd=cwd)
     if r.returncode:
         print(f"msim exited with {r.returncode}: {' '.join(str(a) for a in args)}\n{r.stderr[-1500:]}")
         return None, r

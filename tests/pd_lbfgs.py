@@ -43,15 +43,15 @@ PD = ["-snes_type", "pd", "-snes_max_it", "50000"] + TIGHT
 BALL = ["-msim_cloth_n", "15", "-msim_fix", "none", "-msim_dt", "0.0333333333333333", "-msim_steps", "30", "-msim_integrator", "implicit_euler",
         "-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3", "-snes_type", "pd", "-snes_pd_lbfgs", "5", "-snes_pd_fixed", "-snes_max_it", "10"]
 INFO = re.compile(r"pd: L-BFGS iteration (\d+) Phi (\S+)")
-# Whole lines only: two ranks' -info output shares one pipe, and a line of one can be cut into a
-# line of the other (2-rank runs with identical monitors showed 195-202 of their ~200 check lines
-# per rank); a spliced line then read as a pair of unrelated numbers (a Gram "error" of 99 once).
+# Whole lines only, and -info in one file per rank (mt.run_info): two ranks' -info output on one
+# pipe cut lines of one rank into the other's (2-rank runs with identical monitors showed 195-202
+# of their ~200 check lines per rank), and a spliced line once read as a Gram "error" of 99.
 NUM = r"([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)"
 GCHECK = re.compile(r"^\[0\] <sys> CheckGradient\(\): pd: L-BFGS fused gradient check: \|g - \(A x - rhs\)\| " + NUM + r" \|g\| " + NUM + r" \|rhs\| " + NUM + r"$", re.M)
 GRAM = re.compile(r"^\[0\] <sys> PushPair\(\): pd: L-BFGS Gram check: s\^T A s " + NUM + r", by the product " + NUM + r" \(relative difference " + NUM + r"\)$", re.M)
 FALLBACK = "this problem's gradient takes the product"
 REWEIGHT = "PD weights changed A at this gradient"
-FUSED_LB = ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_fixed", "-snes_max_it", "10", "-snes_pd_lbfgs_check", "-info", "-msim_spectrum_check", "0"]
+FUSED_LB = ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_fixed", "-snes_max_it", "10", "-snes_pd_lbfgs_check", "-msim_spectrum_check", "0"]
 FUSED_SCENES = {
     "damped cloth, drag and wind": ["-msim_cloth_n", "11", "-msim_damping", "2", "-msim_drag", "0.05", "-msim_wind", "1,0,0", "-msim_integrator", "newmark",
                                     "-msim_dt", "0.02", "-msim_steps", "10"],
@@ -81,8 +81,8 @@ def fused_gradient(check, np_):
     """the fused gradient against the product, and the Gram matrix's s^T A s against A s's"""
     eps = np.finfo(float).eps
     for label, scene in FUSED_SCENES.items():
-        r = mt.run(MSIM, scene + FUSED_LB, np_)
-        rank0 = "\n".join(l for l in r.stdout.splitlines() if l.startswith("[0]"))  # every rank prints the checks
+        r = mt.run_info(MSIM, scene + FUSED_LB, np_)
+        rank0 = "\n".join(l for l in r.info.splitlines() if l.startswith("[0]"))  # every rank prints the checks
         g = [tuple(float(v) for v in m) for m in GCHECK.findall(rank0)]
         # and a line whose own relative difference (printed to 4 digits) disagrees with its two
         # numbers is a splice that happened to keep the shape: left out
@@ -112,10 +112,10 @@ def main():
                 base = SCENE + ["-msim_integrator", scheme]
                 x = {}
                 for label, opts in (("Newton", NEWTON), ("PD+L-BFGS", LBFGS), ("PD+L-BFGS product", LBFGS + ["-snes_pd_lbfgs_fused", "0"]), ("PD", PD)):
-                    x[label], r = mt.final_positions(MSIM, base + opts + (["-info", ":snes"] if label.startswith("PD+L-BFGS") else []), np_, tmp, f"{scheme}_{label}".replace("+", "").replace(" ", "_"))
+                    x[label], r = mt.final_positions(MSIM, base + opts, np_, tmp, f"{scheme}_{label}".replace("+", "").replace(" ", "_"), info="snes" if label.startswith("PD+L-BFGS") else None)
                     check(x[label] is not None and "stopped at -snes_max_it" not in r.stderr, f"np={np_}: {scheme} {label}: converged to |g| <= {ATOL:g} in every step")
                     if label.startswith("PD+L-BFGS") and x[label] is not None:
-                        phi_never_rises(check, np_, r.stdout, f"{scheme} to convergence")
+                        phi_never_rises(check, np_, r.info, f"{scheme} to convergence")
                 if any(v is None for v in x.values()):
                     continue
                 for lb, other in (("PD+L-BFGS", "Newton"), ("PD+L-BFGS", "PD"), ("PD+L-BFGS product", "Newton")):
@@ -123,14 +123,14 @@ def main():
                     check(d <= bound, f"np={np_}: {scheme}: {lb} ends {d:.2e} m from {other} (bound {bound:.1e} m)")
             # the ball: the barrier's feasible set
             csv = os.path.join(tmp, f"ball_{np_}.csv")
-            r = mt.run(MSIM, BALL + ["-msim_monitor_csv", csv, "-info", ":snes"], np_)
+            r = mt.run_info(MSIM, BALL + ["-msim_monitor_csv", csv], np_, "snes")
             rows = mt.read_csv(csv) if r.returncode == 0 else []
             check(r.returncode == 0 and len(rows) == 31, f"np={np_}: cloth on the ball, 30 PD+L-BFGS-10 steps" + ("" if r.returncode == 0 else ": " + r.stderr.strip()[-200:]))
             if rows:
                 e0, emax = float(rows[0]["total"]), max(float(x["total"]) for x in rows)
                 check(emax <= e0 + 1e-9, f"np={np_}: on the ball: total energy at most {emax:.6g} J <= its start {e0:.3g} J")
                 check(max(int(x["contact_n"]) for x in rows) > 0, f"np={np_}: the cloth reached the ball")
-                phi_never_rises(check, np_, r.stdout, "on the ball")
+                phi_never_rises(check, np_, r.info, "on the ball")
             fused_gradient(check, np_)
             # m = 0 is plain PD
             a, _ = mt.final_positions(MSIM, SCENE + ["-msim_integrator", "bdf2", "-snes_type", "pd", "-snes_pd_fixed", "-snes_max_it", "10"], np_, tmp, "m0a")

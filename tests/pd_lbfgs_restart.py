@@ -84,8 +84,8 @@ def one_count(tmp, np_):
     ck = os.path.join(tmp, "unfused.ck")
     base = SCENE + CASES["BDF2, L-BFGS 5, 8 iterations"]
     r1 = mt.run(MSIM, base + ["-msim_steps", str(SPLIT), "-msim_checkpoint", ck, "-snes_pd_lbfgs_fused", "0"], np_, cwd=tmp)
-    r2 = mt.run(MSIM, base + ["-msim_steps", str(SPLIT + 2), "-msim_restart", ck, "-info"], np_, cwd=tmp)
-    afresh = [l for l in mt.lines(r2.stdout + r2.stderr) if "no Gram rows" in l]
+    r2 = mt.run_info(MSIM, base + ["-msim_steps", str(SPLIT + 2), "-msim_restart", ck], np_, cwd=tmp)
+    afresh = [l for l in mt.lines(r2.info) if "no Gram rows" in l]
     check(r1.returncode == 0 and r2.returncode == 0 and len(afresh) >= 1,
           f"np {np_}: a fused restart from pairs made with -snes_pd_lbfgs_fused 0 starts the history afresh ({len(afresh)} -info lines; rc {r1.returncode}, {r2.returncode})")
     if np_ > 1:

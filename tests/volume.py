@@ -68,8 +68,8 @@ def bound_rises(name, args, np_):
     rejected step. With -info Phi is evaluated in full at both ends of every step the bound
     accepted: it must not rise beyond roundoff (1e-12 |Phi| + 1e-20 J, as in
     tests/contact_pd_refactor.py), and the bound must have accepted some steps"""
-    r = mt.run(MSIM, args + ["-info", ":vec"], np_)
-    pairs = [(float(a), float(b)) for a, b in re.findall(r"pd bound: .*\(found\).* Phi (\S+) -> (\S+)", r.stdout + r.stderr)]
+    r = mt.run_info(MSIM, args, np_, "vec")
+    pairs = [(float(a), float(b)) for a, b in re.findall(r"pd bound: .*\(found\).* Phi (\S+) -> (\S+)", r.info)]
     rise = max((b - a - 1e-12 * abs(a) for a, b in pairs), default=0.0)
     check(r.returncode == 0 and len(pairs) > 0 and rise <= 1e-20, f"np={np_} {name}: Phi did not rise at any of the {len(pairs)} steps PD's bound accepted (largest rise beyond 1e-12 |Phi|: {rise:.3g} J)")
 
