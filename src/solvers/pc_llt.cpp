@@ -17,6 +17,7 @@
 #include "supernodal.h"
 #include "supernodal_numeric.h"
 #include "schur_cholesky.h"
+#include "lower_triangle.h"
 #include <cstring>
 #include <petscksp.h>
 #include <Eigen/SparseCore>
@@ -71,10 +72,8 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
 {
   PC_LLT            *ctx;
   Mat                A;
-  PetscInt           n, ncols;
+  PetscInt           n;
   PetscMPIInt        size;
-  const PetscInt    *cols;
-  const PetscScalar *vals;
   const char        *prefix;
 
   PetscFunctionBeginUser;
@@ -105,18 +104,9 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT " in %d supernodes, %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->LocalSupernodes(), ctx->schur->InterfaceSize()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  std::vector<int>    aptr(1, 0), acol;
+  std::vector<int>    aptr, acol;
   std::vector<double> aval;
-  for (PetscInt i = 0; i < n; i++) { /* A's lower triangle by rows */
-    PetscCall(MatGetRow(A, i, &ncols, &cols, &vals));
-    for (PetscInt k = 0; k < ncols; k++)
-      if (cols[k] <= i) {
-        acol.push_back((int)cols[k]);
-        aval.push_back(PetscRealPart(vals[k]));
-      }
-    aptr.push_back((int)acol.size());
-    PetscCall(MatRestoreRow(A, i, &ncols, &cols, &vals));
-  }
+  PetscCall(msim::LowerTriangleRows(A, aptr, acol, aval));
   std::vector<char> dirty;
   /* the analysis is kept for the same pattern and the same amalgamation options (which shape the supernodes) */
   const bool        keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol && ctx->relax == ctx->analyzed_relax && ctx->max_width == ctx->analyzed_max_width;

@@ -5,6 +5,7 @@
    Schur complement, A_SS - A_SI A_II^-1 A_IS = L_SS L_SS^T, and its forward sweep over the interior
    columns leaves b_S - L_SI L_II^-1 b_I in the interface rows, the Schur right-hand side. */
 #include "schur_cholesky.h"
+#include "lower_triangle.h"
 #include <Eigen/SparseCore>
 #include <Eigen/SparseCholesky>
 #include <Eigen/Dense>
@@ -49,18 +50,9 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool par
   ninterface_ = (PetscInt)interface.size();
 
   /* the diagonal block's lower triangle by rows, in the owned rows' numbering */
-  std::vector<int>    aptr(1, 0), acol;
+  std::vector<int>    aptr, acol;
   std::vector<double> aval;
-  for (PetscInt i = 0; i < nlocal_; i++) {
-    PetscCall(MatGetRow(Ad, i, &ncols, &cols, &vals));
-    for (PetscInt q = 0; q < ncols; q++)
-      if (cols[q] <= i) {
-        acol.push_back((int)cols[q]);
-        aval.push_back(PetscRealPart(vals[q]));
-      }
-    aptr.push_back((int)acol.size());
-    PetscCall(MatRestoreRow(Ad, i, &ncols, &cols, &vals));
-  }
+  PetscCall(LowerTriangleRows(Ad, aptr, acol, aval));
   const bool        keep = analyzed_ && iface == iface_ && aptr == aptr_ && acol == acol_ && relax == relax_ && max_width == max_width_;
   std::vector<char> dirty;
   if (!keep) { /* local numbering: interior rows in AMD order, then the interface rows; the analysis */
