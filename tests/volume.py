@@ -72,6 +72,9 @@ def bound_rises(name, args, np_):
     pairs = [(float(a), float(b)) for a, b in re.findall(r"pd bound: .*\(found\).* Phi (\S+) -> (\S+)", r.info)]
     rise = max((b - a - 1e-12 * abs(a) for a, b in pairs), default=0.0)
     check(r.returncode == 0 and len(pairs) > 0 and rise <= 1e-20, f"np={np_} {name}: Phi did not rise at any of the {len(pairs)} steps PD's bound accepted (largest rise beyond 1e-12 |Phi|: {rise:.3g} J)")
+    off = mt.run_info(MSIM, args + ["-msim_volume_pd_bound", "0"], np_, "vec")
+    n_off = len(re.findall(r"pd bound: ", off.info))
+    check(off.returncode == 0 and n_off == 0, f"np={np_} {name}: -msim_volume_pd_bound 0 leaves the bound out ({n_off} bound lines; rc {off.returncode})")
 
 
 def guard_limit(extra, np_):

@@ -32,6 +32,7 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_part
   PetscCall(MSimOptionsReal("-msim_volume_stiffness", "Tet scenes: volume stiffness kv of -msim_volume, Pa (default: a tenth of the springs' Young's modulus; 0: the inversion barrier alone, whose passes skip the tets that cannot reach it)", NULL, sys->tets.kv, &sys->tets.kv, NULL));
   PetscCall(MSimOptionsReal("-msim_volume_kappa", "Tet scenes: stiffness of -msim_volume's inversion barrier, Pa (default: kv, or a tenth of the springs' Young's modulus where kv is 0; 0: no barrier)", NULL, sys->tets.kappa, &sys->tets.kappa, NULL));
   PetscCall(MSimOptionsReal("-msim_volume_jhat", "Tet scenes: the inversion barrier acts on tets compressed below this fraction of their rest volume", NULL, sys->tets.jhat, &sys->tets.jhat, NULL));
+  PetscCall(PetscOptionsBool("-msim_volume_pd_bound", "Tet scenes, PD with the inversion barrier alone: take the global step's length from a bound on Phi that needs only the barrier's change (no pass over the springs); 0: halve until Phi, evaluated in full, does not rise", NULL, sys->tets.pd_bound, &sys->tets.pd_bound, NULL));
   PetscCall(PetscOptionsBool("-msim_partition_view", "Print the scene's counts, the edge cut, ghosts per rank and the load balance", NULL, *view_partition, view_partition, NULL));
   {
     const char *orders[] = {"auto", "input", "morton"};

@@ -48,6 +48,7 @@ typedef struct {
   std::vector<PetscReal> V0, iV0;   /* rest volume (> 0: the slots are ordered so) and 1 / V0 */
   PetscInt               ntet = 0;  /* tets of the scene in the term (every rank knows it) */
   PetscReal              kv = 0, kappa = 0, jhat = 0; /* msim/volume_kernels.hpp's TetMaterial */
+  PetscBool              pd_bound = PETSC_TRUE; /* -msim_volume_pd_bound: PD's step length from the barrier's pd_gap */
   Vec                    yloc = NULL; /* a direction's local slots, for max_step */
   /* max_step's shortcut (src/springs/volume.cpp): the last implicit gradient pass's positions
      (3 per local slot) and each tet's g and L there (msim::TetWithinSafeRadius); m2: work */

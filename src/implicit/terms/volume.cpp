@@ -226,6 +226,6 @@ PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
     term->ops.destroy  = NULL;
   } else term->data = new VolumeData{PETSC_TRUE, 1, 0, 0, {}};
   /* Teschner's quadratic (kv > 0) is lagged too, over every tet: no pd_gap (PD halves on Phi) */
-  if (T.kv != 0) term->ops.pd_gap = NULL;
+  if (T.kv != 0 || !T.pd_bound) term->ops.pd_gap = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
