@@ -134,8 +134,14 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   if (keep && ctx->partial) PetscCall(PetscLogEventBegin(LLT_Partial, pc, 0, 0, 0));
   const int bad = ctx->numeric.Factor(ctx->factor, aval.data(), dirty.empty() ? nullptr : &dirty, &done, &total);
   if (keep && ctx->partial) PetscCall(PetscLogEventEnd(LLT_Partial, pc, 0, 0, 0));
-  if (bad >= 0) ctx->analyzed = false; /* the next set-up starts afresh */
-  PetscCheck(bad < 0, PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (pivot %d of the factor)", bad);
+  if (bad >= 0) { /* the next set-up starts afresh; the error names the matrix's row, which a user can map to a vertex (the factor's numbering is AMD's) */
+    PetscInt row = -1;
+    for (PetscInt i = 0; i < n; i++)
+      if (ctx->perm[i] == bad) row = i;
+    ctx->analyzed = false;
+    PetscCall(PetscLogEventEnd(MSIM_LLTFactor, pc, 0, 0, 0));
+    SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (a non-positive pivot at its row %" PetscInt_FMT ")", row);
+  }
   PetscCall(PetscLogFlops(done));
   ctx->aptr.swap(aptr);
   ctx->acol.swap(acol);
