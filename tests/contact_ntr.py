@@ -25,6 +25,17 @@
    next one is at roundoff, where rho is noise; it used to shrink the region to nothing (the code
    before failed at step 1, DIVERGED_TR_DELTA). Checked: 30 steps run, and the potential at step N
    is N (N + 1) / 2 that of step 1 (implicit Euler under constant gravity, to 1e-9).
+3. The drop of 1. with the fast rule (-msim_step_atol 1e-3, -snes_max_it 20). A log barrier hides its
+   force from a step rule: a vertex at distance s << d from the ball, pushed out by the barrier, has
+   a Newton move of about s (the force halves as s doubles), so |dx| < d held after one iteration
+   whatever the force; one vertex's first iterate was clamped to 0.2 of its distance each step, one
+   iteration doubled it, and it sank by 0.41 a step for 20 steps (to 2e-12 m; |g| 3e4, a contact
+   force of 2e7 N at 1 rank, from step 102). The rule now also asks |g| <= M d (src/integrators/
+   impls/implicit.cpp, ConvergedStep). Checked at every step: the momentum balance of 1. with that
+   |g| (a step at the cap: its own |g|), |F_contact - (0, 0, M g)| <= (|P_n+1| + |P_n|) / h +
+   sqrt(nv) max(M d, |g|) / h^2 (about 19 N at rest); and each step that ended before the cap has
+   |g| <= M d. The code before failed both at 1 rank (2e7 N: 1.1e6 x the bound at step 121); at 2
+   ranks its path did not sink (in 300 steps), and it failed the second (a step ended at |g| 2.7e-3).
 Usage: contact_ntr.py path/to/msim [--np N]"""
 import math
 import os
@@ -42,6 +53,8 @@ N, STEPS, H, MASS, G = 21, 150, 1.0 / 30, 1.0, 9.81
 CENTER, RADIUS = np.array([0.5, 0.5, -0.4]), 0.3
 BALL = ["-msim_cloth_n", N, "-msim_mass", MASS, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", repr(H), "-msim_steps", STEPS,
         "-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3", "-snes_type", "ntr", "-msim_contact_pc_pd_weight"]
+FAST_D, FAST_MAXIT = 1e-3, 20
+FAST = BALL + ["-msim_step_atol", repr(FAST_D), "-snes_max_it", FAST_MAXIT]
 FREE_STEPS = 30
 FREE = ["-msim_cloth_n", 7, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", repr(H), "-msim_steps", FREE_STEPS,
         "-snes_type", "ntr", "-msim_step_atol", "1e-3", "-snes_max_it", "20", "-snes_rtol", "0", "-snes_atol", "0"]
@@ -70,6 +83,23 @@ def main():
                 err = np.abs(f - [0, 0, MASS * G])
                 check(err.max() <= bound, f"np {np_}: the ball carries the weight: contact force ({f[0]:.3g}, {f[1]:.3g}, {f[2]:.6g}) N, off (0, 0, {MASS * G:g}) by {err.max():.3g} <= the derived bound {bound:.3g} N")
                 check(bound <= 0.05 * MASS * G, f"np {np_}: at rest: the bound {bound:.3g} N <= 5% of M g")
+            csv = os.path.join(tmp, f"fast_{np_}.csv")
+            r = mt.run(exe, FAST + ["-msim_monitor_csv", csv], np_)
+            rows = mt.read_csv(csv) if os.path.exists(csv) else []
+            if check(r.returncode == 0 and len(rows) == STEPS + 1, f"np {np_}: ntr with |dx| < {FAST_D:g} and {FAST_MAXIT} iterations drops the cloth on the ball for {STEPS} steps ({len(rows) - 1} run)" + ("" if r.returncode == 0 else ": " + r.stderr.strip()[-300:])):
+                worst, at, ruled, gmax = 0.0, 0, 0, 0.0
+                for k in range(1, len(rows)):
+                    last, prev = rows[k], rows[k - 1]
+                    g, capped = float(last["residual"]), int(last["nonlinear_its"]) >= FAST_MAXIT
+                    if not capped:
+                        ruled += 1
+                        gmax = max(gmax, g)
+                    bound = (math.sqrt(2 * MASS * float(last["kinetic"])) + math.sqrt(2 * MASS * float(prev["kinetic"]))) / H + math.sqrt(N * N) * (g if capped else MASS * FAST_D) / H ** 2
+                    err = float(np.abs(np.array([float(last[c]) for c in ("contact_fx", "contact_fy", "contact_fz")]) - [0, 0, MASS * G]).max())
+                    if err / bound > worst:
+                        worst, at = err / bound, k
+                check(worst <= 1, f"np {np_}: fast rule: the contact force within the momentum bound of (0, 0, M g) at every step (worst {worst:.3g} of its bound, step {at})")
+                check(gmax <= MASS * FAST_D, f"np {np_}: fast rule: the {ruled} steps ended before the cap have |g| <= M d = {MASS * FAST_D:g} (largest {gmax:.3g})")
             csv = os.path.join(tmp, f"free_{np_}.csv")
             r = mt.run(exe, FREE + ["-msim_monitor_csv", csv], np_)
             rows = mt.read_csv(csv) if os.path.exists(csv) else []
