@@ -11,9 +11,9 @@
 #include <cstring>
 #include <vector>
 
-/* the global step's feasibility work, counted in -log_view: max_step calls, rejected steps whose
-   length the bound set or tried to (PDRetryHalve), the bound tried in place of the check
-   (PDProblemGlobal) and the halvings on Phi */
+/* the global step's feasibility work, counted in -log_view: max_step calls (with the step's vector
+   passes around them), rejected steps whose length the bound set or tried to (PDRetryHalve), the
+   bound tried in place of the check (PDProblemGlobal) and the halvings on Phi */
 static PetscLogEvent PD_MaxStep = 0, PD_Bound = 0, PD_BoundCheck = 0, PD_Halving = 0;
 
 /* A's diagonal from the weights of the terms that follow the state (pd_reweight: the obstacles,
@@ -761,6 +761,65 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The global step's vector work with a feasible set, in two passes where VecAYPX, VecCopy and
+   VecWAXPY took three of PETSc's scalar loops (6.6 M instructions of a 123 M PD-10 step of the
+   101 x 101 drape, a free step being 76 M; runs/contact/README.md): D = x_k - D (D held A^-1 rhs)
+   and X0 = x_k, then X = X0 - alpha D. The same roundings as those calls: x - y for VecAYPX's
+   alpha = -1 and X0 - D for VecWAXPY's -alpha = -1 (no product, so no contraction can change
+   them); another alpha (a step max_step shortened, rare) keeps VecWAXPY, whose product and sum
+   a contracted loop here would round once instead of twice. */
+static PetscErrorCode PDStepFrom(Vec guess, Vec D, Vec X0)
+{
+  const PetscScalar *x;
+  PetscScalar       *d, *x0;
+  PetscInt           n;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetLocalSize(D, &n));
+  PetscCall(VecGetArrayRead(guess, &x));
+  PetscCall(VecGetArray(D, &d));
+  PetscCall(VecGetArrayWrite(X0, &x0));
+  {
+    const PetscScalar *__restrict xr = x;
+    PetscScalar *__restrict dr = d, *__restrict x0r = x0;
+    for (PetscInt i = 0; i < n; i++) {
+      const PetscScalar xi = xr[i];
+      dr[i]                = xi - dr[i];
+      x0r[i]               = xi;
+    }
+  }
+  PetscCall(VecRestoreArrayWrite(X0, &x0));
+  PetscCall(VecRestoreArray(D, &d));
+  PetscCall(VecRestoreArrayRead(guess, &x));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode PDStepTo(Vec X0, Vec D, PetscReal alpha, Vec X)
+{
+  const PetscScalar *x0, *d;
+  PetscScalar       *x;
+  PetscInt           n;
+
+  PetscFunctionBeginUser;
+  if (alpha != 1) {
+    PetscCall(VecWAXPY(X, -alpha, D, X0));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(VecGetLocalSize(X, &n));
+  PetscCall(VecGetArrayRead(X0, &x0));
+  PetscCall(VecGetArrayRead(D, &d));
+  PetscCall(VecGetArrayWrite(X, &x));
+  {
+    const PetscScalar *__restrict x0r = x0, *__restrict dr = d;
+    PetscScalar *__restrict xr = x;
+    for (PetscInt i = 0; i < n; i++) xr[i] = x0r[i] - dr[i];
+  }
+  PetscCall(VecRestoreArrayWrite(X, &x));
+  PetscCall(VecRestoreArrayRead(D, &d));
+  PetscCall(VecRestoreArrayRead(X0, &x0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The PD solver's global step from the current iterate guess; where a term has a feasible set
    (contact barriers, the tets' barrier), the step from guess is shortened by the terms' max_step
    so that PD's iterates stay inside it, and then checked: Phi must not rise along it. Three ways,
@@ -808,15 +867,15 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   /* the solution into D and max_step from guess itself, still the local step's X (same id and
-     state), whose distances the obstacles kept: then x_k's copy, and X = x_k - alpha D */
+     state), whose distances the obstacles kept: D and x_k's copy in one pass, then X = x_k - alpha
+     D (the event holds the passes too: the vector work a free step does not do) */
   PetscCall(MSimImplicitPDSolve(imp, rhs, guess, D));
   PetscCall(PetscObjectStateGet((PetscObject)imp->A, &imp->pd_astate));
-  PetscCall(VecAYPX(D, -1.0, guess)); /* D = x_k - A^-1 rhs */
   PetscCall(PetscLogEventBegin(PD_MaxStep, 0, 0, 0, 0));
+  PetscCall(PDStepFrom(guess, D, X0));
   PetscCall(MSimImplicitMaxStep(imp, guess, D, &alpha));
+  PetscCall(PDStepTo(X0, D, alpha, X));
   PetscCall(PetscLogEventEnd(PD_MaxStep, 0, 0, 0, 0));
-  PetscCall(VecCopy(guess, X0));
-  PetscCall(VecWAXPY(X, -alpha, D, X0));
   /* a term may say that its barrier is not met along this step (pd_check): no check for it */
   PetscBool check = (PetscBool)(alpha < 1);
   for (PetscInt k = 0; k < imp->nterms && !check; k++) {
