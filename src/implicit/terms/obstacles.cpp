@@ -25,6 +25,8 @@
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <msim/errors.h>
+#include <cstdint>
+#include <cstring>
 #include <string>
 #include <vector>
 #include <msim/private/systemimpl.h>
@@ -66,6 +68,7 @@ typedef struct {
      state), dhat for a vertex skipped there (Far: a lower bound): max_step from that X skips the
      vertices whose move cannot reach an obstacle without the anchors' square root */
   std::vector<PetscReal> dmin;
+  std::vector<unsigned char> move; /* max_step's work: the vertices whose move may reach an obstacle */
   PetscObjectId          dmin_id    = 0;
   PetscObjectState       dmin_state = 0;
   PetscReal              dmin_tx    = 0; /* where the obstacles were */
@@ -558,7 +561,36 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
   }
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(Y, &y));
+  /* with the kept distances, first the vertices that may lower alpha, in a branch-free pass the
+     compiler vectorizes (move[v]: not skipped at the incoming alpha, so at no smaller one either);
+     the loop below visits those alone, eight flags at a time, and repeats the exact test at its
+     running alpha: the same ray tests in the same order (the test alone was 41 instructions a
+     vertex, 4.2 M of a 123 M PD-10 step of the 101 x 101 drape, runs/contact/README.md) */
+  const unsigned char *move = NULL;
+  if (dmin) {
+    const PetscReal a2 = a * a;
+    pw->move.resize(sys->nown + 8, 0);
+    unsigned char *__restrict mv = pw->move.data();
+    const PetscReal *__restrict dr = dmin, *__restrict yr = y;
+    const PetscInt nown = sys->nown; /* a char store could alias sys->nown */
+    for (PetscInt v = 0; v < nown; v++) {
+      const PetscReal dm = dr[v], q = yr[3 * v] * yr[3 * v] + yr[3 * v + 1] * yr[3 * v + 1] + yr[3 * v + 2] * yr[3 * v + 2];
+      mv[v]              = (unsigned char)((dm <= 0) | !(0.5625 * dm * dm > a2 * q)); /* | and !: no branch */
+    }
+    move = mv;
+  }
   for (PetscInt v = 0; v < sys->nown; v++) {
+    if (move) {
+      std::uint64_t eight;
+      if (!(v & 7)) { /* eight flags at once: none set, on to the next eight */
+        std::memcpy(&eight, move + v, sizeof eight);
+        if (!eight) {
+          v += 7;
+          continue;
+        }
+      }
+      if (!move[v]) continue;
+    }
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
     if (dmin) {
