@@ -27,6 +27,9 @@
 #include <msim/errors.h>
 #include <cstdint>
 #include <cstring>
+#if defined(__AVX__)
+  #include <immintrin.h>
+#endif
 #include <string>
 #include <vector>
 #include <msim/private/systemimpl.h>
@@ -70,6 +73,7 @@ typedef struct {
      vertices whose move cannot reach an obstacle without the anchors' square root */
   std::vector<PetscReal> dmin;
   std::vector<unsigned char> move; /* max_step's work: the vertices whose move may reach an obstacle */
+  std::vector<PetscReal>     work; /* and the anchors' distances */
   PetscObjectId          dmin_id    = 0;
   PetscObjectState       dmin_state = 0;
   PetscReal              dmin_tx    = 0; /* where the obstacles were */
@@ -548,6 +552,46 @@ static PetscReal SafeStep(const MSimObstacle &o, PetscReal t, PetscInt v, const 
   return MSimMeshObstacleSafeStepVertex(o.mesh, v, y, u, tmax);
 }
 
+/* The anchors' tests of MaxStep_Obstacles and Clamp_Obstacles as flags, in passes without branches
+   that the compiler vectorizes: |x - anchor|^2, its square roots (4 at a time with AVX: the scalar
+   sqrt's errno branch keeps the compiler's vectorizer out; each correctly rounded, so the same
+   numbers), then the test. mv[v] = 1: v's move may reach an obstacle (not skipped): the scalar
+   tests' own flags. r: nown + 4 entries of work. */
+static void AnchorDistances(PetscInt nown, const PetscReal *__restrict an, const PetscScalar *__restrict p, PetscReal *__restrict r)
+{
+  for (PetscInt v = 0; v < nown; v++) {
+    const PetscReal dx[3] = {p[3 * v] - an[3 * v], p[3 * v + 1] - an[3 * v + 1], p[3 * v + 2] - an[3 * v + 2]};
+    r[v]                  = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
+  }
+  PetscInt v = 0;
+#if defined(__AVX__)
+  for (; v + 4 <= nown; v += 4) _mm256_storeu_pd(r + v, _mm256_sqrt_pd(_mm256_loadu_pd(r + v)));
+#endif
+  for (; v < nown; v++) r[v] = PetscSqrtReal(r[v]);
+}
+
+/* max_step from an X without kept distances: X - alpha Y, at alpha^2 = a2 */
+static void AnchorMoveMask(PetscInt nown, const PetscReal *__restrict an, const PetscReal *__restrict ex, PetscReal dhat, const PetscScalar *__restrict xr, const PetscScalar *__restrict yr, PetscReal a2, PetscReal *__restrict r, unsigned char *__restrict mv)
+{
+  AnchorDistances(nown, an, xr, r);
+  for (PetscInt v = 0; v < nown; v++) {
+    const PetscReal e = ex[v], q = yr[3 * v] * yr[3 * v] + yr[3 * v + 1] * yr[3 * v + 1] + yr[3 * v + 2] * yr[3 * v + 2];
+    const PetscReal lb = e + dhat - r[v];
+    mv[v]              = (unsigned char)!((e > -dhat) & (lb > 0) & (0.5625 * lb * lb > a2 * q));
+  }
+}
+
+/* the clamp: A's vertices moving to X's, at alpha = 1 */
+static void ClampMoveMask(PetscInt nown, const PetscReal *__restrict an, const PetscReal *__restrict ex, PetscReal dhat, const PetscScalar *__restrict ar, const PetscScalar *__restrict xr, PetscReal *__restrict r, unsigned char *__restrict mv)
+{
+  AnchorDistances(nown, an, ar, r);
+  for (PetscInt v = 0; v < nown; v++) {
+    const PetscReal u[3] = {PetscRealPart(xr[3 * v] - ar[3 * v]), PetscRealPart(xr[3 * v + 1] - ar[3 * v + 1]), PetscRealPart(xr[3 * v + 2] - ar[3 * v + 2])};
+    const PetscReal e = ex[v], lb = e + dhat - r[v];
+    mv[v]                = (unsigned char)!(((u[0] == 0) & (u[1] == 0) & (u[2] == 0)) | ((e > -dhat) & (lb > 0) & (0.5625 * lb * lb > u[0] * u[0] + u[1] * u[1] + u[2] * u[2])));
+  }
+}
+
 static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimSystem         sys = term->imp->sys;
@@ -575,36 +619,39 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
   }
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(Y, &y));
-  /* with the kept distances, first the vertices that may lower alpha, in a branch-free pass the
-     compiler vectorizes (move[v]: not skipped at the incoming alpha, so at no smaller one either);
+  /* first the vertices that may lower alpha, by the test below at the incoming alpha (move[v]: not
+     skipped there, so at no smaller alpha either), in a branch-free pass the compiler vectorizes;
      the loop below visits those alone, eight flags at a time, and repeats the exact test at its
      running alpha: the same ray tests in the same order (the test alone was 41 instructions a
      vertex, 4.2 M of a 123 M PD-10 step of the 101 x 101 drape, runs/contact/README.md) */
-  const unsigned char *move = NULL;
-  if (dmin) {
-    const PetscReal a2 = a * a;
+  {
+    const PetscReal a2 = a * a, dhat = ct->dhat;
     pw->move.resize(sys->nown + 8, 0);
     unsigned char *__restrict mv = pw->move.data();
-    const PetscReal *__restrict dr = dmin, *__restrict yr = y;
+    const PetscReal *__restrict yr = y;
     const PetscInt nown = sys->nown; /* a char store could alias sys->nown */
-    for (PetscInt v = 0; v < nown; v++) {
-      const PetscReal dm = dr[v], q = yr[3 * v] * yr[3 * v] + yr[3 * v + 1] * yr[3 * v + 1] + yr[3 * v + 2] * yr[3 * v + 2];
-      mv[v]              = (unsigned char)((dm <= 0) | !(0.5625 * dm * dm > a2 * q)); /* | and !: no branch */
-    }
-    move = mv;
-  }
-  for (PetscInt v = 0; v < sys->nown; v++) {
-    if (move) {
-      std::uint64_t eight;
-      if (!(v & 7)) { /* eight flags at once: none set, on to the next eight */
-        std::memcpy(&eight, move + v, sizeof eight);
-        if (!eight) {
-          v += 7;
-          continue;
-        }
+    if (dmin) {
+      const PetscReal *__restrict dr = dmin;
+      for (PetscInt v = 0; v < nown; v++) {
+        const PetscReal dm = dr[v], q = yr[3 * v] * yr[3 * v] + yr[3 * v + 1] * yr[3 * v + 1] + yr[3 * v + 2] * yr[3 * v + 2];
+        mv[v]              = (unsigned char)((dm <= 0) | !(0.5625 * dm * dm > a2 * q)); /* | and !: no branch */
       }
-      if (!move[v]) continue;
+    } else { /* the first iterate's max_step from x_n's copy */
+      pw->work.resize(nown + 4);
+      AnchorMoveMask(nown, pw->anchor.data(), pw->ex.data(), dhat, x, y, a2, pw->work.data(), mv);
     }
+  }
+  const unsigned char *move = pw->move.data();
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    std::uint64_t eight;
+    if (!(v & 7)) { /* eight flags at once: none set, on to the next eight */
+      std::memcpy(&eight, move + v, sizeof eight);
+      if (!eight) {
+        v += 7;
+        continue;
+      }
+    }
+    if (!move[v]) continue;
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
     if (dmin) {
@@ -644,7 +691,25 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
   PDWeights *pw = Anchors(term, ct);
   PetscCall(VecGetArrayRead(A, &a));
   PetscCall(VecGetArray(X, &x));
+  {
+    /* the test below in a branch-free pass the compiler vectorizes (move[v]: not skipped), as
+       max_step's; the loop visits the flagged vertices alone (the clamp was 0.7 M instructions of
+       a 123 M PD-10 step of the 101 x 101 drape, most of it this test) */
+    pw->move.resize(sys->nown + 8, 0);
+    pw->work.resize(sys->nown + 4);
+    ClampMoveMask(sys->nown, pw->anchor.data(), pw->ex.data(), ct->dhat, a, x, pw->work.data(), pw->move.data());
+  }
+  const unsigned char *move = pw->move.data();
   for (PetscInt v = 0; v < sys->nown; v++) {
+    std::uint64_t eight;
+    if (!(v & 7)) { /* eight flags at once: none set, on to the next eight */
+      std::memcpy(&eight, move + v, sizeof eight);
+      if (!eight) {
+        v += 7;
+        continue;
+      }
+    }
+    if (!move[v]) continue;
     const PetscReal u[3] = {PetscRealPart(x[3 * v] - a[3 * v]), PetscRealPart(x[3 * v + 1] - a[3 * v + 1]), PetscRealPart(x[3 * v + 2] - a[3 * v + 2])};
     PetscReal       s    = 1;
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
