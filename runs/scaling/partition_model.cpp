@@ -5,8 +5,10 @@
    of its first free end), owned vertices, ghost vertices (the other free ends of its owned and
    halo springs), neighbours it exchanges with, and the edge cut. One CSV line per (P, partition).
    With -pingpong (2 ranks) it times MPI messages of 8 B to 4 MB between two ranks instead: half
-   the round trip, best of many.
-   Usage: msim_partition_model [msim scene options] -parts 2,4,...,1024
+   the round trip, best of many. With -near_z Z it prints instead, per P and part of the METIS
+   and the natural partitions, the part's free vertices and those with rest z <= Z: which ranks
+   own a box's bottom face, the vertices a plane under it touches (runs/contact/scaling.py).
+   Usage: msim_partition_model [msim scene options] -parts 2,4,...,1024 [-near_z Z]
           mpirun -n 2 msim_partition_model -pingpong */
 #include <msim/system.h>
 #include <msim/init.h>
@@ -101,9 +103,12 @@ static PetscErrorCode Model(void)
   PetscInt               parts[64], nparts = 64;
   PetscBool              set;
   std::vector<PetscInt>  fid, fa, fb, xadj, adj;
+  PetscReal              nearz = 0; /* -near_z: count each part's vertices at or below it */
+  PetscBool              near  = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscCall(PetscOptionsGetIntArray(NULL, NULL, "-parts", parts, &nparts, &set));
+  PetscCall(PetscOptionsGetReal(NULL, NULL, "-near_z", &nearz, &near));
   PetscCheck(set, PETSC_COMM_WORLD, PETSC_ERR_ARG_WRONG, "-parts P1,P2,... is needed");
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
   const MSimSceneData   *data;
@@ -135,7 +140,8 @@ static PetscErrorCode Model(void)
         adj[fill[fb[s]]++] = fa[s];
       }
   }
-  PetscCall(PetscPrintf(PETSC_COMM_WORLD, "partition,parts,vertices,springs,max_owned_vertices,max_owned_springs,max_sweep_springs,max_ghosted_springs,max_ghosts,max_neighbours,mean_ghosts,edge_cut,spring_imbalance\n"));
+  if (near) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "partition,parts,part,free_vertices,vertices_z_below\n"));
+  else PetscCall(PetscPrintf(PETSC_COMM_WORLD, "partition,parts,vertices,springs,max_owned_vertices,max_owned_springs,max_sweep_springs,max_ghosted_springs,max_ghosts,max_neighbours,mean_ghosts,edge_cut,spring_imbalance\n"));
   for (PetscInt k = 0; k < nparts; k++) {
     const PetscInt     P = parts[k];
     std::vector<PetscInt> part(nfree);
@@ -146,6 +152,19 @@ static PetscErrorCode Model(void)
     options[METIS_OPTION_SEED] = 7;
     PetscCheck(METIS_PartGraphKway(&nvtxs, &ncon, xa.data(), ad.data(), NULL, NULL, NULL, &np, NULL, NULL, options, &objval, p.data()) == METIS_OK, PETSC_COMM_SELF, PETSC_ERR_LIB, "METIS failed");
     for (PetscInt v = 0; v < nfree; v++) part[v] = p[v];
+    if (near) {
+      for (int natural = 0; natural < 2; natural++) {
+        std::vector<PetscInt> owned(P, 0), below(P, 0);
+        for (PetscInt v = 0; v < S.nv; v++)
+          if (fid[v] >= 0) {
+            const PetscInt q = natural ? (PetscInt)((long long)fid[v] * P / nfree) : part[fid[v]];
+            owned[q]++;
+            if (S.x0[3 * v + 2] <= nearz) below[q]++;
+          }
+        for (PetscInt q = 0; q < P; q++) PetscCall(PetscPrintf(PETSC_COMM_WORLD, "%s,%" PetscInt_FMT ",%" PetscInt_FMT ",%" PetscInt_FMT ",%" PetscInt_FMT "\n", natural ? "natural" : "metis", P, q, owned[q], below[q]));
+      }
+      continue;
+    }
     PartStats(P, part, fa, fb, "metis", S.nv, S.nspring);
     for (PetscInt v = 0; v < nfree; v++) part[v] = (PetscInt)((long long)v * P / nfree);
     PartStats(P, part, fa, fb, "natural", S.nv, S.nspring);
