@@ -41,8 +41,8 @@ PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mesh, const PetscReal x[3], 
 PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
 /* the vertex queries within the band around the surface's box so far: answered from the vertex's
    last answers, skipped as beyond band (moved less than its last distance's excess over band),
-   and computed in full */
-void MSimMeshObstacleVertexCounts(MSimMeshObstacle mesh, PetscInt64 counts[3]);
+   computed in full, and answered from the vertex's near set (its last full query's nearest triangles) */
+void MSimMeshObstacleVertexCounts(MSimMeshObstacle mesh, PetscInt64 counts[4]);
 
 typedef struct {
   MSimObstacleKind kind;

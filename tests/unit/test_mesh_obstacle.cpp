@@ -130,7 +130,7 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   std::uniform_real_distribution<double> U(0, 1);
   std::normal_distribution<double>       N(0, 1);
   PetscInt         nq = 0, nbad_tree = 0, nbad_bf = 0, nbad_step = 0, nbf = 0, nsteps = 0, nside = 0, nlow = 0, nbad_vertex = 0;
-  PetscInt64       vc[3];
+  PetscInt64       vc[4];
   double           worst_tree = 0, worst_bf = 0;
   PetscLogEvent      ev;
   PetscEventPerfInfo before, after;
@@ -173,7 +173,8 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
       worst_tree = std::max(worst_tree, err);
       if (err > 1e-10) nbad_tree++;
       /* the vertex queries: bit for bit the plain ones, at y, at the walk's last point x (asked the
-         step before: answered again) and near y (skipped where y was far) */
+         step before: answered again) and near y (skipped where y was far, answered from y's near set
+         where y was near) */
       MSimMeshObstacleSetCache(mo, PETSC_TRUE);
       {
         const V3 z = {y[0] + 1e-3 * band, y[1], y[2]};
@@ -235,11 +236,11 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   CHECK(nbf > nq / 4, "%s: only %d of %d queries within the band were checked against brute force", path, (int)nbf, (int)nq);
   CHECK(!closed || nside > nbf / 10, "%s: only %d of %d checked points were inside: the side is not exercised", path, (int)nside, (int)nbf);
   CHECK(nbad_step == 0, "%s: %d of %d cached safe steps differ from the tree's", path, (int)nbad_step, (int)nsteps);
-  NOTE("%s: vertex queries in the box's band: %lld answered again, %lld skipped as far, %lld in full\n", path, (long long)vc[0], (long long)vc[1], (long long)vc[2]);
+  NOTE("%s: vertex queries in the box's band: %lld answered again, %lld skipped as far, %lld in full, %lld from the near set\n", path, (long long)vc[0], (long long)vc[1], (long long)vc[2], (long long)vc[3]);
   CHECK(nbad_vertex == 0, "%s: %d vertex queries (distance, normal, Hessian or safe step) differ from the plain ones", path, (int)nbad_vertex);
   /* the far skip needs points in the box's band yet beyond band from the surface: the bunny's box
      has them, the flat sheet's hardly any */
-  CHECK(vc[0] > nq / 10 && (vc[1] > nq / 10 || !closed), "%s: the vertex queries' shortcuts not exercised (%lld answered again, %lld skipped)", path, (long long)vc[0], (long long)vc[1]);
+  CHECK(vc[0] > nq / 10 && (vc[1] > nq / 10 || !closed) && vc[3] > nq / 10, "%s: the vertex queries' shortcuts not exercised (%lld answered again, %lld skipped, %lld from the near set)", path, (long long)vc[0], (long long)vc[1], (long long)vc[3]);
   CHECK(rebuilds > 0 && rebuilds < nq / 2, "%s: %d cell rebuilds for %d cached queries (and as many safe steps): the cache is not reused", path, (int)rebuilds, (int)nq);
   MSimMeshObstacleDestroy(&mo);
   PetscFunctionReturn(PETSC_SUCCESS);
