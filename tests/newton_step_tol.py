@@ -7,7 +7,11 @@ iterations), with msim's default line search on Phi:
 - -msim_step_atol d (absolute |dx|) stops before -snes_max_it too, takes fewer iterations for a
   looser d, and ends within a few d of the state solved to roundoff (Newton's error after a step
   of length |dx| is of order |dx|^2 / |dx_prev|, far below |dx| once it converges);
-- a budget too small for the rule ends with the warning that names it.
+- a budget too small for the rule ends with the warning that names it;
+- without a barrier in Phi the rule asks nothing of |g| (its force condition is for barriers,
+  whose short steps hide their force): examples/cloth_newton_fast.opts's free cloth made 1000 times
+  stiffer still ends every step by the rule, before its 20 iterations (with |g| <= M d asked of
+  it, 9 of 10 steps ran to the cap: what is left of |g| after a short step grows with stiffness).
 At 1 and 2 ranks, on a 31 x 31 cloth falling from two corners at h = 1/30 s (its springs compress
 and buckle: Phi is nonconvex, the case that needs a line search)."""
 import os
@@ -60,6 +64,11 @@ def main():
             r, its, _ = run(np_, ["-msim_step_atol", "1e-12"] + LOOSE + ["-snes_max_it", "2"], tmp, "budget")
             check(r.returncode == 0 and re.search(r"stopped at -snes_max_it 2 before .* or \|dx\| < 1e-12", r.stderr) is not None,
                   f"np={np_}: a budget too small for the rule is warned about: {r.stderr.strip()[:160]!r}")
+            r = mt.run(MSIM, ["-options_file", os.path.join(mt.ROOT, "examples", "cloth_newton_fast.opts"), "-msim_cloth_n", "41", "-msim_steps", "10",
+                              "-msim_stiffness", "1e6", "-msim_output", "", "-msim_monitor"], np_)
+            its = [int(m.group(1)) for m in re.finditer(r"^step\s+[1-9]\d*\s.*\snl (\d+) ", r.stdout, re.M)]
+            check(r.returncode == 0 and len(its) == 10 and max(its) < 20 and "warning" not in r.stderr,
+                  f"np={np_}: a stiff free cloth (k = 1e6 N/m, no barrier): -msim_step_atol 1e-3 ends every step before the cap of 20 (iterations {its})")
     return check.exit_code()
 
 
