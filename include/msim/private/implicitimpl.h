@@ -241,6 +241,7 @@ struct _n_MSimImplicit {
   Vec              pd_x0 = NULL, pd_d = NULL; /* the global step's work: x_k and D, made once */
   PetscReal        pd_alpha = 0, pd_phi0 = 0;
   PetscObjectState pd_astate = 0; /* A's state when D was solved: the bound on Phi holds only for that A */
+  PetscObjectState pd_start_ystate = 0; /* y's state at the step whose first iterate was compared with x_n (PDStartNoWorse) */
   /* the last check halved the step: the next one is done at once, where each halving costs a
      pass of MSimImplicitObjective instead of a local step (rejections come in runs) */
   PetscBool        pd_rejected  = PETSC_FALSE;
