@@ -100,7 +100,7 @@ static PDWeights *Anchors(MSimImplicitTerm term, MSimContact ct)
   const PetscInt nown = term->imp->sys->nown;
   if ((PetscInt)pw->ex.size() != nown || (ct->moving && pw->anchors_tx != term->imp->step.tx)) {
     pw->anchor.assign(3 * nown, 0.0);
-    pw->ex.assign(nown, -PETSC_MAX_REAL); /* none */
+    pw->ex.assign(nown, -ct->dhat); /* none: below every skip test (e > 0, e > -dhat, lb = e + dhat - r > 0), and finite, so the passes that square it never overflow (-fp_trap) */
     pw->anchors_tx = term->imp->step.tx;
   }
   return pw;
