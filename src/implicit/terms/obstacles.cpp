@@ -328,8 +328,18 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
        as fast (too low a weight overshoots by up to the ratio, too high a one slows the vertex by
        it): refactor when some vertex within dhat (wanted or factored) is further off. A fraction
        of such vertices allowed off instead never refactored: the few vertices nearest the ball,
-       whose b'' dwarfs the springs' diagonal, are the ones that need it (runs/contact/README.md). */
-    const PetscReal    r = ct->pd_refactor;
+       whose b'' dwarfs the springs' diagonal, are the ones that need it (runs/contact/README.md).
+       The two sides differ for PD's own steps: a factored weight too low lets the vertex's global
+       step overshoot into the barrier, which max_step's common alpha then cuts for the whole
+       cloth; one too high only slows that vertex as it lifts off, so it is kept up to r^2. A
+       draped cloth's load moves from vertex to vertex as it slides (on a mesh obstacle it rests on
+       the facets' edges: each pressed vertex, d 10-100 x smaller for a few steps, b'' ~ 1/d^2,
+       refactored once as it was pressed and again as it lifted): 101 x 101 drape, 24 steps, mesh
+       ball 17 -> 10 factorizations, analytic ball 7 -> 4 (runs/contact/README.md, the mesh
+       obstacle, seventh session). Newton's preconditioner keeps the symmetric rule: its CG
+       directions on the ball need the weights current (a 150-step ntr drape on the ball ended
+       still sliding with the r^2 side). */
+    const PetscReal    r = ct->pd_refactor, rhigh = pw->at_jacobian ? r : r * r;
     const PetscScalar *a;
     PetscBool          off = PETSC_FALSE;
     PetscObjectId    aid;
@@ -345,7 +355,7 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     PetscCall(VecGetArrayRead(pw->diag, &a));
     for (size_t v = 0; !off && v < w.size(); v++) {
       const PetscReal have = PetscRealPart(a[v]) + (restored ? pw->w[v] : 0), want = have - pw->w[v] + w[v];
-      off = (PetscBool)(want > r * have || have > r * want);
+      off = (PetscBool)(want > r * have || have > rhigh * want);
     }
     PetscCall(VecRestoreArrayRead(pw->diag, &a));
     if (off) *changed = PETSC_TRUE; /* reduced over the ranks by the caller */
