@@ -125,6 +125,26 @@ static void FarFlags(const PDWeights *pw, PetscInt nown, const PetscScalar *__re
    the same queries, the same order), except that a vertex far from every obstacle (FarFlags) is
    skipped without a query; each queried vertex's anchor is set to x. With dmin: each vertex's least
    distance (dhat where skipped) */
+/* the first vertex v' >= v below n whose flag (0 or 1) is want, n if none: the passes below visit
+   few of the owned vertices, so eight flags are read at once where a block of eight starts and
+   skipped together when all are the other way (the flag arrays are padded to n + 8 with it) */
+static inline PetscInt NextFlagged(const unsigned char *flags, PetscInt v, PetscInt n, unsigned char want)
+{
+  const std::uint64_t other = want ? 0 : 0x0101010101010101ULL;
+  for (; v < n; v++) {
+    if (!(v & 7)) {
+      std::uint64_t eight;
+      std::memcpy(&eight, flags + v, sizeof eight);
+      if (eight == other) {
+        v += 7;
+        continue;
+      }
+    }
+    if (flags[v] == want) return v;
+  }
+  return n;
+}
+
 template <class F>
 static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscBool hessian, PetscReal *dmins, F &&f)
 {
@@ -133,16 +153,7 @@ static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscSc
   FarFlags(pw, nown, x, far);
   if (dmins)
     for (PetscInt v = 0; v < nown; v++) dmins[v] = ct->dhat; /* the queried ones' below */
-  for (PetscInt v = 0; v < nown; v++) {
-    std::uint64_t eight;
-    if (!(v & 7)) { /* eight flags at once: all set, on to the next eight */
-      std::memcpy(&eight, far + v, sizeof eight);
-      if (eight == 0x0101010101010101ULL) {
-        v += 7;
-        continue;
-      }
-    }
-    if (far[v]) continue;
+  for (PetscInt v = NextFlagged(far, 0, nown, 0); v < nown; v = NextFlagged(far, v + 1, nown, 0)) {
     PetscReal dmin = PETSC_MAX_REAL, xmax = 0;
     for (const MSimObstacle &o : ct->obs) {
       PetscReal n[3], H[9], y[3];
@@ -678,16 +689,7 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     }
   }
   const unsigned char *move = pw->move.data();
-  for (PetscInt v = 0; v < sys->nown; v++) {
-    std::uint64_t eight;
-    if (!(v & 7)) { /* eight flags at once: none set, on to the next eight */
-      std::memcpy(&eight, move + v, sizeof eight);
-      if (!eight) {
-        v += 7;
-        continue;
-      }
-    }
-    if (!move[v]) continue;
+  for (PetscInt v = NextFlagged(move, 0, sys->nown, 1); v < sys->nown; v = NextFlagged(move, v + 1, sys->nown, 1)) {
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
     if (dmin) {
@@ -736,16 +738,7 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
     ClampMoveMask(sys->nown, pw->anchor.data(), pw->ex.data(), ct->dhat, a, x, pw->work.data(), pw->move.data());
   }
   const unsigned char *move = pw->move.data();
-  for (PetscInt v = 0; v < sys->nown; v++) {
-    std::uint64_t eight;
-    if (!(v & 7)) { /* eight flags at once: none set, on to the next eight */
-      std::memcpy(&eight, move + v, sizeof eight);
-      if (!eight) {
-        v += 7;
-        continue;
-      }
-    }
-    if (!move[v]) continue;
+  for (PetscInt v = NextFlagged(move, 0, sys->nown, 1); v < sys->nown; v = NextFlagged(move, v + 1, sys->nown, 1)) {
     const PetscReal u[3] = {PetscRealPart(x[3 * v] - a[3 * v]), PetscRealPart(x[3 * v + 1] - a[3 * v + 1]), PetscRealPart(x[3 * v + 2] - a[3 * v + 2])};
     PetscReal       s    = 1;
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
