@@ -99,3 +99,13 @@ inline PetscReal MSimFrictionHessianUU(PetscReal y, PetscReal eps)
 {
   return y < eps ? -1 / (eps * eps * PetscMax(y, PETSC_SMALL * eps)) : -1 / (y * y * y);
 }
+
+/* how far a vertex queried at x (its coordinates' largest magnitude xmax) may move before some
+   obstacle can come within dhat: its least distance dmin less dhat, less a margin for the
+   distances' roundoff (a few eps of the coordinates and the distance). The distance is
+   1-Lipschitz, so within that of x every obstacle stays beyond dhat; <= 0: none. The obstacles'
+   and friction's skips both rest on it. */
+inline PetscReal MSimContactAnchorExcess(PetscReal dmin, PetscReal dhat, PetscReal xmax)
+{
+  return dmin - dhat - 1e-9 * (dhat + PetscAbsReal(dmin) + xmax);
+}

@@ -104,7 +104,7 @@ static PetscErrorCode GetLagged(MSimImplicitTerm term, MSimContact ct, const Lag
           L->anchor[3 * v + c] = xn[3 * v + c];
           xmax                 = PetscMax(xmax, PetscAbsReal(xn[3 * v + c]));
         }
-        L->ex[v] = dmin - ct->dhat - 1e-9 * (ct->dhat + PetscAbsReal(dmin) + xmax); /* the obstacles term's margin */
+        L->ex[v] = MSimContactAnchorExcess(dmin, ct->dhat, xmax);
       }
     }
     PetscCall(VecRestoreArrayRead(sys->mass, &m));

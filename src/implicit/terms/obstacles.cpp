@@ -167,7 +167,7 @@ static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscSc
       pw->anchor[3 * v + c] = x[3 * v + c];
       xmax                  = PetscMax(xmax, PetscAbsReal(x[3 * v + c]));
     }
-    pw->ex[v] = dmin - ct->dhat - 1e-9 * (ct->dhat + PetscAbsReal(dmin) + xmax);
+    pw->ex[v] = MSimContactAnchorExcess(dmin, ct->dhat, xmax);
     if (dmins) dmins[v] = dmin;
   }
 }
