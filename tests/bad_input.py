@@ -5,6 +5,7 @@ the output directory. A misspelled option must be named in one warning line, and
 steps cut off by -snes_max_it; an implicit solve that fails is named with PETSc's reason, and its convergence history is kept. A run that diverges must keep the frames written before it and the
 last finite state."""
 import os
+import re
 import sys
 import tempfile
 
@@ -141,6 +142,17 @@ def main():
             check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: the nonlinear solver failed (-snes_type qn: DIVERGED_FUNCTION_COUNT) at step 1")
                   and len(rows) >= 2 and rows[0] == "step,iteration,wall_s,phi,gnorm" and rows[1].startswith("1,0,") and not os.path.exists(hist + ".tmp"),
                   f"np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}, history {rows[:2]!r}")
+        # msimllt given a matrix that is not positive definite (Newton's exact Hessian of a cloth
+        # whose springs compress as it sags: negative transverse curvature): one error line naming
+        # the matrix's row, a global row index (the factor's own numbering is AMD's), at 1 and 2
+        # ranks (on 2, each rank's local factor; the row is the least failing one over the ranks)
+        for np in (1, 2):
+            r = run(["-msim_cloth_n", "21", "-msim_integrator", "implicit_euler", "-msim_dt", "0.05", "-msim_steps", "20", "-snes_type", "newtonls",
+                     "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "msimllt", "-msim_output", os.path.join(tmp, f"pivot_{np}")], tmp, np)
+            lines = mt.lines(r.stderr)
+            m = re.search(r"msimllt: the matrix is not positive definite \(a non-positive pivot at its row (\d+)\)", lines[0]) if len(lines) == 1 else None
+            check(r.returncode != 0 and m is not None and 0 <= int(m.group(1)) < 3 * 21 * 21,
+                  f"np={np} msimllt on an indefinite matrix: rc {r.returncode}, stderr {lines!r}")
         # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
         out = os.path.join(tmp, "diverged")
         r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)

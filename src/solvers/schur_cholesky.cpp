@@ -81,10 +81,15 @@ PetscErrorCode SchurCholesky::SetUp(Mat A, double relax, int max_width, bool par
   if (*was_partial) PetscCall(PetscLogEventEnd(partial_event, 0, 0, 0, 0));
   if (bad >= 0) analyzed_ = false;
   { /* every rank learns of a failed pivot before the collective steps below, so the error is
-       raised on all of them (one rank returning alone would leave the others in MPI_Allgather) */
-    int worst = bad;
-    PetscCallMPI(MPI_Allreduce(&bad, &worst, 1, MPI_INT, MPI_MAX, comm_));
-    PetscCheck(worst < 0, comm_, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (a rank's local factor met a non-positive pivot)");
+       raised on all of them (one rank returning alone would leave the others in MPI_Allgather);
+       it names the matrix's global row (the least over the ranks), which a user can map to a
+       vertex, as the serial factor's error does (the local factor's numbering is AMD's) */
+    PetscInt row = PETSC_MAX_INT, first;
+    if (bad >= 0)
+      for (PetscInt i = 0; i < nlocal_; i++)
+        if (perm_[i] == bad) row = rstart + i;
+    PetscCall(MPIU_Allreduce(&row, &first, 1, MPIU_INT, MPI_MIN, comm_));
+    PetscCheck(first == PETSC_MAX_INT, comm_, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (a non-positive pivot at its row %" PetscInt_FMT ")", first);
   }
   aptr_.swap(aptr);
   acol_.swap(acol);
