@@ -19,6 +19,15 @@ PetscErrorCode PCMSimLLTSolveInterleaved(PC pc, PetscInt nrhs, const PetscScalar
    (16) merge neighbouring supernodes while the stored entries grow by at most the fraction r and
    none is wider than w columns: fewer, wider dense blocks for the solves. */
 PetscErrorCode PCMSimLLTGetFactorSize(PC pc, PetscInt64 *entries, PetscInt *supernodes);
+/* Serially, msimllt keeps the factor of the last matrix it factored (the base) while the matrix
+   differs from it only on a few diagonal entries (-pc_msimllt_update, -pc_msimllt_update_max_rank),
+   so its solves depend on the base as well as on the matrix: a restart that must repeat a run bit
+   for bit carries the base's diagonal. Get: d := the base's diagonal (A's layout), *has true; false
+   on several ranks or before the first factorization. Set: the next set-up first factors A with its
+   diagonal replaced by d, as the base, then updates or refactors for A as usual; nothing on several
+   ranks. */
+PetscErrorCode PCMSimLLTGetBaseDiagonal(PC pc, Vec d, PetscBool *has);
+PetscErrorCode PCMSimLLTSetBaseDiagonal(PC pc, Vec d);
 
 /* Errors, naming the option, if ksp's PC is a factorization (lu, cholesky, ilu, icc) that A's
    matrix type has no package for (ICC over several ranks); call after KSPSetFromOptions, before

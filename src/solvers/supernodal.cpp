@@ -125,20 +125,28 @@ static inline void BackwardColumns(const double *B, int w, int m, const int *R, 
   }
 }
 
+inline void SupernodalFactor::ForwardSupernode(V4 *z, int s) const
+{
+  const int     c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
+  const double *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2;
+  const int    *R = rows_.data() + rptr_[s];
+  V4           *y = z + c0;
+  for (int c = 0; c < w; c++) /* the dense triangle */
+    y[c] = RowSubtract(y[c], D + (size_t)c * (c - 1) / 2, y, c) * Splat(invdiag_[c0 + c]);
+  int p = 0;
+  for (; p + 4 <= m; p += 4) ForwardRows<4>(B, w, R, z, y, p);
+  for (; p < m; p++) ForwardRows<1>(B, w, R, z, y, p);
+}
+
 void SupernodalFactor::Forward(V4 *z, int ncols) const
 {
   const int nsn = (int)start_.size() - 1;
-  for (int s = 0; s < nsn && start_[s] < ncols; s++) {
-    const int     c0 = start_[s], w = start_[s + 1] - c0, m = rptr_[s + 1] - rptr_[s];
-    const double *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2;
-    const int    *R = rows_.data() + rptr_[s];
-    V4           *y = z + c0;
-    for (int c = 0; c < w; c++) /* the dense triangle */
-      y[c] = RowSubtract(y[c], D + (size_t)c * (c - 1) / 2, y, c) * Splat(invdiag_[c0 + c]);
-    int p = 0;
-    for (; p + 4 <= m; p += 4) ForwardRows<4>(B, w, R, z, y, p);
-    for (; p < m; p++) ForwardRows<1>(B, w, R, z, y, p);
-  }
+  for (int s = 0; s < nsn && start_[s] < ncols; s++) ForwardSupernode(z, s);
+}
+
+void SupernodalFactor::ForwardSupernodes(V4 *z, const int *sn, int count) const
+{
+  for (int k = 0; k < count; k++) ForwardSupernode(z, sn[k]);
 }
 
 void SupernodalFactor::Backward(V4 *z, int ncols) const

@@ -76,11 +76,19 @@ public:
      also updates the rows below them, Backward reads them. */
   void Forward(V4 *z, int ncols) const;
   void Backward(V4 *z, int ncols) const;
+  /* For a low-rank update of the factor's matrix (llt_update.h), the sparse forward solve of a
+     right-hand side nonzero only in some columns: L y = b over the supernodes sn (ascending) only,
+     which must hold those columns and every supernode they reach (the rows below each); and the
+     structure that reach reads: a supernode's first column (s = Supernodes(): n), its rows below. */
+  void       ForwardSupernodes(V4 *z, const int *sn, int count) const;
+  int        SupernodeStart(int s) const { return start_[s]; }
+  const int *RowsBelow(int s, int *m) const { *m = rptr_[s + 1] - rptr_[s]; return rows_.data() + rptr_[s]; }
   int     Size() const { return n_; }
   int     Supernodes() const { return (int)start_.size() - 1; }
   int64_t Entries() const { return (int64_t)val_.size() + n_; }
 
 private:
+  void ForwardSupernode(V4 *z, int s) const; /* Forward's step for supernode s */
   friend class SupernodalCholesky; /* its numeric factorization fills val_ and invdiag_ in place */
   int                  n_ = 0;
   std::vector<int>     start_;   /* first column of each supernode; start_[nsn] = n */

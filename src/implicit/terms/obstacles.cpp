@@ -557,18 +557,58 @@ static PetscErrorCode PDGap_Obstacles(MSimImplicitTerm term, Vec X0, Vec D, Pets
 
 /* The weights PD's factor holds are state: a fixed-iteration PD step depends on them, and the lazy
    rule keeps them over many steps, so a restart that recomputed them at its first step did not
-   repeat the run bit for bit. A checkpoint carries them (each vertex's in its x slot). */
+   repeat the run bit for bit. A checkpoint carries them (each vertex's in its x slot). Serially,
+   msimllt's solves also depend on the matrix it last factored (the base: it corrects the solves by a
+   low-rank update while only a few diagonal entries differ from it, PCMSimLLTGetBaseDiagonal), so
+   the checkpoint carries the base's diagonal too, in each vertex's y slot, with 1 in its z slot
+   where it does (a checkpoint without it, all zeros, restarts as before: the factor from scratch). */
+
+/* PD's global-step PC when it is msimllt, else NULL */
+static PetscErrorCode PDLLT(MSimImplicitTerm term, PC *pc)
+{
+  PetscBool llt = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  *pc = NULL;
+  if (!term->imp->pdksp || !term->imp->A) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(KSPGetPC(term->imp->pdksp, pc));
+  PetscCall(PetscObjectTypeCompare((PetscObject)*pc, PCMSIMLLT, &llt));
+  if (!llt) *pc = NULL;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode GetHistory_Obstacles(MSimImplicitTerm term, Vec *h)
 {
   PDWeights   *pw = (PDWeights *)term->data;
   PetscScalar *x;
+  PC           pc;
+  Vec          d   = NULL;
+  PetscBool    has = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   if (!pw->hist) PetscCall(VecDuplicate(term->imp->sys->X0, &pw->hist));
+  PetscCall(PDLLT(term, &pc));
+  if (pc) { /* has: the same on every rank (false on several) */
+    PetscCall(MatCreateVecs(term->imp->A, &d, NULL));
+    PetscCall(PCMSimLLTGetBaseDiagonal(pc, d, &has));
+  }
   PetscCall(VecZeroEntries(pw->hist));
   PetscCall(VecGetArray(pw->hist, &x));
   for (size_t v = 0; v < pw->w.size(); v++) x[3 * v] = pw->w[v];
+  if (has) {
+    const PetscScalar *b;
+    PetscInt           n;
+    PetscCall(VecGetLocalSize(d, &n));
+    PetscCheck(n == term->imp->sys->nown, PETSC_COMM_SELF, PETSC_ERR_PLIB, "PD's matrix has %" PetscInt_FMT " rows, the system %" PetscInt_FMT " vertices", n, term->imp->sys->nown);
+    PetscCall(VecGetArrayRead(d, &b));
+    for (PetscInt v = 0; v < n; v++) {
+      x[3 * v + 1] = b[v];
+      x[3 * v + 2] = 1;
+    }
+    PetscCall(VecRestoreArrayRead(d, &b));
+  }
   PetscCall(VecRestoreArray(pw->hist, &x));
+  PetscCall(VecDestroy(&d));
   *h = pw->hist;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -577,12 +617,29 @@ static PetscErrorCode HistoryLoaded_Obstacles(MSimImplicitTerm term)
 {
   PDWeights         *pw = (PDWeights *)term->data;
   const PetscScalar *x;
+  PC                 pc;
+  PetscBool          has;
 
   PetscFunctionBeginUser;
   pw->w.assign(term->imp->sys->nown, 0.0);
   PetscCall(VecGetArrayRead(pw->hist, &x));
   for (size_t v = 0; v < pw->w.size(); v++) pw->w[v] = PetscRealPart(x[3 * v]);
   WeightedSet(pw);
+  has = (PetscBool)(!pw->w.empty() && PetscRealPart(x[2]) == 1);
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &has, 1, MPIU_BOOL, MPI_LAND, term->imp->sys->comm));
+  PetscCall(PDLLT(term, &pc));
+  if (has && pc) { /* the run's base first: its factor then takes the same update as the run's */
+    Vec          d;
+    PetscScalar *b;
+    PetscInt     n;
+    PetscCall(MatCreateVecs(term->imp->A, &d, NULL));
+    PetscCall(VecGetLocalSize(d, &n));
+    PetscCall(VecGetArrayWrite(d, &b));
+    for (PetscInt v = 0; v < n && v < (PetscInt)pw->w.size(); v++) b[v] = x[3 * v + 1];
+    PetscCall(VecRestoreArrayWrite(d, &b));
+    PetscCall(PCMSimLLTSetBaseDiagonal(pc, d));
+    PetscCall(VecDestroy(&d));
+  }
   PetscCall(VecRestoreArrayRead(pw->hist, &x));
   pw->pending  = PETSC_FALSE;
   pw->restored = PETSC_TRUE;
