@@ -34,6 +34,12 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], 
    same numbers, with a point asked again answered from v's last answers and a far vertex that
    moved little answered as beyond band without a lookup (with the cache off: the plain query) */
 PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+/* a lower bound of x's distance (less the thickness) from what vertex v's last queries certified:
+   where the answer at x was "beyond band" (the band less the thickness) and x lies in one of v's
+   far balls (the points its last full query showed beyond band), band + x's depth in it less the
+   thickness; else PETSC_MIN_REAL. For the callers' anchors: x's neighbourhood that stays beyond
+   band, larger than the answer shows */
+PetscReal MSimMeshObstacleVertexClearance(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3]);
 /* a step t in [0, tmax] for which the segment x -> x + t u keeps off the thickness shell
    (conservative advancement; PETSC_INFINITY where x + [0, tmax] u cannot reach it) */
 PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mesh, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
@@ -41,8 +47,9 @@ PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mesh, const PetscReal x[3], 
 PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], const PetscReal u[3], PetscReal tmax);
 /* the vertex queries within the band around the surface's box so far: answered from the vertex's
    last answers, skipped as beyond band (moved less than its last distance's excess over band),
-   computed in full, and answered from the vertex's near set (its last full query's nearest triangles) */
-void MSimMeshObstacleVertexCounts(MSimMeshObstacle mesh, PetscInt64 counts[4]);
+   computed in full, and answered from the vertex's near set (its last full query's nearest triangles);
+   and of the skipped ones, those skipped by the ball around their cell's centre alone */
+void MSimMeshObstacleVertexCounts(MSimMeshObstacle mesh, PetscInt64 counts[5]);
 
 typedef struct {
   MSimObstacleKind kind;

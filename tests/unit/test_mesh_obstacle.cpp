@@ -15,7 +15,12 @@
    - the per-vertex queries (MSimMeshObstacleDistanceVertex, SafeStepVertex: each walk one vertex,
      asking at its new point, again at its last one, and at a point 1e-3 band away) give the plain
      queries' numbers bit for bit, with both their shortcuts (a point asked again, a far point that
-     moved little) taken.
+     moved little) taken;
+   - the same for free walks from anywhere in the surface's box widened by band, with short moves
+     (the far skip's balls around the cells' centres, in cells with and without candidates and in
+     empty coarse cells), and that those balls are used; the clearance they give
+     (MSimMeshObstacleVertexClearance) lies between band and the distance, and a point within it is
+     answered beyond band.
    Each rank walks its own points (the queries are local): the same checks at 1 and 2 ranks. */
 #include "harness.h"
 #include <msim/contact.h>
@@ -130,7 +135,8 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   std::uniform_real_distribution<double> U(0, 1);
   std::normal_distribution<double>       N(0, 1);
   PetscInt         nq = 0, nbad_tree = 0, nbad_bf = 0, nbad_step = 0, nbf = 0, nsteps = 0, nside = 0, nlow = 0, nbad_vertex = 0;
-  PetscInt64       vc[4];
+  PetscInt64       vc[5];
+  PetscInt         nfree = 0, nclear = 0, nbad_clear = 0;
   double           worst_tree = 0, worst_bf = 0;
   PetscLogEvent      ev;
   PetscEventPerfInfo before, after;
@@ -227,6 +233,44 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
       if (rb < 3 * band) x = y;
     }
   }
+  /* free walks (vertices 100 on; the flat sheet's box has no room beyond band, so its walks only
+     compare): from a uniform point of the box widened by band, moves of 1e-3
+     to 2 bands, each point's vertex query against the plain one; a point leaving the widened box
+     starts over */
+  for (int walk = 0; walk < 8; walk++) {
+    V3 x;
+    for (int c = 0; c < 3; c++) x[c] = s.lo[c] - band + U(gen) * (s.hi[c] - s.lo[c] + 2 * band);
+    for (int step = 0; step < 150; step++) {
+      const V3     dir = {N(gen), N(gen), N(gen)};
+      const double len = band * std::pow(10.0, -3 + 3.3 * U(gen)) / std::sqrt(Dot(dir, dir));
+      bool         in  = true;
+      for (int c = 0; c < 3; c++) {
+        x[c] += len * dir[c];
+        in = in && x[c] > s.lo[c] - band && x[c] < s.hi[c] + band;
+      }
+      if (!in)
+        for (int c = 0; c < 3; c++) x[c] = s.lo[c] - band + U(gen) * (s.hi[c] - s.lo[c] + 2 * band);
+      double       nv[3], Hv[9], np[3], Hp[9];
+      const double dv = MSimMeshObstacleDistanceVertex(mo, 100 + walk, x.data(), nv, Hv), dp = MSimMeshObstacleDistance(mo, x.data(), np, Hp);
+      bool         same = dv == dp;
+      for (int c = 0; c < 3; c++) same = same && nv[c] == np[c];
+      for (int k = 0; k < 9; k++) same = same && Hv[k] == Hp[k];
+      nbad_vertex += !same;
+      nfree++;
+      /* the clearance where the answer is "beyond band": at most the distance (brute force, less the
+         thickness), and a point of the neighbourhood it certifies is answered beyond band too */
+      const double L = MSimMeshObstacleVertexClearance(mo, 100 + walk, x.data());
+      if (dv == band - thick && L > -1e300) {
+        int          side;
+        const V3     u  = {N(gen), N(gen), N(gen)};
+        const double rb = BruteForce(s, x, false, &side), rad = (L - (band - thick)) * U(gen) / std::sqrt(Dot(u, u));
+        const V3     pz = {x[0] + rad * u[0], x[1] + rad * u[1], x[2] + rad * u[2]};
+        double       nz[3];
+        nbad_clear += !(L <= rb - thick && L >= band - thick) || !(MSimMeshObstacleDistance(mo, pz.data(), nz, NULL) >= band - thick);
+        nclear++;
+      }
+    }
+  }
   PetscCall(PetscLogEventGetPerfInfo(0, ev, &after));
   const PetscInt rebuilds = after.count - before.count;
   MSimMeshObstacleVertexCounts(mo, vc);
@@ -236,8 +280,10 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   CHECK(nbf > nq / 4, "%s: only %d of %d queries within the band were checked against brute force", path, (int)nbf, (int)nq);
   CHECK(!closed || nside > nbf / 10, "%s: only %d of %d checked points were inside: the side is not exercised", path, (int)nside, (int)nbf);
   CHECK(nbad_step == 0, "%s: %d of %d cached safe steps differ from the tree's", path, (int)nbad_step, (int)nsteps);
-  NOTE("%s: vertex queries in the box's band: %lld answered again, %lld skipped as far, %lld in full, %lld from the near set\n", path, (long long)vc[0], (long long)vc[1], (long long)vc[2], (long long)vc[3]);
+  NOTE("%s: vertex queries in the box's band (%d of them on free walks, %d clearances checked): %lld answered again, %lld skipped as far (%lld by a cell centre's ball alone), %lld in full, %lld from the near set\n", path, (int)nfree, (int)nclear, (long long)vc[0], (long long)vc[1], (long long)vc[4], (long long)vc[2], (long long)vc[3]);
   CHECK(nbad_vertex == 0, "%s: %d vertex queries (distance, normal, Hessian or safe step) differ from the plain ones", path, (int)nbad_vertex);
+  CHECK(nbad_clear == 0 && (nclear > nfree / 10 || !closed), "%s: the vertex clearance: %d of %d wrong (below band, above the distance, or a point it certifies answered within band)", path, (int)nbad_clear, (int)nclear);
+  CHECK(vc[4] > nfree / 10 || !closed, "%s: the far skip's cell-centre balls not exercised (%lld skips by them in %d free-walk queries)", path, (long long)vc[4], (int)nfree);
   /* the far skip needs points in the box's band yet beyond band from the surface: the bunny's box
      has them, the flat sheet's hardly any */
   CHECK(vc[0] > nq / 10 && (vc[1] > nq / 10 || !closed) && vc[3] > nq / 10, "%s: the vertex queries' shortcuts not exercised (%lld answered again, %lld skipped, %lld from the near set)", path, (long long)vc[0], (long long)vc[1], (long long)vc[3]);
