@@ -8,17 +8,6 @@
 
 namespace msim {
 
-/* the supernode holding column c */
-static int SupernodeOf(const SupernodalFactor &F, int c)
-{
-  int lo = 0, hi = F.Supernodes(); /* start(lo) <= c < start(hi) */
-  while (hi - lo > 1) {
-    const int mid = (lo + hi) / 2;
-    if (F.SupernodeStart(mid) <= c) lo = mid;
-    else hi = mid;
-  }
-  return lo;
-}
 
 void LowRankUpdate::Clear()
 {
@@ -37,6 +26,9 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   if (!k) return true;
   work_.assign(n, V4{0, 0, 0, 0});
   mark_.assign(nsn, 0);
+  std::vector<int> sn_of(n); /* the supernode holding each column */
+  for (int s = 0; s < nsn; s++)
+    for (int c = F.SupernodeStart(s); c < F.SupernodeStart(s + 1); c++) sn_of[c] = s;
   /* Y, four columns (lanes) at a time: e_j in lane l, the forward sweep over the supernodes the
      group's columns reach (smallest first: a supernode's rows below lie in later ones) */
   for (int g = 0; g < ng; g++) {
@@ -44,7 +36,7 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
     std::priority_queue<int, std::vector<int>, std::greater<int>> q;
     sn_.clear();
     for (int l = 0; l < l1; l++) {
-      const int c = col[4 * g + l], s = SupernodeOf(F, c);
+      const int c = col[4 * g + l], s = sn_of[c];
       work_[c][l] = 1.0;
       if (!mark_[s]) {
         mark_[s] = 1;
@@ -58,7 +50,7 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
       sn_.push_back(s);
       const int *R = F.RowsBelow(s, &m);
       for (int p = 0; p < m; p++) {
-        const int t = SupernodeOf(F, R[p]);
+        const int t = sn_of[R[p]];
         if (!mark_[t]) {
           mark_[t] = 1;
           q.push(t);
@@ -119,7 +111,7 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   return true;
 }
 
-void LowRankUpdate::Apply(V4 *z, double *flops) const
+void LowRankUpdate::Apply(V4 *z, int nrhs, double *flops) const
 {
   const int k = k_, ng = (k + 3) / 4;
   *flops = 0;
@@ -127,12 +119,13 @@ void LowRankUpdate::Apply(V4 *z, double *flops) const
   /* t = Y^T z: row i of t holds column i of Y dotted with each lane of z */
   for (int g = 0; g < ng; g++) {
     V4 acc[4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}};
+    /* acc[r]: lane r of z dotted with the group's four columns (the lanes of y) */
     for (int p = gptr_[g]; p < gptr_[g + 1]; p++) {
       const V4 y = yval_[p], x = z[yrow_[p]];
-      for (int a = 0; a < 4; a++) acc[a] += Splat(y[a]) * x;
+      for (int r = 0; r < nrhs; r++) acc[r] += Splat(x[r]) * y;
     }
     for (int a = 0; a < 4 && 4 * g + a < k; a++)
-      for (int r = 0; r < 4; r++) t_[(size_t)(4 * g + a) + (size_t)k * r] = acc[a][r];
+      for (int r = 0; r < 4; r++) t_[(size_t)(4 * g + a) + (size_t)k * r] = acc[r][a];
   }
   Eigen::Map<Eigen::MatrixXd> t(t_.data(), k, 4);
   const Eigen::MatrixXd       s4 = lu_->solve(t);
@@ -146,6 +139,6 @@ void LowRankUpdate::Apply(V4 *z, double *flops) const
       z[yrow_[p]] -= (Splat(y[0]) * s[0] + Splat(y[1]) * s[1]) + (Splat(y[2]) * s[2] + Splat(y[3]) * s[3]);
     }
   }
-  *flops = 64.0 * (double)yrow_.size() + 8.0 * k * (double)k;
+  *flops = (8.0 * nrhs + 32.0) * (double)yrow_.size() + 2.0 * nrhs * k * (double)k;
 }
 } // namespace msim

@@ -24,9 +24,9 @@ public:
      col[i] (ascending). Returns false when C is singular (A not SPD, or roundoff at its limit):
      the caller refactors. *flops: the work, as PetscLogFlops takes it. */
   bool Build(const SupernodalFactor &F, const std::vector<int> &col, const std::vector<double> &d, double *flops);
-  /* z := z - Y C^-1 Y^T z for z = L^-1 b (F.Forward's result, n rows of 4 lanes), before
-     F.Backward; *flops: the work */
-  void Apply(V4 *z, double *flops) const;
+  /* z := z - Y C^-1 Y^T z for z = L^-1 b (F.Forward's result, n rows of 4 lanes, the first nrhs
+     used, the others zero), before F.Backward; *flops: the work */
+  void Apply(V4 *z, int nrhs, double *flops) const;
   void Clear();
   int  Rank() const { return k_; }
   /* stored rows of Y (groups of four columns) */

@@ -80,18 +80,19 @@ static PetscErrorCode LowerTriangleSerial(Mat A, std::vector<int> &aptr, std::ve
   }
   PetscCall(MatSeqAIJGetArrayRead(A, &va));
   aptr.resize(n + 1);
-  acol.clear();
-  aval.clear();
-  acol.reserve(ia[n] / 2 + n);
-  aval.reserve(ia[n] / 2 + n);
   aptr[0] = 0;
-  for (PetscInt i = 0; i < n; i++) {
-    for (PetscInt k = ia[i]; k < ia[i + 1] && ja[k] <= i; k++) { /* columns ascending */
-      acol.push_back((int)ja[k]);
-      aval.push_back(PetscRealPart(va[k]));
-    }
-    aptr[i + 1] = (int)acol.size();
+  for (PetscInt i = 0; i < n; i++) { /* columns ascending: the lower entries come first */
+    PetscInt k = ia[i];
+    while (k < ia[i + 1] && ja[k] <= i) k++;
+    aptr[i + 1] = aptr[i] + (int)(k - ia[i]);
   }
+  acol.resize(aptr[n]);
+  aval.resize(aptr[n]);
+  for (PetscInt i = 0; i < n; i++)
+    for (int e = aptr[i], k = (int)ia[i]; e < aptr[i + 1]; e++, k++) {
+      acol[e] = (int)ja[k];
+      aval[e] = PetscRealPart(va[k]);
+    }
   PetscCall(MatSeqAIJRestoreArrayRead(A, &va));
   PetscCall(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -121,16 +122,22 @@ static PetscErrorCode TryUpdate(PC pc, PC_LLT *ctx, const std::vector<int> &aptr
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   ctx->uval.clear();
-  for (PetscInt i = 0; i < ctx->n && diagonal; i++)
-    for (int e = aptr[i]; e < aptr[i + 1]; e++) {
+  /* the entries whose bits differ, found a block at a time (a few dozen of 60,000 on the drape) */
+  const size_t ne = aval.size(), B = 64;
+  for (size_t b0 = 0; b0 < ne && diagonal; b0 += B) {
+    const size_t b1 = std::min(ne, b0 + B);
+    if (!std::memcmp(aval.data() + b0, ctx->aval.data() + b0, sizeof(double) * (b1 - b0))) continue;
+    for (size_t e = b0; e < b1; e++) {
       const double dv = aval[e] - ctx->aval[e]; /* 0 for -0 against 0: the same matrix */
       if (dv == 0) continue;
+      const PetscInt i = (PetscInt)(std::upper_bound(aptr.begin(), aptr.end(), (int)e) - aptr.begin()) - 1; /* e's row */
       if (acol[e] != i || (PetscInt)ch.size() >= ctx->update_max_rank) {
         diagonal = false;
         break;
       }
       ch.emplace_back(ctx->perm[i], dv);
     }
+  }
   if (!diagonal) PetscFunctionReturn(PETSC_SUCCESS);
   std::sort(ch.begin(), ch.end());
   std::vector<int>    col(ch.size());
@@ -312,7 +319,7 @@ static PetscErrorCode LLTSolveSerial(PC_LLT *c, PetscInt nrhs, const PetscScalar
   c->factor.Forward(c->z.data(), (int)c->n);
   if (c->update.Rank()) { /* A = base + P D P^T: Woodbury's correction between the sweeps */
     double flops;
-    c->update.Apply(c->z.data(), &flops);
+    c->update.Apply(c->z.data(), (int)nrhs, &flops);
     PetscCall(PetscLogFlops(flops));
   }
   c->factor.Backward(c->z.data(), (int)c->n);
