@@ -124,21 +124,23 @@ static PetscErrorCode TryUpdate(PC pc, PC_LLT *ctx, const std::vector<int> &aptr
   ctx->uval.clear();
   /* the entries whose bits differ, found a block at a time (a few dozen of 60,000 on the drape) */
   const size_t ne = aval.size(), B = 64;
-  for (size_t b0 = 0; b0 < ne && diagonal; b0 += B) {
+  long         ndiag = 0, noff = 0;
+  for (size_t b0 = 0; b0 < ne; b0 += B) {
     const size_t b1 = std::min(ne, b0 + B);
     if (!std::memcmp(aval.data() + b0, ctx->aval.data() + b0, sizeof(double) * (b1 - b0))) continue;
     for (size_t e = b0; e < b1; e++) {
       const double dv = aval[e] - ctx->aval[e]; /* 0 for -0 against 0: the same matrix */
       if (dv == 0) continue;
       const PetscInt i = (PetscInt)(std::upper_bound(aptr.begin(), aptr.end(), (int)e) - aptr.begin()) - 1; /* e's row */
-      if (acol[e] != i || (PetscInt)ch.size() >= ctx->update_max_rank) {
-        diagonal = false;
-        break;
-      }
-      ch.emplace_back(ctx->perm[i], dv);
+      if (acol[e] != i) noff++;
+      else if (++ndiag <= ctx->update_max_rank) ch.emplace_back(ctx->perm[i], dv);
     }
   }
-  if (!diagonal) PetscFunctionReturn(PETSC_SUCCESS);
+  diagonal = !noff && ndiag <= ctx->update_max_rank;
+  if (!diagonal) {
+    PetscCall(PetscInfo(pc, "msimllt: %ld diagonal and %ld off-diagonal entries changed since the last factorization (at most %" PetscInt_FMT " diagonal ones for an update): refactoring\n", ndiag, noff, ctx->update_max_rank));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   std::sort(ch.begin(), ch.end());
   std::vector<int>    col(ch.size());
   std::vector<double> d(ch.size());
