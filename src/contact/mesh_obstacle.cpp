@@ -656,13 +656,27 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
       for (int c = 0; c < 3; c++) s += (x[c] - C->c[c]) * (x[c] - C->c[c]);
       s = std::sqrt(s) - 1e-12 * (mo->diam + b); /* roundoff on the safe side: look a little further */
       size_t k = C->off;
-      for (; k < C->off + C->n && mo->pool[k].dc - s <= rbest; k++) consider(*mo->pool[k].T);
+      /* a candidate whose plane is farther than rbest (less roundoff) is farther too and is passed
+         over: it could only have been picked beyond band, where the pick changes no answer and
+         rbest stays band; its plane distance bounds it below. A vertex just beyond band, the most
+         frequent full query once the far balls took the rest, looked at every triangle within about
+         band + |x - c| of the centre (~50 closest points on the benchmark ball, whose nearby facets'
+         planes are all farther than band) */
+      const PetscReal peps  = 1e-12 * (mo->diam + b);
+      PetscReal       below = PETSC_MAX_REAL; /* the passed-over candidates' least plane distance */
+      for (; k < C->off + C->n && mo->pool[k].dc - s <= rbest; k++) {
+        const Triangle  *Tk = mo->pool[k].T;
+        const PetscReal *pl = &mo->plane[4 * (size_t)(Tk - mo->tri.data())];
+        const PetscReal  h  = std::abs(pl[0] * x[0] + pl[1] * x[1] + pl[2] * x[2] + pl[3]) - peps;
+        if (h > rbest) below = PetscMin(below, h);
+        else consider(*Tk);
+      }
       /* every triangle is at least min(dc, R) - |x - c| from x (R: the cell's reach, the
          non-candidates beyond it), those looked at their own distance; an empty coarse cell: band
          plus x's margin in it */
       const PetscReal sup = s + 2e-12 * (mo->diam + b);
       if (C->slot == ~(size_t)0) lb = b + C->margin;
-      else lb = PetscMin(std::sqrt(best), PetscMin(k < C->off + C->n ? mo->pool[k].dc : PETSC_MAX_REAL, b + mo->smax) - sup);
+      else lb = PetscMin(PetscMin(std::sqrt(best), below), PetscMin(k < C->off + C->n ? mo->pool[k].dc : PETSC_MAX_REAL, b + mo->smax) - sup);
       if (ns && T && best <= b * b && C->slot != ~(size_t)0) {
         /* the near set: the candidates within r + tau / 2 of x (r = sqrt(best)), found by looking on
            to r + tau; the others are farther than L, the least of the rest's distances and of the
