@@ -132,6 +132,10 @@ static PetscErrorCode TestScene(const char *opts, PetscInt side)
   PetscCallMPI(MPI_Comm_size(PETSC_COMM_WORLD, &size));
   PetscCall(TestSimCreate(opts, &s));
   PetscCall(PetscOptionsSetValue(NULL, "-full_pc_msimllt_partial", "0"));
+  /* refactorizations, not the low-rank update that fewer changed diagonal entries would take
+     (test_llt_update tests that) */
+  PetscCall(PetscOptionsSetValue(NULL, "-pc_msimllt_update", "0"));
+  PetscCall(PetscOptionsSetValue(NULL, "-full_pc_msimllt_update", "0"));
   PetscCall(MSimImplicitCreate(s.sys, &imp));
   imp->h = 1.0 / 30;
   PetscCall(MSimImplicitPDSetUp(imp));
