@@ -9,6 +9,12 @@
 namespace msim {
 
 
+void LowRankUpdate::Forget()
+{
+  Clear();
+  cache_.clear();
+}
+
 void LowRankUpdate::Clear()
 {
   k_ = 0;
@@ -29,46 +35,78 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   std::vector<int> sn_of(n); /* the supernode holding each column */
   for (int s = 0; s < nsn; s++)
     for (int c = F.SupernodeStart(s); c < F.SupernodeStart(s + 1); c++) sn_of[c] = s;
-  /* Y, four columns (lanes) at a time: e_j in lane l, the forward sweep over the supernodes the
-     group's columns reach (smallest first: a supernode's rows below lie in later ones) */
-  for (int g = 0; g < ng; g++) {
-    const int                                         l1 = std::min(4, k - 4 * g);
+  /* the supernodes that columns c[0 .. nc) reach, ascending (a supernode's rows below lie in
+     later ones) */
+  auto reach = [&](const int *c, int nc) {
     std::priority_queue<int, std::vector<int>, std::greater<int>> q;
     sn_.clear();
-    for (int l = 0; l < l1; l++) {
-      const int c = col[4 * g + l], s = sn_of[c];
-      work_[c][l] = 1.0;
-      if (!mark_[s]) {
-        mark_[s] = 1;
-        q.push(s);
+    for (int l = 0; l < nc; l++)
+      if (!mark_[sn_of[c[l]]]) {
+        mark_[sn_of[c[l]]] = 1;
+        q.push(sn_of[c[l]]);
       }
-    }
     while (!q.empty()) {
       const int s = q.top();
       int       m;
       q.pop();
       sn_.push_back(s);
       const int *R = F.RowsBelow(s, &m);
-      for (int p = 0; p < m; p++) {
-        const int t = sn_of[R[p]];
-        if (!mark_[t]) {
-          mark_[t] = 1;
-          q.push(t);
+      for (int p = 0; p < m; p++)
+        if (!mark_[sn_of[R[p]]]) {
+          mark_[sn_of[R[p]]] = 1;
+          q.push(sn_of[R[p]]);
         }
-      }
     }
-    F.ForwardSupernodes(work_.data(), sn_.data(), (int)sn_.size());
-    for (int s : sn_) {
-      const int c0 = F.SupernodeStart(s), c1 = F.SupernodeStart(s + 1), w = c1 - c0;
+    for (int t : sn_) mark_[t] = 0;
+  };
+  /* the columns of Y not yet known for this base, four (lanes) at a time: e_j in lane l, the
+     forward sweep over the supernodes the four reach; each column kept on its own reach's rows.
+     Lane l's numbers are the same whichever columns share the sweep (the lanes never mix; another
+     lane's supernodes only subtract zeros from it), so a column is a function of the base alone */
+  std::vector<int> fresh;
+  for (int c : col)
+    if (!cache_.count(c)) fresh.push_back(c);
+  for (size_t g = 0; g < fresh.size(); g += 4) {
+    const int l1 = (int)std::min<size_t>(4, fresh.size() - g);
+    for (int l = 0; l < l1; l++) work_[fresh[g + l]][l] = 1.0;
+    reach(&fresh[g], l1);
+    std::vector<int> all(sn_);
+    F.ForwardSupernodes(work_.data(), all.data(), (int)all.size());
+    for (int s : all) {
+      const int c0 = F.SupernodeStart(s), w = F.SupernodeStart(s + 1) - c0;
       int       m;
       F.RowsBelow(s, &m);
       *flops += 2.0 * l1 * ((double)w * (w - 1) / 2 + (double)m * w + w);
-      for (int c = c0; c < c1; c++) {
-        yrow_.push_back(c);
-        yval_.push_back(work_[c]);
-        work_[c] = V4{0, 0, 0, 0};
-      }
-      mark_[s] = 0;
+    }
+    for (int l = 0; l < l1; l++) {
+      ColumnY &y = cache_[fresh[g + l]];
+      reach(&fresh[g + l], 1);
+      for (int s : sn_)
+        for (int c = F.SupernodeStart(s); c < F.SupernodeStart(s + 1); c++) {
+          y.rows.push_back(c);
+          y.vals.push_back(work_[c][l]);
+        }
+    }
+    for (int s : all)
+      for (int c = F.SupernodeStart(s); c < F.SupernodeStart(s + 1); c++) work_[c] = V4{0, 0, 0, 0};
+  }
+  /* the groups of four of the changed columns in order, on the union of their rows */
+  std::vector<int> pos(n, -1);
+  for (int g = 0; g < ng; g++) {
+    const int        l1 = std::min(4, k - 4 * g), p0 = (int)yrow_.size();
+    std::vector<int> rows;
+    for (int l = 0; l < l1; l++) {
+      const ColumnY &y = cache_[col[4 * g + l]];
+      rows.insert(rows.end(), y.rows.begin(), y.rows.end());
+    }
+    std::sort(rows.begin(), rows.end());
+    rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
+    for (size_t p = 0; p < rows.size(); p++) pos[rows[p]] = p0 + (int)p;
+    yrow_.insert(yrow_.end(), rows.begin(), rows.end());
+    yval_.resize(yrow_.size(), V4{0, 0, 0, 0});
+    for (int l = 0; l < l1; l++) {
+      const ColumnY &y = cache_[col[4 * g + l]];
+      for (size_t p = 0; p < y.rows.size(); p++) yval_[pos[y.rows[p]]][l] = y.vals[p];
     }
     gptr_.push_back((int)yrow_.size());
   }

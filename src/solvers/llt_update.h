@@ -9,12 +9,14 @@
    (about a thousandth of the factor's flops per row on the 101 x 101 cloth, against about two
    thirds of them for a partial refactorization, whose root supernodes are always reached). Y is
    built four columns at a time, one per lane, over the union of their paths, and stored so, with
-   the rows of those supernodes. Everything here is a fixed function of (B's factor, the changed
+   the rows of those supernodes; each column is kept while the base is, so a later update of the
+   same base computes only its new rows' columns. Everything here is a fixed function of (B's factor, the changed
    rows in ascending order, D): the same base and matrix give the same bits whatever came before. */
 #pragma once
 #include "supernodal.h"
 #include <Eigen/Dense>
 #include <memory>
+#include <unordered_map>
 #include <vector>
 
 namespace msim {
@@ -28,6 +30,8 @@ public:
      used, the others zero), before F.Backward; *flops: the work */
   void Apply(V4 *z, int nrhs, double *flops) const;
   void Clear();
+  /* Clear, and forget Y's columns: the base's factor changed */
+  void Forget();
   int  Rank() const { return k_; }
   /* stored rows of Y (groups of four columns) */
   long Rows() const { return (long)yrow_.size(); }
@@ -43,5 +47,10 @@ private:
   std::vector<V4>     work_;    /* work: n rows, zero between uses */
   std::vector<int>    sn_;      /* work: the supernodes a group reaches */
   std::vector<char>   mark_;    /* work: per supernode */
+  struct ColumnY {
+    std::vector<int>    rows; /* the rows of the supernodes the column reaches, ascending */
+    std::vector<double> vals;
+  };
+  std::unordered_map<int, ColumnY> cache_; /* Y's columns computed for this base, by changed column */
 };
 } // namespace msim

@@ -269,7 +269,7 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     ctx->aptr = aptr;
     ctx->acol = acol;
     ctx->aval.swap(base);
-    ctx->update.Clear();
+    ctx->update.Forget();
     ctx->uval.clear();
     keep = true;
   }
@@ -282,7 +282,7 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
       PetscFunctionReturn(PETSC_SUCCESS);
     }
   }
-  ctx->update.Clear(); /* refactored: A becomes the base */
+  ctx->update.Forget(); /* refactored: A becomes the base */
   ctx->uval.clear();
   if (keep && ctx->partial) ctx->numeric.MarkChanged(aval, ctx->aval, dirty);
   /* the numbers always come from msim's factorization, so a factor is the same bits whichever
