@@ -3,8 +3,9 @@
 weights on PD's matrix A only speed the iteration up: each global step is X - A^-1 g(X) with the
 true gradient g whatever weights A holds, so a factor kept with stale weights (the default: until
 some vertex's diagonal is off by more than a factor 4) must reach the same converged step as one
-refactored whenever the set of vertices within dhat changes (0, the old rule). Checked, at each
-rank count:
+refactored whenever the set of vertices within dhat changes (0, the old rule), and so must a
+refactorization that refreshes only the vertices off by more than sqrt(r) (the default,
+-msim_contact_pd_refactor_selective) or every vertex (0). Checked, at each rank count:
 - a 11 x 11 cloth landing flat on a plane (8 steps) and on the ball (4 steps: the first contact
   step, the last PD converges in at this h), PD with Anderson to |g| <= 1e-9: every step
   converges under both rules, the lazy rule factors fewer times, and the final positions agree
@@ -88,6 +89,14 @@ def main():
                 base = ["-msim_cloth_n", N, "-msim_steps", steps] + H + CONVERGED + obs
                 res = {rule: run(np_, base + ["-msim_contact_pd_refactor", rule], tmp, f"{name}_{rule}") for rule in ("0", "4")}
                 (x0, mon0, f0), (x4, mon4, f4) = res["0"], res["4"]
+                # the lazy rule with every vertex refreshed at each refactorization (the default
+                # refreshes only those off by more than sqrt(r)): the same converged steps too
+                xa, mona, _ = run(np_, base + ["-msim_contact_pd_refactor", "4", "-msim_contact_pd_refactor_selective", "0"], tmp, f"{name}_4all")
+                if check(xa is not None and x4 is not None, f"np={np_} {name}: the lazy rule runs with every vertex refreshed"):
+                    its = [int(r["nonlinear_its"]) for r in mona[1:]]
+                    d = float(np.abs(x4 - xa).max())
+                    tol = 2 * steps * ATOL / M
+                    check(max(its) < 2000 and d <= tol, f"np={np_} {name}: refreshing only the vertices off (the default) and every vertex give the same converged steps, max difference {d:.3g} m <= {tol:.3g} (iterations {its})")
                 if not check(x0 is not None and x4 is not None, f"np={np_} {name}: both rules run {steps} steps"):
                     continue
                 for rule, mon in (("0", mon0), ("4", mon4)):

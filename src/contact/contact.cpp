@@ -343,6 +343,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->fr_xn      = NULL;
   ct->fr_t = ct->fr_tx = ct->fr_h = 0;
   ct->psd_curvature = PETSC_TRUE;
+  ct->pd_refactor_selective = 128; /* msimllt's -pc_msimllt_update_max_rank: more rows than this refactor anyway (runs/contact/README.md, eighth session) */
   ct->pd_refactor    = 4; /* runs/contact/README.md: 21 -> 7 factorizations on the 101 x 101 drape, the same monitor */
   ct->pc_pd_weight   = PETSC_FALSE;
   ct->pd_bound       = PETSC_TRUE;
@@ -393,7 +394,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal (A refactored per -msim_contact_pd_refactor); 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_pd_refactor", "PD with -msim_contact_pd_weight: keep the factor until some vertex's wanted diagonal (A's plus the barrier's weight, taken once per step) is off the factored one by more than this factor; 0: refactor whenever the set of vertices within dhat changes", NULL, ct->pd_refactor, &ct->pd_refactor, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pd_bound", "PD: take the global step's length from a bound on Phi that needs only the contact terms' change (no pass over the springs); 0: halve until Phi, evaluated in full, does not rise", NULL, ct->pd_bound, &ct->pd_bound, NULL));
-  PetscCall(PetscOptionsBool("-msim_contact_pd_refactor_all", "PD with -msim_contact_pd_refactor r > 0: when some vertex's weight is off by more than r, every vertex takes its current weight; default: only those off by more than sqrt(r) (the others keep the factored one, so few diagonal entries change)", NULL, ct->pd_refactor_all, &ct->pd_refactor_all, NULL));
+  PetscCall(MSimOptionsInt("-msim_contact_pd_refactor_selective", "PD with -msim_contact_pd_refactor r > 0: when some vertex's weight is off by more than r, only the vertices off by more than sqrt(r) take their current weight (the others keep the factored one, so msimllt can update its factor instead of refactoring), while at most this many vertices change; more: every vertex takes its weight. 0: every vertex always", NULL, ct->pd_refactor_selective, &ct->pd_refactor_selective, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pc_pd_weight", "Newton with -msim_pc_pd: the PD factor preconditioning CG includes the barrier's weights (taken at every Jacobian, refactored by -msim_contact_pd_refactor's rule)", NULL, ct->pc_pd_weight, &ct->pc_pd_weight, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
   PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
@@ -404,6 +405,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCheck(ct->kc >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_stiffness must be >= 0 (got %g)", (double)ct->kc);
   PetscCheck(ct->mu >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction must be >= 0 (got %g)", (double)ct->mu);
   PetscCheck(ct->pd_refactor == 0 || ct->pd_refactor >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor must be 0 or >= 1 (got %g)", (double)ct->pd_refactor);
+  PetscCheck(ct->pd_refactor_selective >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor_selective must be >= 0 (got %" PetscInt_FMT ")", ct->pd_refactor_selective);
   PetscCheck(ct->eps_v > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be > 0 (got %g)", (double)ct->eps_v);
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);

@@ -20,7 +20,7 @@ struct _n_MSimContact {
   PetscBool                 pd_weight; /* PD: the barrier's stiffness in the matrix (else the rhs only) */
   PetscBool                 psd_curvature; /* PSD Hessian: keep the barrier's curvature term, clamped */
   PetscReal                 pd_refactor; /* PD's contact weights: refactor when some vertex's diagonal is off the factored one by more than this factor (0: whenever the set within dhat changes) */
-  PetscBool                 pd_refactor_all; /* at such a refactorization every vertex takes its current weight, not only those off by more than sqrt(r) (PD's own steps) */
+  PetscInt                  pd_refactor_selective; /* at such a refactorization only the vertices off by more than sqrt(r) take their current weight while at most this many do (PD's own steps; 0: every vertex always) */
   PetscBool                 pc_pd_weight; /* the PD factor as Newton's preconditioner includes the contact weights */
   PetscBool                 pd_bound; /* PD: the global step's length from the contact terms' change alone (pd_gap), no Phi pass */
   /* friction's last step (set by its term at every evaluation, non-owning): x_n, the step's start
