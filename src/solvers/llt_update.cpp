@@ -93,16 +93,13 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   /* the groups of four of the changed columns in order, on the union of their rows */
   std::vector<int> pos(n, -1);
   for (int g = 0; g < ng; g++) {
-    const int        l1 = std::min(4, k - 4 * g), p0 = (int)yrow_.size();
-    std::vector<int> rows;
-    for (int l = 0; l < l1; l++) {
-      const ColumnY &y = cache_[col[4 * g + l]];
-      rows.insert(rows.end(), y.rows.begin(), y.rows.end());
-    }
-    std::sort(rows.begin(), rows.end());
-    rows.erase(std::unique(rows.begin(), rows.end()), rows.end());
-    for (size_t p = 0; p < rows.size(); p++) pos[rows[p]] = p0 + (int)p;
-    yrow_.insert(yrow_.end(), rows.begin(), rows.end());
+    const int l1 = std::min(4, k - 4 * g);
+    reach(&col[4 * g], l1); /* the union of the four columns' rows */
+    for (int t : sn_)
+      for (int c = F.SupernodeStart(t); c < F.SupernodeStart(t + 1); c++) {
+        pos[c] = (int)yrow_.size();
+        yrow_.push_back(c);
+      }
     yval_.resize(yrow_.size(), V4{0, 0, 0, 0});
     for (int l = 0; l < l1; l++) {
       const ColumnY &y = cache_[col[4 * g + l]];
