@@ -901,7 +901,7 @@ static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle m
       f.r = f.rz = 0; /* within band: no far skip */
       mo->nvq[3]++;
     } else {
-      PetscReal lower, zb[4];
+      PetscReal lower, zb[4] = {0, 0, 0, 0}; /* zb[0..2] are set only for a beyond-band answer in a cell; rz = 0 otherwise */
       use->d = Distance(mo, x, use->n, use->H, true, &lower, &ns, zb);
       for (int c = 0; c < 3; c++) use->x[c] = f.x[c] = x[c], f.z[c] = zb[c];
       f.r  = PetscMax(lower - mo->band - 1e-9 * (mo->diam + mo->band), 0.0); /* (0: none; a negative radius would pass the squared test) */

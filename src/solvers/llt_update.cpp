@@ -107,6 +107,19 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
     }
     gptr_.push_back((int)yrow_.size());
   }
+  /* the cache holds every row that has differed from this base; a contact patch sliding over the
+     cloth would fill it with nearly every row, each with its whole path, so past the factor's own
+     size only the current columns are kept (each is a function of the base alone: the bits do
+     not depend on what was kept) */
+  {
+    size_t held = 0;
+    for (const auto &e : cache_) held += e.second.rows.size();
+    if (held > (size_t)F.Entries()) {
+      std::unordered_map<int, ColumnY> now;
+      for (int c : col) now[c] = std::move(cache_[c]);
+      cache_.swap(now);
+    }
+  }
   /* C = D^-1 + Y^T Y: group g's columns scattered, dotted with every later group's */
   k_ = k;
   c_.assign((size_t)k * k, 0.0);
@@ -130,6 +143,25 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
     for (int p = gptr_[g]; p < gptr_[g + 1]; p++) work_[yrow_[p]] = V4{0, 0, 0, 0};
   }
   for (int i = 0; i < k; i++) c_[(size_t)i * (k + 1)] += 1.0 / d[i];
+  {
+    /* A = B + P D P^T with B positive definite is positive definite exactly when C has as many
+       negative eigenvalues as D has negative entries (Sylvester's law of inertia on the two
+       congruent block forms of [[B, P], [P^T, -D^-1]]); otherwise the caller refactors, and the
+       factorization names the matrix's non-positive pivot as it would without an update */
+    int negd = 0, negc = 0;
+    for (int i = 0; i < k; i++) negd += d[i] < 0;
+    Eigen::LDLT<Eigen::MatrixXd> ldlt(Eigen::Map<const Eigen::MatrixXd>(c_.data(), k, k));
+    if (ldlt.info() != Eigen::Success) negc = -1;
+    else
+      for (int i = 0; i < k; i++) negc += ldlt.vectorD()[i] < 0;
+    *flops += 1.0 / 3.0 * k * (double)k * k;
+    if (negc != negd) {
+      std::vector<double>().swap(c_);
+      std::vector<V4>().swap(work_);
+      Clear();
+      return false;
+    }
+  }
   /* C is indefinite where some change is negative: LU with partial pivoting (Eigen's; k is a few
      dozen) */
   lu_.reset(new Eigen::PartialPivLU<Eigen::MatrixXd>(Eigen::Map<const Eigen::MatrixXd>(c_.data(), k, k)));

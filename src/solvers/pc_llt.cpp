@@ -124,7 +124,7 @@ static PetscErrorCode TryUpdate(PC pc, PC_LLT *ctx, const std::vector<int> &aptr
   ctx->uval.clear();
   /* the entries whose bits differ, found a block at a time (a few dozen of 60,000 on the drape) */
   const size_t ne = aval.size(), B = 64;
-  long         ndiag = 0, noff = 0;
+  long         ndiag = 0, noff = 0, nlarge = 0;
   for (size_t b0 = 0; b0 < ne; b0 += B) {
     const size_t b1 = std::min(ne, b0 + B);
     if (!std::memcmp(aval.data() + b0, ctx->aval.data() + b0, sizeof(double) * (b1 - b0))) continue;
@@ -133,12 +133,13 @@ static PetscErrorCode TryUpdate(PC pc, PC_LLT *ctx, const std::vector<int> &aptr
       if (dv == 0) continue;
       const PetscInt i = (PetscInt)(std::upper_bound(aptr.begin(), aptr.end(), (int)e) - aptr.begin()) - 1; /* e's row */
       if (acol[e] != i) noff++;
+      else if (dv < 0 && -dv > 1e3 * aval[e]) nlarge++; /* C = 1/d + (B^-1)_jj cancels: about eps |d| / a_jj lost */
       else if (++ndiag <= ctx->update_max_rank) ch.emplace_back(ctx->perm[i], dv);
     }
   }
-  diagonal = !noff && ndiag <= ctx->update_max_rank;
+  diagonal = !noff && !nlarge && ndiag <= ctx->update_max_rank;
   if (!diagonal) {
-    PetscCall(PetscInfo(pc, "msimllt: %ld diagonal and %ld off-diagonal entries changed since the last factorization (at most %" PetscInt_FMT " diagonal ones for an update): refactoring\n", ndiag, noff, ctx->update_max_rank));
+    PetscCall(PetscInfo(pc, "msimllt: %ld diagonal and %ld off-diagonal entries changed since the last factorization (at most %" PetscInt_FMT " diagonal ones for an update), %ld diagonal ones lowered by over 1e3 x their new value: refactoring\n", ndiag + nlarge, noff, ctx->update_max_rank, nlarge));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   std::sort(ch.begin(), ch.end());

@@ -262,6 +262,34 @@ static PetscErrorCode TestLLTUpdate(void)
     PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
   }
   PetscCall(Compare("an off-diagonal pair", A, pc, 0, PETSC_TRUE));
+  /* 8. a weight of 1e6 x the diagonal added (an update), then refactored into the base by 40
+        more rows, then removed: C = 1/d + (B^-1)_jj would cancel (about eps |d| / a_jj lost),
+        so the removal refactors (whose solves match a fresh factorization's bits) */
+  v.clear();
+  v.emplace_back(row(70), 4e6);
+  PetscCall(SetDiagonal(A, v));
+  PetscCall(Compare("a weight of 1e6 x the diagonal added", A, pc, 1, PETSC_FALSE));
+  v.clear();
+  for (PetscInt k = 80; k < 120; k++) v.emplace_back(row(k), 40.0);
+  PetscCall(SetDiagonal(A, v));
+  PetscCall(Compare("40 more weights (the large one now in the base)", A, pc, 0, PETSC_TRUE));
+  v.clear();
+  v.emplace_back(row(70), 0);
+  PetscCall(SetDiagonal(A, v));
+  PetscCall(Compare("the weight of 1e6 x the diagonal removed", A, pc, 0, PETSC_TRUE));
+  /* 9. one diagonal made negative (A indefinite) by a diagonal change alone: not an update (C's
+        inertia differs from D's), the factorization's error as without updates */
+  {
+    PetscErrorCode ierr;
+    v.clear();
+    v.emplace_back(row(130), -3.0 - 4 - MASS); /* SetDiagonal adds 4 + MASS: the diagonal is -3 */
+    PetscCall(SetDiagonal(A, v));
+    PetscCall(PetscPushErrorHandler(PetscReturnErrorHandler, NULL));
+    ierr = PCSetUp(pc);
+    PetscCall(PetscPopErrorHandler());
+    CHECK(ierr == PETSC_ERR_MAT_CH_ZRPVT, "an indefinite matrix reached by a diagonal change: PCSetUp returned %d, not the non-positive pivot error", (int)ierr);
+    NOTE("an indefinite matrix reached by a diagonal change: PCSetUp's error %d (PETSC_ERR_MAT_CH_ZRPVT %d)\n", (int)ierr, (int)PETSC_ERR_MAT_CH_ZRPVT);
+  }
   PetscCall(PCDestroy(&pc));
   PetscCall(MatDestroy(&A));
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -382,18 +382,15 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     const PetscBool   selective = (PetscBool)(!pw->at_jacobian && ct->pd_refactor_selective > 0);
     const PetscReal   rkeep     = PetscSqrtReal(r);
     std::vector<char> keep;
-    PetscInt          counts[2] = {0, 0}; /* vertices off (the trigger), vertices to refresh */
+    PetscInt          nrefresh = 0; /* vertices off by more than sqrt(r) whose weight changes */
     if (selective) keep.assign(w.size(), 0);
     PetscCall(VecGetArrayRead(pw->diag, &a));
     for (size_t v = 0; (selective || !off) && v < w.size(); v++) {
       const PetscReal have = PetscRealPart(a[v]) + (restored ? pw->w[v] : 0), want = have - pw->w[v] + w[v];
-      if (want > r * have || have > rhigh * want) {
-        off = PETSC_TRUE;
-        counts[0]++;
-      }
+      if (want > r * have || have > rhigh * want) off = PETSC_TRUE;
       if (!selective) continue;
       keep[v] = !(want > rkeep * have || have > rkeep * want);
-      if (!keep[v] && w[v] != pw->w[v]) counts[1]++;
+      if (!keep[v] && w[v] != pw->w[v]) nrefresh++;
     }
     PetscCall(VecRestoreArrayRead(pw->diag, &a));
     if (selective) {
@@ -402,8 +399,8 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
          supernodes are always reached), and the landing, where hundreds of vertices enter the
          band in a step, converged worse with stale weights (the 101 x 101 cloth on the mesh
          ball: a 139 N contact force spike against 36 N, m g = 9.81) */
-      PetscCall(MPIU_Allreduce(MPI_IN_PLACE, counts, 2, MPIU_INT, MPI_SUM, sys->comm));
-      if (counts[1] <= ct->pd_refactor_selective)
+      PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &nrefresh, 1, MPIU_INT, MPI_SUM, sys->comm));
+      if (nrefresh <= ct->pd_refactor_selective)
         for (size_t v = 0; v < w.size(); v++)
           if (keep[v]) w[v] = pw->w[v];
     }
