@@ -146,20 +146,23 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   {
     /* A = B + P D P^T with B positive definite is positive definite exactly when C has as many
        negative eigenvalues as D has negative entries (Sylvester's law of inertia on the two
-       congruent block forms of [[B, P], [P^T, -D^-1]]); otherwise the caller refactors, and the
-       factorization names the matrix's non-positive pivot as it would without an update */
-    int negd = 0, negc = 0;
+       congruent block forms of [[B, P], [P^T, -D^-1]]): certainly so where no change is negative;
+       otherwise C's eigenvalues (a symmetric solver: C is then indefinite, which Eigen's LDLT does
+       not promise to handle), and on a mismatch the caller refactors, whose factorization names
+       the matrix's non-positive pivot as it would without an update */
+    int negd = 0;
     for (int i = 0; i < k; i++) negd += d[i] < 0;
-    Eigen::LDLT<Eigen::MatrixXd> ldlt(Eigen::Map<const Eigen::MatrixXd>(c_.data(), k, k));
-    if (ldlt.info() != Eigen::Success) negc = -1;
-    else
-      for (int i = 0; i < k; i++) negc += ldlt.vectorD()[i] < 0;
-    *flops += 1.0 / 3.0 * k * (double)k * k;
-    if (negc != negd) {
-      std::vector<double>().swap(c_);
-      std::vector<V4>().swap(work_);
-      Clear();
-      return false;
+    if (negd) {
+      Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(Eigen::Map<const Eigen::MatrixXd>(c_.data(), k, k), Eigen::EigenvaluesOnly);
+      int negc = eig.info() == Eigen::Success ? 0 : -1;
+      for (int i = 0; negc >= 0 && i < k; i++) negc += eig.eigenvalues()[i] < 0;
+      *flops += 4.0 / 3.0 * k * (double)k * k;
+      if (negc != negd) {
+        std::vector<double>().swap(c_);
+        std::vector<V4>().swap(work_);
+        Clear();
+        return false;
+      }
     }
   }
   /* C is indefinite where some change is negative: LU with partial pivoting (Eigen's; k is a few

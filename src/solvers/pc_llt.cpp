@@ -60,44 +60,6 @@ typedef struct {
 static PetscLogEvent LLT_Partial; /* -log_view: the factorizations that reused part of the last */
 static PetscLogEvent LLT_Update;  /* -log_view: the low-rank updates built in place of one */
 
-/* A's lower triangle by rows (lower_triangle.h), for a SeqAIJ matrix straight from its arrays: the
-   same entries in the same order, without a MatGetRow call per row, which cost 4.5 M instructions
-   a set-up on the 101 x 101 cloth (PD's contact weights set it up several times a step or two, an
-   update being cheap otherwise: 1.5 M of a 98 M step) */
-static PetscErrorCode LowerTriangleSerial(Mat A, std::vector<int> &aptr, std::vector<int> &acol, std::vector<double> &aval)
-{
-  PetscBool          aij, done;
-  PetscInt           n;
-  const PetscInt    *ia, *ja;
-  const PetscScalar *va;
-
-  PetscFunctionBeginUser;
-  PetscCall(PetscObjectBaseTypeCompare((PetscObject)A, MATSEQAIJ, &aij));
-  if (aij) PetscCall(MatGetRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done));
-  if (!aij || !done) {
-    PetscCall(msim::LowerTriangleRows(A, aptr, acol, aval));
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  PetscCall(MatSeqAIJGetArrayRead(A, &va));
-  aptr.resize(n + 1);
-  aptr[0] = 0;
-  for (PetscInt i = 0; i < n; i++) { /* columns ascending: the lower entries come first */
-    PetscInt k = ia[i];
-    while (k < ia[i + 1] && ja[k] <= i) k++;
-    aptr[i + 1] = aptr[i] + (int)(k - ia[i]);
-  }
-  acol.resize(aptr[n]);
-  aval.resize(aptr[n]);
-  for (PetscInt i = 0; i < n; i++)
-    for (int e = aptr[i], k = (int)ia[i]; e < aptr[i + 1]; e++, k++) {
-      acol[e] = (int)ja[k];
-      aval[e] = PetscRealPart(va[k]);
-    }
-  PetscCall(MatSeqAIJRestoreArrayRead(A, &va));
-  PetscCall(MatRestoreRowIJ(A, 0, PETSC_FALSE, PETSC_FALSE, &n, &ia, &ja, &done));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* the position of row i's diagonal entry among A's lower-triangle entries, -1 if none */
 static int DiagonalEntry(const std::vector<int> &aptr, const std::vector<int> &acol, PetscInt i)
 {
@@ -226,7 +188,7 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
   }
   std::vector<int>    aptr, acol;
   std::vector<double> aval;
-  PetscCall(LowerTriangleSerial(A, aptr, acol, aval));
+  PetscCall(msim::LowerTriangleRows(A, aptr, acol, aval));
   std::vector<char> dirty;
   /* the analysis is kept for the same pattern and the same amalgamation options (which shape the supernodes) */
   bool              keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol && ctx->relax == ctx->analyzed_relax && ctx->max_width == ctx->analyzed_max_width;

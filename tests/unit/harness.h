@@ -70,6 +70,18 @@ static inline PetscErrorCode SetRandom(Vec v, PetscReal lo, PetscReal hi)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* a PC of msim's sparse Cholesky (msimllt) on A, with an options prefix (NULL: none), set up */
+static inline PetscErrorCode TestLLTCreate(Mat A, const char *prefix, PC *pc)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PCCreate(PETSC_COMM_WORLD, pc));
+  PetscCall(PCSetOptionsPrefix(*pc, prefix));
+  PetscCall(PCSetType(*pc, "msimllt"));
+  PetscCall(PCSetOperators(*pc, A, A));
+  PetscCall(PCSetUp(*pc));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* g . dX, g the problem's residual at X, and (Phi(X + eps dX) - Phi(X - eps dX)) / (2 eps): equal to
    O(eps^2) where g is the gradient of Phi */
 static inline PetscErrorCode ObjectiveFDError(MSimImplicit imp, Vec X, Vec dX, PetscReal eps, PetscReal *gd, PetscReal *fd)

@@ -28,17 +28,6 @@ static PetscErrorCode PartialCount(PetscInt *count, PetscLogDouble *flops = null
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode MakePC(Mat A, const char *prefix, PC *pc)
-{
-  PetscFunctionBeginUser;
-  PetscCall(PCCreate(PETSC_COMM_WORLD, pc));
-  PetscCall(PCSetOptionsPrefix(*pc, prefix));
-  PetscCall(PCSetType(*pc, "msimllt"));
-  PetscCall(PCSetOperators(*pc, A, A));
-  PetscCall(PCSetUp(*pc));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* true when x and y hold the same bits on every rank */
 static PetscErrorCode SameBits(Vec x, Vec y, PetscBool *same)
 {
@@ -92,7 +81,7 @@ static PetscErrorCode Compare(const char *what, Mat A, PC partial, PC full, Vec 
   PetscCall(PCSetUp(full));
   PetscCall(PartialCount(&c1, &f2));
   PetscCall(MatDuplicate(A, MAT_COPY_VALUES, &Ac));
-  PetscCall(MakePC(Ac, "fresh_", &fresh));
+  PetscCall(TestLLTCreate(Ac, "fresh_", &fresh));
   for (Vec *v : {&x1, &x2, &x3, &r}) PetscCall(VecDuplicate(b, v));
   PetscCall(PCApply(partial, b, x1));
   PetscCall(PCApply(fresh, b, x2));
@@ -141,8 +130,8 @@ static PetscErrorCode TestScene(const char *opts, PetscInt side)
   PetscCall(MSimImplicitPDSetUp(imp));
   PetscCall(MatDuplicate(imp->A, MAT_COPY_VALUES, &A));
   PetscCall(MatDuplicate(imp->A, MAT_COPY_VALUES, &Af));
-  PetscCall(MakePC(A, NULL, &pp));
-  PetscCall(MakePC(Af, "full_", &pf));
+  PetscCall(TestLLTCreate(A, NULL, &pp));
+  PetscCall(TestLLTCreate(Af, "full_", &pf));
   PetscCall(MatCreateVecs(A, &b, NULL));
   PetscCall(SetRandom(b, -1, 1));
   {

@@ -67,17 +67,6 @@ static PetscErrorCode SetDiagonal(Mat A, const std::vector<std::pair<PetscInt, P
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static PetscErrorCode MakePC(Mat A, const char *prefix, PC *pc)
-{
-  PetscFunctionBeginUser;
-  PetscCall(PCCreate(PETSC_COMM_WORLD, pc));
-  PetscCall(PCSetOptionsPrefix(*pc, prefix));
-  PetscCall(PCSetType(*pc, "msimllt"));
-  PetscCall(PCSetOperators(*pc, A, A));
-  PetscCall(PCSetUp(*pc));
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 /* max |x - y| / max |y| over every rank, and whether the bits agree */
 static PetscErrorCode Difference(PetscInt n, const PetscScalar *x, const PetscScalar *y, PetscReal *rel, PetscBool *same)
 {
@@ -94,6 +83,22 @@ static PetscErrorCode Difference(PetscInt n, const PetscScalar *x, const PetscSc
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &eq, 1, MPI_INT, MPI_LAND, PETSC_COMM_WORLD));
   *rel  = d[0] / d[1];
   *same = eq ? PETSC_TRUE : PETSC_FALSE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Difference of two Vecs' local arrays */
+static PetscErrorCode VecDifference(Vec x, Vec y, PetscReal *rel, PetscBool *same)
+{
+  const PetscScalar *p, *q;
+  PetscInt           n;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetLocalSize(x, &n));
+  PetscCall(VecGetArrayRead(x, &p));
+  PetscCall(VecGetArrayRead(y, &q));
+  PetscCall(Difference(n, p, q, rel, same));
+  PetscCall(VecRestoreArrayRead(x, &p));
+  PetscCall(VecRestoreArrayRead(y, &q));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -115,7 +120,7 @@ static PetscErrorCode Compare(const char *what, Mat A, PC pc, PetscInt expect_up
   PetscCall(PCSetUp(pc));
   PetscCall(EventCount("MSimLLTUpdate", &u1));
   PetscCall(MatDuplicate(A, MAT_COPY_VALUES, &Ac));
-  PetscCall(MakePC(Ac, "fresh_", &fresh));
+  PetscCall(TestLLTCreate(Ac, "fresh_", &fresh));
   PetscCall(MatCreateVecs(A, &b, &x1));
   PetscCall(VecDuplicate(x1, &x2));
   PetscCall(VecGetLocalSize(b, &n));
@@ -124,16 +129,9 @@ static PetscErrorCode Compare(const char *what, Mat A, PC pc, PetscInt expect_up
   /* PCApply */
   PetscCall(PCApply(pc, b, x1));
   PetscCall(PCApply(fresh, b, x2));
-  {
-    const PetscScalar *p, *q;
-    PetscCall(VecGetArrayRead(x1, &p));
-    PetscCall(VecGetArrayRead(x2, &q));
-    PetscCall(Difference(n, p, q, &rel, &same));
-    PetscCall(VecRestoreArrayRead(x1, &p));
-    PetscCall(VecRestoreArrayRead(x2, &q));
-    worst    = PetscMax(worst, rel);
-    all_same = (PetscBool)(all_same && same);
-  }
+  PetscCall(VecDifference(x1, x2, &rel, &same));
+  worst    = PetscMax(worst, rel);
+  all_same = (PetscBool)(all_same && same);
   /* PCMatApply: five columns (a group of four, then one) */
   PetscCall(MatCreateDense(PETSC_COMM_WORLD, n, PETSC_DECIDE, N, 5, NULL, &B));
   PetscCall(MatDuplicate(B, MAT_DO_NOT_COPY_VALUES, &X1));
@@ -187,7 +185,7 @@ static PetscErrorCode TestLLTUpdate(void)
   PetscCall(PetscOptionsClear(NULL));
   PetscCall(PetscOptionsInsertString(NULL, "-pc_msimllt_update_max_rank 16"));
   PetscCall(Laplacian(&A));
-  PetscCall(MakePC(A, NULL, &pc));
+  PetscCall(TestLLTCreate(A, NULL, &pc));
   /* rows spread over the grid (and over both ranks' halves) */
   auto row = [](PetscInt k) { return (PetscInt)((37 * k + 11) % (SIDE * SIDE)); };
   std::vector<std::pair<PetscInt, PetscReal>> w;
@@ -234,19 +232,12 @@ static PetscErrorCode TestLLTUpdate(void)
     Vec       b, x1, x2;
     PetscReal rel;
     PetscBool same;
-    PetscInt  n;
     PetscCall(MatCreateVecs(A, &b, &x1));
     PetscCall(VecDuplicate(x1, &x2));
-    PetscCall(VecGetLocalSize(b, &n));
     PetscCall(SetRandom(b, -1, 1));
     PetscCall(PCApply(pc, b, x1));
     PetscCall(PCApply(pr, b, x2));
-    const PetscScalar *p, *q;
-    PetscCall(VecGetArrayRead(x1, &p));
-    PetscCall(VecGetArrayRead(x2, &q));
-    PetscCall(Difference(n, p, q, &rel, &same));
-    PetscCall(VecRestoreArrayRead(x1, &p));
-    PetscCall(VecRestoreArrayRead(x2, &q));
+    PetscCall(VecDifference(x1, x2, &rel, &same));
     NOTE("restart from the base diagonal: relative difference %.2e, bit for bit: %s\n", (double)rel, same ? "yes" : "no");
     CHECK(same, "a PC given the base diagonal solves differently (relative %g)", (double)rel);
     PetscCall(PCDestroy(&pr));

@@ -394,11 +394,12 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     }
     PetscCall(VecRestoreArrayRead(pw->diag, &a));
     if (selective) {
-      /* selective only while few vertices change (over all ranks, so the weights do not depend on
-         the partition): a refactorization of many rows costs what one of all does (the root
-         supernodes are always reached), and the landing, where hundreds of vertices enter the
-         band in a step, converged worse with stale weights (the 101 x 101 cloth on the mesh
-         ball: a 139 N contact force spike against 36 N, m g = 9.81) */
+      /* selective only while few vertices change (counted over all ranks, so the weights do not
+         depend on the partition): past msimllt's update rank it refactors, and a refactorization
+         of many rows costs what one of all does (the root supernodes are always reached), so
+         every vertex may as well take its weight. (On the mesh ball the landing converges worse
+         with the stale weights even so: 4-96 vertices refresh an event there; K = 0 refreshes
+         all, runs/contact/README.md) */
       PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &nrefresh, 1, MPIU_INT, MPI_SUM, sys->comm));
       if (nrefresh <= ct->pd_refactor_selective)
         for (size_t v = 0; v < w.size(); v++)
