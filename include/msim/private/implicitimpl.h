@@ -257,6 +257,12 @@ PetscErrorCode MSimImplicitDiagonalWeight(MSimImplicit imp, PetscReal *w);
 /* PD's weights of state-dependent terms (contact) taken at X, A refactored where they changed
    (pd_steps.cpp); for Newton's Jacobian with the PD factor as preconditioner */
 PetscErrorCode MSimImplicitPDReweight(MSimImplicit imp, Vec X);
+/* PD's global step's moves (pd_steps.cpp), for the passes that skip the vertices far from a
+   barrier: a max_step's bound on every vertex's |D_v| of a step direction D (valid while D is
+   unchanged), and, for an iterate X that the step overwrote in place, the state X had before and a
+   bound on every vertex's move from there (has: X is as the step left it) */
+PetscErrorCode MSimImplicitPDSetVertexBound(Vec D, PetscReal bound);
+PetscErrorCode MSimImplicitPDMoveBound(Vec X, PetscObjectState *from, PetscReal *bound, PetscBool *has);
 /* The start of PD's local pass, shared by MSimImplicitPDRHS and MSimImplicitPDGradient: every
    term's pd_begin at X (the ghost exchange starts), and the first diagonal term's weight w and
    centre C (imp->Y and w = 0 where there is none), which the inertia pass takes in the same loop;
