@@ -16,6 +16,58 @@
    bound tried in place of the check (PDProblemGlobal) and the halvings on Phi */
 static PetscLogEvent PD_MaxStep = 0, PD_Bound = 0, PD_BoundCheck = 0, PD_Halving = 0;
 
+/* The global step's moves, as data composed on the Vecs at their current state (PETSc's composed
+   reals: void once the Vec changes), for the terms' passes that skip the vertices far from their
+   barriers (terms/obstacles.cpp): on D, a bound on every vertex's |D_v| (set by a term's max_step,
+   whose pass over D's vertices finds it); on an iterate the step overwrote in place, X0 - alpha D
+   after X0 - alpha' D (or after X0 itself: alpha' = 0), the state it had before and a bound on
+   every vertex's move from there, |alpha - alpha'| times D's. Without them the terms test every
+   vertex. */
+static PetscInt PD_MoveFrom = -1, PD_MoveBound = -1, PD_VertexBound = -1;
+
+static PetscErrorCode PDComposedReal(Vec V, PetscInt id, PetscReal *value, PetscBool *has)
+{
+  PetscFunctionBeginUser;
+  *has = PETSC_FALSE;
+  /* PETSc's getter does not check that V's composed arrays reach the id (made before it was registered) */
+  if (id >= 0 && ((PetscObject)V)->real_idmax > id) PetscCall(PetscObjectComposedDataGetReal((PetscObject)V, id, *value, *has));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitPDSetVertexBound(Vec D, PetscReal bound)
+{
+  PetscFunctionBeginUser;
+  if (PD_VertexBound >= 0) PetscCall(PetscObjectComposedDataSetReal((PetscObject)D, PD_VertexBound, bound));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitPDMoveBound(Vec X, PetscObjectState *from, PetscReal *bound, PetscBool *has)
+{
+  PetscReal f = 0;
+  PetscBool hf;
+
+  PetscFunctionBeginUser;
+  PetscCall(PDComposedReal(X, PD_MoveFrom, &f, &hf));
+  PetscCall(PDComposedReal(X, PD_MoveBound, bound, has));
+  *has  = (PetscBool)(*has && hf);
+  *from = (PetscObjectState)f; /* exact: states are counts far below 2^53 */
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* X (written in place: from is its state before) = X0 - alpha D, where it was X0 - prev D */
+static PetscErrorCode PDMarkMove(Vec X, PetscObjectState from, Vec D, PetscReal alpha, PetscReal prev)
+{
+  PetscReal vb;
+  PetscBool has;
+
+  PetscFunctionBeginUser;
+  PetscCall(PDComposedReal(D, PD_VertexBound, &vb, &has));
+  if (!has) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscObjectComposedDataSetReal((PetscObject)X, PD_MoveFrom, (PetscReal)from));
+  PetscCall(PetscObjectComposedDataSetReal((PetscObject)X, PD_MoveBound, PetscAbsReal(alpha - prev) * vb));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* A's diagonal from the weights of the terms that follow the state (pd_reweight: the obstacles,
    whose pd_matrix adds diagonal entries only): diag(A) = the fixed part's diagonal (kept with A at
    its assembly) + their weights, so that a reweight costs O(n) instead of the springs' assembly
@@ -121,6 +173,9 @@ PetscErrorCode MSimImplicitPDSetUp(MSimImplicit imp)
     PetscCall(PetscLogEventRegister("MSimPDBound", MSIM_CLASSID, &PD_Bound));
     PetscCall(PetscLogEventRegister("MSimPDBoundCheck", MSIM_CLASSID, &PD_BoundCheck));
     PetscCall(PetscLogEventRegister("MSimPDHalving", MSIM_CLASSID, &PD_Halving));
+    PetscCall(PetscObjectComposedDataRegister(&PD_MoveFrom));
+    PetscCall(PetscObjectComposedDataRegister(&PD_MoveBound));
+    PetscCall(PetscObjectComposedDataRegister(&PD_VertexBound));
   }
   PetscCall(PetscLogEventBegin(MSIM_PDSetUp, 0, 0, 0, 0));
   PetscCall(MSimImplicitStepUpdate(imp));
@@ -659,7 +714,12 @@ static PetscErrorCode PDRetryHalve(MSimImplicit imp, PDBound *b, Vec X0, Vec D, 
       PetscCall(PetscInfo(X0, "pd bound: passes at alpha0 %g where Phi was measured to rise by %g (roundoff tolerance %g): %s\n", (double)alpha, (double)(phi - phi0), (double)tol, found ? "roundoff, alpha0 kept" : "the bound does not hold, halving on Phi"));
     } else if (b->ok) {
       PetscCall(PDBoundShorten(imp, b, X0, D, alpha, &acc, &found));
-      if (found) PetscCall(VecWAXPY(X, -acc, D, X0));
+      if (found) {
+        PetscObjectState from;
+        PetscCall(PetscObjectStateGet((PetscObject)X, &from));
+        PetscCall(VecWAXPY(X, -acc, D, X0));
+        PetscCall(PDMarkMove(X, from, D, acc, alpha));
+      }
     }
     if (b->ok) PetscCall(PDBoundInfo(imp, b, X0, X, alpha, acc, found, "rejected step"));
     PetscCall(PetscLogEventEnd(PD_Bound, 0, 0, 0, 0));
@@ -671,8 +731,11 @@ static PetscErrorCode PDRetryHalve(MSimImplicit imp, PDBound *b, Vec X0, Vec D, 
   }
   for (PetscInt it = 0; it < 30 && !(phi <= phi0); it++) {
     PetscCall(PetscLogEventBegin(PD_Halving, 0, 0, 0, 0));
+    PetscObjectState from;
+    PetscCall(PetscObjectStateGet((PetscObject)X, &from));
     alpha *= 0.5;
     PetscCall(VecWAXPY(X, -alpha, D, X0));
+    PetscCall(PDMarkMove(X, from, D, alpha, 2 * alpha));
     PetscCall(phi_at(imp, ctx, X, &phi));
     PetscCall(PetscLogEventEnd(PD_Halving, 0, 0, 0, 0));
   }
@@ -944,7 +1007,12 @@ static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
   PetscCall(PetscLogEventBegin(PD_MaxStep, 0, 0, 0, 0));
   PetscCall(PDStepFrom(guess, D, X0));
   PetscCall(MSimImplicitMaxStep(imp, guess, D, &alpha));
-  PetscCall(PDStepTo(X0, D, alpha, X));
+  {
+    PetscObjectState from;
+    PetscCall(PetscObjectStateGet((PetscObject)X, &from));
+    PetscCall(PDStepTo(X0, D, alpha, X));
+    if (X == guess) PetscCall(PDMarkMove(X, from, D, alpha, 0)); /* from guess = X0 */
+  }
   PetscCall(PetscLogEventEnd(PD_MaxStep, 0, 0, 0, 0));
   /* a term may say that its barrier is not met along this step (pd_check): no check for it */
   PetscBool check = (PetscBool)(alpha < 1);

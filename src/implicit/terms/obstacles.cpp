@@ -77,6 +77,25 @@ typedef struct {
   std::vector<unsigned char> move; /* max_step's work: the vertices whose move may reach an obstacle */
   std::vector<PetscReal>     work; /* and the anchors' distances */
   std::vector<unsigned char> far;  /* NearLoop's work: FarFlags */
+  /* FarFlags between its full passes, along one iterate X (PD's, whose global steps overwrite it
+     in place and say by how much each vertex moved: MSimImplicitPDMoveBound): at a full pass at X
+     the vertices that are not far or whose margin ex - |x - anchor| is at most `reach` are listed
+     (nearlist, inlist), the least margin of the others kept (mout). While X's moves since (summed
+     in `moved`) are known and twice their sum stays below mout, the others are still within their
+     anchors' balls (the distance to the anchor is 1-Lipschitz) and only the listed vertices are
+     tested: the same flags. A pass at another X (x_n's Phi, a line search's trial point) tests
+     every vertex and lists those it queries (their anchors move), so that X's list stays whole.
+     reach: 3 x the moves the last full pass's list served, so that a time step's PD iterations fit.
+     Where X changes without saying by how much (L-BFGS's, Newton's iterates) a list that served no
+     pass is not made again until a move is known (listed false: the plain test) */
+  std::vector<PetscInt>      nearlist;
+  std::vector<unsigned char> inlist;
+  std::vector<PetscReal>     rwork;
+  PetscReal                  mout = 0, moved = 0, reach = 0;
+  PetscInt                   served = 0; /* passes the list served since it was made */
+  PetscBool                  flags_valid = PETSC_FALSE, listed = PETSC_FALSE;
+  PetscObjectId              flags_id    = 0; /* X, at the state of its last flags */
+  PetscObjectState           flags_state = 0;
   PetscObjectId          dmin_id    = 0;
   PetscObjectState       dmin_state = 0;
   PetscReal              dmin_tx    = 0; /* where the obstacles were */
@@ -101,23 +120,27 @@ static PDWeights *Anchors(MSimImplicitTerm term, MSimContact ct)
   if ((PetscInt)pw->ex.size() != nown || (ct->moving && pw->anchors_tx != term->imp->step.tx)) {
     pw->anchor.assign(3 * nown, 0.0);
     pw->ex.assign(nown, -ct->dhat); /* none: below every skip test (e > 0, e > -dhat, lb = e + dhat - r > 0), and finite, so the passes that square it never overflow (-fp_trap) */
-    pw->anchors_tx = term->imp->step.tx;
+    pw->anchors_tx  = term->imp->step.tx;
+    pw->flags_valid = PETSC_FALSE;
   }
   return pw;
 }
 
-/* x's vertices within ex of their anchors, beyond dhat of every obstacle (far[v] = 1), as flags
-   in a pass without branches that the compiler vectorizes: a test per vertex at each of the 11
-   local steps of a PD-10 step, it was 0.2 of the obstacles' local step's 0.48 M instructions on
-   the 101 x 101 drape (runs/contact/README.md); the loop then visits the others alone, eight
-   flags at a time */
-static void FarFlags(const PDWeights *pw, PetscInt nown, const PetscScalar *__restrict x, unsigned char *__restrict far)
+/* r = sqrt(r), 4 at a time with AVX (the scalar sqrt's errno branch keeps the compiler's
+   vectorizer out; each correctly rounded, so the same numbers); r: n + 4 entries */
+static void AnchorRoots(PetscInt n, PetscReal *__restrict r)
 {
-  const PetscReal *__restrict an = pw->anchor.data(), *__restrict ex = pw->ex.data();
-  for (PetscInt v = 0; v < nown; v++) {
-    const PetscReal e = ex[v], dx = x[3 * v] - an[3 * v], dy = x[3 * v + 1] - an[3 * v + 1], dz = x[3 * v + 2] - an[3 * v + 2];
-    far[v] = (unsigned char)((e > 0) & (dx * dx + dy * dy + dz * dz <= e * e));
-  }
+  PetscInt v = 0;
+#if defined(__AVX__)
+  for (; v + 4 <= n; v += 4) _mm256_storeu_pd(r + v, _mm256_sqrt_pd(_mm256_loadu_pd(r + v)));
+#endif
+  for (; v < n; v++) r[v] = PetscSqrtReal(r[v]);
+}
+
+static inline PetscReal AnchorDistance2(const PetscReal *__restrict an, const PetscScalar *__restrict x, PetscInt v)
+{
+  const PetscReal dx = x[3 * v] - an[3 * v], dy = x[3 * v + 1] - an[3 * v + 1], dz = x[3 * v + 2] - an[3 * v + 2];
+  return dx * dx + dy * dy + dz * dz;
 }
 
 /* f(v, o, d, n, H) for every owned vertex v and obstacle o within dhat (d may be <= 0), as
@@ -145,12 +168,116 @@ static inline PetscInt NextFlagged(const unsigned char *flags, PetscInt v, Petsc
   return n;
 }
 
+/* min(r): 4 at a time with AVX (the compiler does not vectorize a floating-point min); r not NaN */
+static PetscReal LeastOf(PetscInt n, const PetscReal *r)
+{
+  PetscReal m = PETSC_MAX_REAL;
+  PetscInt  v = 0;
+#if defined(__AVX__)
+  __m256d mm = _mm256_set1_pd(PETSC_MAX_REAL);
+  for (; v + 4 <= n; v += 4) mm = _mm256_min_pd(mm, _mm256_loadu_pd(r + v));
+  PetscReal lanes[4];
+  _mm256_storeu_pd(lanes, mm);
+  for (int l = 0; l < 4; l++) m = PetscMin(m, lanes[l]);
+#endif
+  for (; v < n; v++) m = PetscMin(m, r[v]);
+  return m;
+}
+
+/* x's vertices within ex of their anchors, beyond dhat of every obstacle (far[v] = 1); the loop
+   then visits the others alone, eight flags at a time. A test per vertex at each of the 11 local
+   steps of a PD-10 step was 1.9 M instructions of the 101 x 101 drape on the ball (runs/contact/
+   README.md): along PD's iterate only the listed vertices are tested (PDWeights' nearlist).
+   moved: a bound on every vertex's move since X's last flags (FlagsMove); -1: X's list starts
+   afresh (none known); -2: x is another iterate */
+static void FarFlags(PDWeights *pw, PetscReal dhat, PetscReal moved, PetscInt nown, const PetscScalar *__restrict x, unsigned char *__restrict far)
+{
+  const PetscReal *__restrict an = pw->anchor.data(), *__restrict ex = pw->ex.data();
+  if (pw->listed && moved >= 0 && 2 * (pw->moved + moved) < pw->mout) {
+    pw->moved += moved;
+    pw->served++;
+    for (const PetscInt v : pw->nearlist) far[v] = (unsigned char)((ex[v] > 0) & (AnchorDistance2(an, x, v) <= ex[v] * ex[v]));
+    return;
+  }
+  if (moved == -2 || (moved == -1 && pw->flags_valid && !pw->served)) {
+    for (PetscInt v = 0; v < nown; v++) far[v] = (unsigned char)((ex[v] > 0) & (AnchorDistance2(an, x, v) <= ex[v] * ex[v]));
+    if (moved == -1) pw->listed = PETSC_FALSE; /* X's flags, no list */
+    if (!pw->listed) return;
+    /* the vertices queried here (their anchors move) join X's list; past half of them it starts afresh */
+    for (PetscInt v = NextFlagged(far, 0, nown, 0); v < nown; v = NextFlagged(far, v + 1, nown, 0))
+      if (!pw->inlist[v]) {
+        pw->inlist[v] = 1;
+        pw->nearlist.push_back(v);
+      }
+    if (2 * (PetscInt)pw->nearlist.size() > nown) pw->flags_valid = PETSC_FALSE;
+    return;
+  }
+  if (pw->listed && pw->moved + PetscMax(moved, 0) > 0) pw->reach = 3 * (pw->moved + PetscMax(moved, 0));
+  pw->rwork.resize(nown + 4);
+  pw->inlist.resize(nown + 8, 0); /* the padding: not listed (NextFlagged) */
+  PetscReal *__restrict r = pw->rwork.data();
+  unsigned char *__restrict in = pw->inlist.data();
+  for (PetscInt v = 0; v < nown; v++) {
+    r[v]   = AnchorDistance2(an, x, v);
+    far[v] = (unsigned char)((ex[v] > 0) & (r[v] <= ex[v] * ex[v]));
+  }
+  AnchorRoots(nown, r);
+  /* reach's floor: the margins are good to a few ulps of the coordinates, far below it. In
+     passes the compiler vectorizes: the listed ones, the others' margins (PETSC_MAX_REAL for the
+     listed), their least; then the list */
+  const PetscReal reach = PetscMax(pw->reach, PETSC_SQRT_MACHINE_EPSILON * dhat);
+  for (PetscInt v = 0; v < nown; v++) {
+    const PetscReal m = ex[v] - r[v];
+    in[v]             = (unsigned char)(!far[v] | !(m > reach));
+    r[v]              = in[v] ? PETSC_MAX_REAL : m;
+  }
+  pw->nearlist.clear();
+  for (PetscInt v = NextFlagged(in, 0, nown, 1); v < nown; v = NextFlagged(in, v + 1, nown, 1)) pw->nearlist.push_back(v);
+  pw->mout        = LeastOf(nown, r);
+  pw->moved       = 0;
+  pw->served      = 0;
+  pw->flags_valid = PETSC_TRUE;
+  pw->listed      = PETSC_TRUE;
+}
+
+/* FarFlags' moved for X (0: X unchanged since its last flags) */
+static PetscErrorCode FlagsMove(PDWeights *pw, Vec X, PetscReal *moved)
+{
+  PetscObjectId    id;
+  PetscObjectState state, from;
+  PetscReal        b;
+  PetscBool        has;
+
+  PetscFunctionBeginUser;
+  *moved = -1;
+  PetscCall(PetscObjectGetId((PetscObject)X, &id));
+  PetscCall(PetscObjectStateGet((PetscObject)X, &state));
+  if (!pw->flags_valid) PetscFunctionReturn(PETSC_SUCCESS);
+  if (id != pw->flags_id) *moved = -2;
+  else if (state == pw->flags_state) *moved = 0;
+  else {
+    PetscCall(MSimImplicitPDMoveBound(X, &from, &b, &has));
+    if (has && from == pw->flags_state && b >= 0) *moved = b; /* b >= 0: not NaN */
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* after NearLoop at X with FarFlags' moved: X's flags, where they were X's list's */
+static PetscErrorCode FlagsAt(PDWeights *pw, Vec X, PetscReal moved)
+{
+  PetscFunctionBeginUser;
+  if (moved == -2) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscObjectGetId((PetscObject)X, &pw->flags_id));
+  PetscCall(PetscObjectStateGet((PetscObject)X, &pw->flags_state));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 template <class F>
-static void NearLoop(PDWeights *pw, MSimContact ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscBool hessian, PetscReal *dmins, F &&f)
+static void NearLoop(PDWeights *pw, MSimContact ct, PetscReal moved, PetscInt nown, const PetscScalar *x, PetscReal t, PetscBool hessian, PetscReal *dmins, F &&f)
 {
   pw->far.resize(nown + 8, 1); /* the padding: far */
   unsigned char *far = pw->far.data();
-  FarFlags(pw, nown, x, far);
+  FarFlags(pw, ct->dhat, moved, nown, x, far);
   if (dmins)
     for (PetscInt v = 0; v < nown; v++) dmins[v] = ct->dhat; /* the queried ones' below */
   for (PetscInt v = NextFlagged(far, 0, nown, 0); v < nown; v = NextFlagged(far, v + 1, nown, 0)) {
@@ -187,13 +314,16 @@ static PetscErrorCode ForEachNear(MSimImplicitTerm term, MSimContact ct, Vec X, 
   MSimSystem         sys = term->imp->sys;
   PDWeights         *pw  = Anchors(term, ct);
   const PetscScalar *x, *m;
+  PetscReal          moved;
 
   PetscFunctionBeginUser;
+  PetscCall(FlagsMove(pw, X, &moved));
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(sys->mass, &m));
-  NearLoop(pw, ct, sys->nown, x, term->imp->step.tx, hessian, NULL, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
+  NearLoop(pw, ct, moved, sys->nown, x, term->imp->step.tx, hessian, NULL, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, d, n, H, PetscRealPart(m[3 * v])); });
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(FlagsAt(pw, X, moved));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -452,14 +582,16 @@ static PetscErrorCode LocalPass(MSimImplicitTerm term, MSimContact ct, Vec X, Ve
   const PetscScalar *x, *ms;
 
   PDWeights         *pw = Anchors(term, ct);
+  PetscReal          moved;
 
   PetscFunctionBeginUser;
   pw->dmin.resize(term->imp->sys->nown);
+  PetscCall(FlagsMove(pw, X, &moved));
   PetscCall(MSimContactAddToVec(G, [&](PetscScalar *g) {
     PetscFunctionBeginUser;
     PetscCall(VecGetArrayRead(X, &x));
     PetscCall(VecGetArrayRead(term->imp->sys->mass, &ms));
-    NearLoop(pw, ct, term->imp->sys->nown, x, term->imp->step.tx, PETSC_FALSE, pw->dmin.data(), [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
+    NearLoop(pw, ct, moved, term->imp->sys->nown, x, term->imp->step.tx, PETSC_FALSE, pw->dmin.data(), [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
       PetscReal       b, db, d2b;
       const PetscReal m  = PetscRealPart(ms[3 * v]);
       const PetscReal dc = PetscMax(d, PETSC_SMALL * ct->dhat);
@@ -479,6 +611,7 @@ static PetscErrorCode LocalPass(MSimImplicitTerm term, MSimContact ct, Vec X, Ve
     PetscCall(VecRestoreArrayRead(X, &x));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
+  PetscCall(FlagsAt(pw, X, moved));
   PetscCall(PetscObjectGetId((PetscObject)X, &pw->dmin_id));
   PetscCall(PetscObjectStateGet((PetscObject)X, &pw->dmin_state));
   pw->dmin_tx = term->imp->step.tx;
@@ -699,15 +832,37 @@ static PetscReal SafeStep(const MSimObstacle &o, PetscReal t, PetscInt v, const 
    tests' own flags. r: nown + 4 entries of work. */
 static void AnchorDistances(PetscInt nown, const PetscReal *__restrict an, const PetscScalar *__restrict p, PetscReal *__restrict r)
 {
-  for (PetscInt v = 0; v < nown; v++) {
-    const PetscReal dx[3] = {p[3 * v] - an[3 * v], p[3 * v + 1] - an[3 * v + 1], p[3 * v + 2] - an[3 * v + 2]};
-    r[v]                  = dx[0] * dx[0] + dx[1] * dx[1] + dx[2] * dx[2];
-  }
-  PetscInt v = 0;
+  for (PetscInt v = 0; v < nown; v++) r[v] = AnchorDistance2(an, p, v);
+  AnchorRoots(nown, r);
+}
+
+/* max(q), infinite where some q is NaN (no bound); q >= 0. 4 at a time with AVX (the compiler
+   does not vectorize a floating-point max) */
+static PetscReal LargestOf(PetscInt n, const PetscReal *q)
+{
+  PetscReal m = 0;
+  PetscInt  v = 0;
+  PetscBool nan = PETSC_FALSE;
 #if defined(__AVX__)
-  for (; v + 4 <= nown; v += 4) _mm256_storeu_pd(r + v, _mm256_sqrt_pd(_mm256_loadu_pd(r + v)));
+  __m256d mm = _mm256_setzero_pd(), un = _mm256_setzero_pd();
+  for (; v + 4 <= n; v += 4) {
+    const __m256d qv = _mm256_loadu_pd(q + v);
+    mm               = _mm256_max_pd(mm, qv);
+    un               = _mm256_or_pd(un, _mm256_cmp_pd(qv, qv, _CMP_UNORD_Q));
+  }
+  PetscReal lanes[4], bad[4];
+  _mm256_storeu_pd(lanes, mm);
+  _mm256_storeu_pd(bad, un);
+  for (int l = 0; l < 4; l++) {
+    m   = PetscMax(m, lanes[l]);
+    nan = (PetscBool)(nan || bad[l] != 0);
+  }
 #endif
-  for (; v < nown; v++) r[v] = PetscSqrtReal(r[v]);
+  for (; v < n; v++) {
+    m   = PetscMax(m, q[v]);
+    nan = (PetscBool)(nan || q[v] != q[v]);
+  }
+  return nan ? PETSC_INFINITY : m;
 }
 
 /* max_step from an X without kept distances: X - alpha Y, at alpha^2 = a2 */
@@ -772,10 +927,17 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     const PetscInt nown = sys->nown; /* a char store could alias sys->nown */
     if (dmin) {
       const PetscReal *__restrict dr = dmin;
+      pw->work.resize(nown + 4);
+      PetscReal *__restrict qs = pw->work.data();
       for (PetscInt v = 0; v < nown; v++) {
         const PetscReal dm = dr[v], q = yr[3 * v] * yr[3 * v] + yr[3 * v + 1] * yr[3 * v + 1] + yr[3 * v + 2] * yr[3 * v + 2];
         mv[v]              = (unsigned char)((dm <= 0) | !(0.5625 * dm * dm > a2 * q)); /* | and !: no branch */
+        qs[v]              = q;
       }
+      /* the largest |y_v|, for the next local step's flags (FarFlags: PD's iterate moves by alpha y
+         from X), with a margin for the roundoff of q and its root */
+      const PetscReal qmax = LargestOf(nown, qs);
+      if (qmax < PETSC_INFINITY) PetscCall(MSimImplicitPDSetVertexBound(Y, PetscSqrtReal(qmax) * (1 + 8 * PETSC_MACHINE_EPSILON)));
     } else { /* the first iterate's max_step from x_n's copy */
       pw->work.resize(nown + 4);
       AnchorMoveMask(nown, pw->anchor.data(), pw->ex.data(), dhat, x, y, a2, pw->work.data(), mv);
