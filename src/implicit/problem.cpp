@@ -146,8 +146,18 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
   if (!feasible) { /* towards x_n, or a feasible start a term makes from it (moving obstacles) */
     Vec       D, A;
     PetscReal alpha;
-    PetscCall(VecDuplicate(X, &D));
-    PetscCall(VecDuplicate(X, &A));
+    /* work Vecs made once, freed with x_n (two VecDuplicates a step, each zeroing its array, were
+       0.5 M instructions of a PD-10 step of the 101 x 101 drape on the ball) */
+    PetscCall(PetscObjectQuery((PetscObject)imp->Xn, "MSimGuessStart", (PetscObject *)&A));
+    PetscCall(PetscObjectQuery((PetscObject)imp->Xn, "MSimGuessStep", (PetscObject *)&D));
+    if (!A) {
+      PetscCall(VecDuplicate(imp->Xn, &A));
+      PetscCall(VecDuplicate(imp->Xn, &D));
+      PetscCall(PetscObjectCompose((PetscObject)imp->Xn, "MSimGuessStart", (PetscObject)A));
+      PetscCall(PetscObjectCompose((PetscObject)imp->Xn, "MSimGuessStep", (PetscObject)D));
+      PetscCall(PetscObjectDereference((PetscObject)A));
+      PetscCall(PetscObjectDereference((PetscObject)D));
+    }
     PetscCall(VecCopy(imp->Xn, A));
     for (PetscInt k = 0; k < imp->nterms; k++)
       if (imp->terms[k]->ops.feasible_start) PetscCall(imp->terms[k]->ops.feasible_start(imp->terms[k], A));
@@ -156,7 +166,6 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
     PetscCall(VecWAXPY(D, -1.0, X, A)); /* X = A - D */
     PetscCall(MSimImplicitMaxStep(imp, A, D, &alpha));
     if (alpha < 1) PetscCall(VecWAXPY(X, -alpha, D, A));
-    PetscCall(MSimDestroy(&A, &D));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
