@@ -20,7 +20,9 @@
      (the far skip's balls around the cells' centres, in cells with and without candidates and in
      empty coarse cells), and that those balls are used; the clearance they give
      (MSimMeshObstacleVertexClearance) lies between band and the distance, and a point within it is
-     answered beyond band.
+     answered beyond band;
+   - a mesh far from the origin (FarFromOrigin): the cached distance is the tree path's bit for bit
+     where two sheets are nearly equally near.
    Each rank walks its own points (the queries are local): the same checks at 1 and 2 ranks. */
 #include "harness.h"
 #include <msim/contact.h>
@@ -292,6 +294,62 @@ static PetscErrorCode Walks(const char *path, double band_frac, double thick_fra
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A mesh far from the origin: two parallel square sheets (side 1, 0.02 apart, tilted) moved by
+   ~3e6, where a coordinate's roundoff (~5e-10) dwarfs 1e-12 of the mesh's size. Points halfway
+   between them, nearer to one sheet by up to 1e-9: the cached query's loop passes over a candidate
+   whose distance to the cell's centre, or whose plane, shows it farther than the nearest found so
+   far, less a roundoff margin; a margin scaled by the mesh's size alone (and, for the first, taken
+   on the wrong side) passed over the nearer sheet in 41 of these 2,000 points and answered with the
+   other one's distance. The tree path compares the same computed distances of both sheets, so its
+   distance is the least one bit for bit (the normals may differ: at these coordinates the two
+   sheets' computed distances are often exactly equal, and the tie goes to the first in each
+   path's own order). */
+static PetscErrorCode FarFromOrigin(PetscMPIInt rank)
+{
+  const double     O[3] = {3.1e6, -2.3e6, 1.7e6}, gap = 0.02, band = 0.05;
+  const V3         u = {0.8, 0.36, 0.48}, w = {-0.6, 0.48, 0.64}, nrm = Cross(u, w); /* orthonormal, the sheets' axes */
+  char             path[PETSC_MAX_PATH_LEN];
+  int              pid = (int)getpid();
+  MSimMeshObstacle mo;
+  std::mt19937     gen(5 + 3 * rank);
+  std::uniform_real_distribution<double> U(0, 1);
+  PetscInt         nq = 0, nbad = 0;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Bcast(&pid, 1, MPI_INT, 0, PETSC_COMM_WORLD));
+  PetscCall(PetscSNPrintf(path, sizeof path, "/tmp/msim_test_mesh_far_%d.obj", pid));
+  if (!rank) {
+    FILE *f = fopen(path, "w");
+    PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
+    for (int sh = 0; sh < 2; sh++)
+      for (int j = 0; j < 2; j++)
+        for (int i = 0; i < 2; i++) fprintf(f, "v %.17g %.17g %.17g\n", O[0] + i * u[0] + j * w[0] + sh * gap * nrm[0], O[1] + i * u[1] + j * w[1] + sh * gap * nrm[1], O[2] + i * u[2] + j * w[2] + sh * gap * nrm[2]);
+    for (int sh = 0; sh < 2; sh++) fprintf(f, "f %d %d %d\nf %d %d %d\n", 4 * sh + 1, 4 * sh + 2, 4 * sh + 4, 4 * sh + 1, 4 * sh + 4, 4 * sh + 3);
+    fclose(f);
+  }
+  PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
+  PetscCall(MSimMeshObstacleCreate(PETSC_COMM_WORLD, path, 0.0, &mo));
+  MSimMeshObstacleSetBand(mo, band);
+  for (int k = 0; k < 2000; k++) {
+    const double a = 0.1 + 0.8 * U(gen), b = 0.1 + 0.8 * U(gen), off = 0.5 * gap + (2 * U(gen) - 1) * 1e-9;
+    V3           x;
+    for (int c = 0; c < 3; c++) x[c] = O[c] + a * u[c] + b * w[c] + off * nrm[c];
+    double nc[3], nt[3];
+    MSimMeshObstacleSetCache(mo, PETSC_TRUE);
+    const double dc = MSimMeshObstacleDistance(mo, x.data(), nc, NULL);
+    MSimMeshObstacleSetCache(mo, PETSC_FALSE);
+    const double dt = MSimMeshObstacleDistance(mo, x.data(), nt, NULL);
+    nbad += dc != dt;
+    nq++;
+  }
+  MSimMeshObstacleDestroy(&mo);
+  PetscCallMPI(MPI_Barrier(PETSC_COMM_WORLD));
+  if (!rank) remove(path);
+  NOTE("two sheets 0.02 apart at ~3e6 from the origin: %d near ties between them\n", (int)nq);
+  CHECK(nbad == 0, "far from the origin: %d of %d cached distances differ from the tree's (a nearer sheet passed over)", (int)nbad, (int)nq);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Body(void)
 {
   PetscMPIInt rank;
@@ -301,6 +359,7 @@ static PetscErrorCode Body(void)
   PetscCall(Walks(MSIM_SOURCE_DIR "/examples/meshes/bunny.off", 0.02, 0.0, rank));
   PetscCall(Walks(MSIM_SOURCE_DIR "/examples/meshes/bunny.off", 0.02, 0.3, rank));
   PetscCall(Walks(MSIM_SOURCE_DIR "/tests/data/meshes/sheet.obj", 0.05, 0.0, rank));
+  PetscCall(FarFromOrigin(rank));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
