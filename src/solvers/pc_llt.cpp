@@ -46,6 +46,7 @@ typedef struct {
   bool                   analyzed;
   PetscReal              analyzed_relax;     /* the options the kept analysis was made with */
   PetscInt               analyzed_max_width;
+  msim::LowerTriangle    lower;  /* serial: A's lower triangle, kept between set-ups */
   std::vector<int>       aptr, acol; /* A's lower triangle by rows, at the last factorization */
   std::vector<double>    aval;   /* serial: the base, the values the factor holds */
   PetscInt               nfull, npartial, nupdate;
@@ -186,10 +187,10 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     PetscCall(PetscInfo(pc, "msimllt: %" PetscInt_FMT " local rows, local factor entries %" PetscInt64_FMT " in %d supernodes, %" PetscInt_FMT " interface rows in all\n", n, (PetscInt64)ctx->schur->LocalEntries(), ctx->schur->LocalSupernodes(), ctx->schur->InterfaceSize()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  std::vector<int>    aptr, acol;
-  std::vector<double> aval;
-  PetscCall(msim::LowerTriangleRows(A, aptr, acol, aval));
-  std::vector<char> dirty;
+  PetscCall(ctx->lower.Update(A));
+  const std::vector<int>    &aptr = ctx->lower.aptr, &acol = ctx->lower.acol;
+  const std::vector<double> &aval = ctx->lower.aval;
+  std::vector<char>          dirty;
   /* the analysis is kept for the same pattern and the same amalgamation options (which shape the supernodes) */
   bool              keep = ctx->analyzed && aptr == ctx->aptr && acol == ctx->acol && ctx->relax == ctx->analyzed_relax && ctx->max_width == ctx->analyzed_max_width;
   if (!keep) { /* a new pattern: Eigen's AMD ordering (as its SimplicialLLT orders), the structure, the analysis */
@@ -262,9 +263,9 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (a non-positive pivot at its row %" PetscInt_FMT ")", row);
   }
   PetscCall(PetscLogFlops(done));
-  ctx->aptr.swap(aptr);
-  ctx->acol.swap(acol);
-  ctx->aval.swap(aval);
+  ctx->aptr = aptr;
+  ctx->acol = acol;
+  ctx->aval = aval;
   if (keep && ctx->partial) ctx->npartial++;
   else ctx->nfull++;
   PetscCall(PetscInfo(pc, "msimllt: %s factorization (%" PetscInt_FMT " full, %" PetscInt_FMT " partial so far): %.4g of %.4g Mflop\n", keep && ctx->partial ? "partial" : (keep ? "full (analysis kept)" : "full (new analysis)"), ctx->nfull, ctx->npartial, done * 1e-6, total * 1e-6));
