@@ -19,7 +19,8 @@ void LowRankUpdate::Clear()
 {
   k_ = 0;
   gptr_.assign(1, 0);
-  yrow_.clear();
+  rptr_.assign(1, 0);
+  run_.clear();
   yval_.clear();
   lu_.reset();
 }
@@ -91,21 +92,26 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
       for (int c = F.SupernodeStart(s); c < F.SupernodeStart(s + 1); c++) work_[c] = V4{0, 0, 0, 0};
   }
   /* the groups of four of the changed columns in order, on the union of their rows */
-  std::vector<int> pos(n, -1);
+  std::vector<int> pos(n, -1), yrow; /* yrow: the rows of yval_ */
   for (int g = 0; g < ng; g++) {
     const int l1 = std::min(4, k - 4 * g);
     reach(&col[4 * g], l1); /* the union of the four columns' rows */
-    for (int t : sn_)
-      for (int c = F.SupernodeStart(t); c < F.SupernodeStart(t + 1); c++) {
-        pos[c] = (int)yrow_.size();
-        yrow_.push_back(c);
+    for (int t : sn_) {
+      const int c0 = F.SupernodeStart(t), c1 = F.SupernodeStart(t + 1);
+      if (run_.size() > (size_t)rptr_[g] && run_.back().row + run_.back().count == c0) run_.back().count += c1 - c0;
+      else run_.push_back(Run{c0, c1 - c0});
+      for (int c = c0; c < c1; c++) {
+        pos[c] = (int)yrow.size();
+        yrow.push_back(c);
       }
-    yval_.resize(yrow_.size(), V4{0, 0, 0, 0});
+    }
+    rptr_.push_back((int)run_.size());
+    yval_.resize(yrow.size(), V4{0, 0, 0, 0});
     for (int l = 0; l < l1; l++) {
       const ColumnY &y = cache_[col[4 * g + l]];
       for (size_t p = 0; p < y.rows.size(); p++) yval_[pos[y.rows[p]]][l] = y.vals[p];
     }
-    gptr_.push_back((int)yrow_.size());
+    gptr_.push_back((int)yrow.size());
   }
   /* the cache holds every row that has differed from this base; a contact patch sliding over the
      cloth would fill it with nearly every row, each with its whole path, so past the factor's own
@@ -125,12 +131,12 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   c_.assign((size_t)k * k, 0.0);
   for (int g = 0; g < ng; g++) {
     const int lg = std::min(4, k - 4 * g);
-    for (int p = gptr_[g]; p < gptr_[g + 1]; p++) work_[yrow_[p]] = yval_[p];
+    for (int p = gptr_[g]; p < gptr_[g + 1]; p++) work_[yrow[p]] = yval_[p];
     for (int h = g; h < ng; h++) {
       const int lh  = std::min(4, k - 4 * h);
       V4        acc[4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}};
       for (int p = gptr_[h]; p < gptr_[h + 1]; p++) {
-        const V4 wg = work_[yrow_[p]], yh = yval_[p];
+        const V4 wg = work_[yrow[p]], yh = yval_[p];
         for (int a = 0; a < 4; a++) acc[a] += Splat(wg[a]) * yh;
       }
       *flops += 32.0 * (gptr_[h + 1] - gptr_[h]);
@@ -140,7 +146,7 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
           c_[(size_t)i + (size_t)k * j] = c_[(size_t)j + (size_t)k * i] = acc[a][b];
         }
     }
-    for (int p = gptr_[g]; p < gptr_[g + 1]; p++) work_[yrow_[p]] = V4{0, 0, 0, 0};
+    for (int p = gptr_[g]; p < gptr_[g + 1]; p++) work_[yrow[p]] = V4{0, 0, 0, 0};
   }
   for (int i = 0; i < k; i++) c_[(size_t)i * (k + 1)] += 1.0 / d[i];
   {
@@ -181,6 +187,23 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   return true;
 }
 
+/* acc[r] += lane r of z's rows times the group's rows of Y (y, lanes: its four columns) for
+   r < R: with R a constant the four sums stay in registers (a run-time count of right-hand sides
+   kept them in memory, 30 instructions a row of Y). Each sum runs over the rows in ascending
+   order, as before. */
+template <int R>
+static void GroupTranspose(const V4 *z, const std::vector<LowRankUpdate::Run> &run, int r0, int r1, const V4 *y, V4 *acc)
+{
+  V4 a[R];
+  for (int r = 0; r < R; r++) a[r] = V4{0, 0, 0, 0};
+  for (int u = r0; u < r1; u++) {
+    const V4 *zr = z + run[u].row;
+    for (int q = 0; q < run[u].count; q++, y++)
+      for (int r = 0; r < R; r++) a[r] += Splat(zr[q][r]) * *y;
+  }
+  for (int r = 0; r < R; r++) acc[r] = a[r];
+}
+
 void LowRankUpdate::Apply(V4 *z, int nrhs, double *flops) const
 {
   const int k = k_, ng = (k + 3) / 4;
@@ -190,9 +213,12 @@ void LowRankUpdate::Apply(V4 *z, int nrhs, double *flops) const
   for (int g = 0; g < ng; g++) {
     V4 acc[4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}};
     /* acc[r]: lane r of z dotted with the group's four columns (the lanes of y) */
-    for (int p = gptr_[g]; p < gptr_[g + 1]; p++) {
-      const V4 y = yval_[p], x = z[yrow_[p]];
-      for (int r = 0; r < nrhs; r++) acc[r] += Splat(x[r]) * y;
+    const V4 *y = yval_.data() + gptr_[g];
+    switch (nrhs) {
+    case 1: GroupTranspose<1>(z, run_, rptr_[g], rptr_[g + 1], y, acc); break;
+    case 2: GroupTranspose<2>(z, run_, rptr_[g], rptr_[g + 1], y, acc); break;
+    case 3: GroupTranspose<3>(z, run_, rptr_[g], rptr_[g + 1], y, acc); break;
+    default: GroupTranspose<4>(z, run_, rptr_[g], rptr_[g + 1], y, acc); break;
     }
     for (int a = 0; a < 4 && 4 * g + a < k; a++)
       for (int r = 0; r < 4; r++) t_[(size_t)(4 * g + a) + (size_t)k * r] = acc[r][a];
@@ -204,11 +230,12 @@ void LowRankUpdate::Apply(V4 *z, int nrhs, double *flops) const
   for (int g = 0; g < ng; g++) {
     V4 s[4] = {{0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 0, 0}};
     for (int a = 0; a < 4 && 4 * g + a < k; a++) s[a] = V4{t_[(size_t)(4 * g + a)], t_[(size_t)(4 * g + a) + k], t_[(size_t)(4 * g + a) + 2 * (size_t)k], t_[(size_t)(4 * g + a) + 3 * (size_t)k]};
-    for (int p = gptr_[g]; p < gptr_[g + 1]; p++) {
-      const V4 y = yval_[p];
-      z[yrow_[p]] -= (Splat(y[0]) * s[0] + Splat(y[1]) * s[1]) + (Splat(y[2]) * s[2] + Splat(y[3]) * s[3]);
+    const V4 *y = yval_.data() + gptr_[g];
+    for (int u = rptr_[g]; u < rptr_[g + 1]; u++) {
+      V4 *zr = z + run_[u].row;
+      for (int q = 0; q < run_[u].count; q++, y++) zr[q] -= (Splat((*y)[0]) * s[0] + Splat((*y)[1]) * s[1]) + (Splat((*y)[2]) * s[2] + Splat((*y)[3]) * s[3]);
     }
   }
-  *flops = (8.0 * nrhs + 32.0) * (double)yrow_.size() + 2.0 * nrhs * k * (double)k;
+  *flops = (8.0 * nrhs + 32.0) * (double)yval_.size() + 2.0 * nrhs * k * (double)k;
 }
 } // namespace msim

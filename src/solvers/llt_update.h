@@ -33,14 +33,19 @@ public:
   /* Clear, and forget Y's columns: the base's factor changed */
   void Forget();
   int  Rank() const { return k_; }
+  struct Run {
+    int row, count; /* rows row .. row + count - 1 of z: the next count of a group's rows of Y */
+  };
   /* stored rows of Y (groups of four columns) */
-  long Rows() const { return (long)yrow_.size(); }
+  long Rows() const { return (long)yval_.size(); }
 
 private:
   int                 k_ = 0;
-  std::vector<int>    gptr_;    /* group g's rows: yrow_[gptr_[g] .. gptr_[g+1]), ascending */
-  std::vector<int>    yrow_;
+  std::vector<int>    gptr_;    /* group g's rows of Y: yval_[gptr_[g] .. gptr_[g+1]) */
   std::vector<V4>     yval_;    /* Y's four columns of the group in the lanes (zero past k) */
+  std::vector<int>    rptr_;    /* group g's rows as runs of consecutive rows (whole supernodes): */
+  std::vector<Run>    run_;     /* run_[rptr_[g] .. rptr_[g+1]), ascending, so the solves index z
+                                   by a run's start instead of by a row index per row */
   std::vector<double> c_;       /* C, k x k column-major, while it is built */
   std::unique_ptr<Eigen::PartialPivLU<Eigen::MatrixXd>> lu_; /* C's LU */
   mutable std::vector<double> t_; /* work: Y^T z, k x 4 column-major */
