@@ -33,29 +33,27 @@ bool LowRankUpdate::Build(const SupernodalFactor &F, const std::vector<int> &col
   if (!k) return true;
   work_.assign(n, V4{0, 0, 0, 0});
   mark_.assign(nsn, 0);
-  std::vector<int> sn_of(n); /* the supernode holding each column */
-  for (int s = 0; s < nsn; s++)
-    for (int c = F.SupernodeStart(s); c < F.SupernodeStart(s + 1); c++) sn_of[c] = s;
   /* the supernodes that columns c[0 .. nc) reach, ascending (a supernode's rows below lie in
-     later ones) */
+     later ones), through the supernodes holding each one's rows below (walking the rows
+     themselves cost about a million valgrind instructions a build on the 101 x 101 cloth) */
   auto reach = [&](const int *c, int nc) {
     std::priority_queue<int, std::vector<int>, std::greater<int>> q;
     sn_.clear();
     for (int l = 0; l < nc; l++)
-      if (!mark_[sn_of[c[l]]]) {
-        mark_[sn_of[c[l]]] = 1;
-        q.push(sn_of[c[l]]);
+      if (!mark_[F.SupernodeOf(c[l])]) {
+        mark_[F.SupernodeOf(c[l])] = 1;
+        q.push(F.SupernodeOf(c[l]));
       }
     while (!q.empty()) {
       const int s = q.top();
       int       m;
       q.pop();
       sn_.push_back(s);
-      const int *R = F.RowsBelow(s, &m);
+      const int *S = F.SupernodesBelow(s, &m);
       for (int p = 0; p < m; p++)
-        if (!mark_[sn_of[R[p]]]) {
-          mark_[sn_of[R[p]]] = 1;
-          q.push(sn_of[R[p]]);
+        if (!mark_[S[p]]) {
+          mark_[S[p]] = 1;
+          q.push(S[p]);
         }
     }
     for (int t : sn_) mark_[t] = 0;

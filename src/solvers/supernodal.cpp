@@ -50,6 +50,8 @@ void SupernodalFactor::Build(int n, const int *colptr, const int *row, const dou
   start_.push_back(n);
   const int nsn = (int)start_.size() - 1;
   rptr_.assign(nsn + 1, 0);
+  sptr_.assign(nsn + 1, 0);
+  sbelow_.clear();
   vptr_.assign(nsn + 1, 0);
   for (int s = 0; s < nsn; s++) {
     const int w = start_[s + 1] - start_[s], m = (int)group_rows[s].size();
@@ -57,6 +59,8 @@ void SupernodalFactor::Build(int n, const int *colptr, const int *row, const dou
     vptr_[s + 1] = vptr_[s] + stored(w, m);
   }
   rows_.resize(rptr_[nsn]);
+  snof_.resize(n);
+  for (int s = 0; s < nsn; s++) std::fill(snof_.begin() + start_[s], snof_.begin() + start_[s + 1], s);
   val_.assign(vptr_[nsn], 0.0);
   invdiag_.resize(n);
   std::vector<int> pos(n, -1); /* a row's place among the rows below the current supernode */
@@ -65,6 +69,9 @@ void SupernodalFactor::Build(int n, const int *colptr, const int *row, const dou
     double   *D = val_.data() + vptr_[s], *B = D + (size_t)w * (w - 1) / 2; /* data(): val_ may be empty (a diagonal matrix) */
     for (int p = 0; p < m; p++) pos[rows_[rptr_[s] + p] = group_rows[s][p]] = p;
     std::vector<int>().swap(group_rows[s]);
+    for (int p = 0; p < m; p++) /* the rows ascending: a supernode's rows come together */
+      if (sbelow_.size() == (size_t)sptr_[s] || sbelow_.back() != snof_[rows_[rptr_[s] + p]]) sbelow_.push_back(snof_[rows_[rptr_[s] + p]]);
+    sptr_[s + 1] = (int)sbelow_.size();
     for (int c = 0; c < w; c++) {
       const int off = colptr[c0 + c];
       invdiag_[c0 + c] = 1.0 / val[off];

@@ -83,6 +83,10 @@ public:
   void       ForwardSupernodes(V4 *z, const int *sn, int count) const;
   int        SupernodeStart(int s) const { return start_[s]; }
   const int *RowsBelow(int s, int *m) const { *m = rptr_[s + 1] - rptr_[s]; return rows_.data() + rptr_[s]; }
+  /* the supernodes holding supernode s's rows below, each once, ascending (what a reach needs of
+     them, a few supernodes for up to a few hundred rows), and the supernode holding column c */
+  const int *SupernodesBelow(int s, int *m) const { *m = sptr_[s + 1] - sptr_[s]; return sbelow_.data() + sptr_[s]; }
+  int        SupernodeOf(int c) const { return snof_[c]; }
   int     Size() const { return n_; }
   int     Supernodes() const { return (int)start_.size() - 1; }
   int64_t Entries() const { return (int64_t)val_.size() + n_; }
@@ -94,6 +98,9 @@ private:
   std::vector<int>     start_;   /* first column of each supernode; start_[nsn] = n */
   std::vector<int>     rptr_;    /* rows below supernode s: rows_[rptr_[s] .. rptr_[s+1]) */
   std::vector<int>     rows_;
+  std::vector<int>     sptr_;    /* supernodes holding the rows below supernode s: sbelow_[sptr_[s] .. sptr_[s+1]) */
+  std::vector<int>     sbelow_;
+  std::vector<int>     snof_;    /* the supernode of each column */
   std::vector<int64_t> vptr_;    /* values of supernode s start at val_[vptr_[s]] */
   std::vector<double>  val_;     /* per supernode of width w with m rows below: the strict lower
                                     triangle of its diagonal block row by row, then the m x w block
