@@ -7,8 +7,8 @@
    PC factoring the same matrix from scratch to TOL relative (Woodbury's solve and the factor's
    each carry roundoff of order the condition number times eps: 1e-12 leaves a factor 10 over it
    here); an update is taken while at most -pc_msimllt_update_max_rank (here 16) entries changed,
-   a refactorization for more or for an off-diagonal change, whose solve is then the fresh one bit
-   for bit. PCMSimLLTSetBaseDiagonal with PCMSimLLTGetBaseDiagonal's base reproduces an updated
+   a refactorization for more, for an off-diagonal change or a new nonzero (a new pattern), whose
+   solve is then the fresh one bit for bit. PCMSimLLTSetBaseDiagonal with PCMSimLLTGetBaseDiagonal's base reproduces an updated
    PC's solves bit for bit (what a restart needs). On several ranks the PC refactors as before (no
    update, no base diagonal). */
 #include "harness.h"
@@ -268,7 +268,24 @@ static PetscErrorCode TestLLTUpdate(void)
   v.emplace_back(row(70), 0);
   PetscCall(SetDiagonal(A, v));
   PetscCall(Compare("the weight of 1e6 x the diagonal removed", A, pc, 0, PETSC_TRUE));
-  /* 9. one diagonal made negative (A indefinite) by a diagonal change alone: not an update (C's
+  /* 9. a new nonzero pair (A's pattern changed, which the PC's kept lower triangle must see, not
+        only its changed values): a new analysis and factorization; then a weight on the new
+        pattern, an update again */
+  {
+    PetscInt r0, r1, i = SIDE * (SIDE / 4) + 5;
+    PetscCall(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+    PetscCall(MatGetOwnershipRange(A, &r0, &r1));
+    if (i >= r0 && i < r1) PetscCall(MatSetValue(A, i, i + 2, -0.25, INSERT_VALUES));
+    if (i + 2 >= r0 && i + 2 < r1) PetscCall(MatSetValue(A, i + 2, i, -0.25, INSERT_VALUES));
+    PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+    PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+  }
+  PetscCall(Compare("a new nonzero pair", A, pc, 0, PETSC_TRUE));
+  v.clear();
+  v.emplace_back(row(140), 40.0);
+  PetscCall(SetDiagonal(A, v));
+  PetscCall(Compare("a weight on the new pattern", A, pc, 1, PETSC_FALSE));
+  /* 10. one diagonal made negative (A indefinite) by a diagonal change alone: not an update (C's
         inertia differs from D's), the factorization's error as without updates */
   {
     PetscErrorCode ierr;
