@@ -949,12 +949,14 @@ static bool NearAnswer(MSimMeshObstacle mo, const _n_MSimMeshObstacle::Near &ns,
     const PetscReal tol = 1e-9 * mo->diam;
     if (r <= tol) return false;
     const PetscReal d[3] = {x[0] - ns.x[0], x[1] - ns.x[1], x[2] - ns.x[2]};
+    const PetscReal reach = delta + margin, reach2 = reach * reach;
     bool            degenerate = false;
     int             count      = 0;
     for (int k = 0; k < ns.n && !degenerate; k++) {
-      /* both ends clearly on one side of the triangle's plane (by far more than its roundoff):
-         no crossing, without the exact test */
-      if ((ns.s0[k] > tol && h[k] > tol) || (ns.s0[k] < -tol && h[k] < -tol)) continue;
+      /* both ends clearly on one side of the triangle's plane (by far more than its roundoff), or
+         the triangle farther from x than the segment's length (its bound, plus the exact test's
+         tolerances): no crossing, and no degenerate one, without the exact test */
+      if ((ns.s0[k] > tol && h[k] > tol) || (ns.s0[k] < -tol && h[k] < -tol) || lb2[k] > reach2) continue;
       count += SegmentCrosses(ns.x, d, delta, mo->tri[ns.t[k]], tol, &degenerate);
     }
     if (degenerate) return false;
