@@ -966,6 +966,15 @@ static bool NearAnswer(MSimMeshObstacle mo, const _n_MSimMeshObstacle::Near &ns,
   return true;
 }
 
+/* a and b hold the same bits: memcmp's test, inline (the library call was 0.26 M instructions a step of the mesh-ball drape) */
+static inline bool SameBits(const PetscReal a[3], const PetscReal b[3])
+{
+  uint64_t u[3], w[3];
+  std::memcpy(u, a, sizeof(u));
+  std::memcpy(w, b, sizeof(w));
+  return ((u[0] ^ w[0]) | (u[1] ^ w[1]) | (u[2] ^ w[2])) == 0;
+}
+
 static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9])
 {
   if (v < 0 || !mo->use_cells) return Distance(mo, x, n, H, true); /* the kept answers are the cache path's */
@@ -974,7 +983,7 @@ static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle m
   _n_MSimMeshObstacle::Far &f = mo->far[v]; /* (its skip was tested by the caller) */
   _n_MSimMeshObstacle::Answer *a = &mo->memo[MEMO_SLOTS * (size_t)v], *use = NULL, *old = a;
   for (int k = 0; k < MEMO_SLOTS && !use; k++) {
-    if (a[k].stamp > mo->memo_epoch && !std::memcmp(a[k].x, x, sizeof(a[k].x))) use = &a[k];
+    if (a[k].stamp > mo->memo_epoch && SameBits(a[k].x, x)) use = &a[k];
     else if (a[k].stamp < old->stamp) old = &a[k];
   }
   if (!use) { /* the least recently used slot takes the new point */
