@@ -520,6 +520,19 @@ PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscRea
       for (int c = 0; c < 3; c++) v[k][c] = mo->tri[t].vertex(k)[c];
     const K::Vector_3 fn = CGAL::cross_product(mo->tri[t].vertex(1) - mo->tri[t].vertex(0), mo->tri[t].vertex(2) - mo->tri[t].vertex(0));
     const PetscReal   l  = std::sqrt(fn.squared_length());
+    /* the computed normal's direction is off by about eps lmax^2 / |fn| (a cross product of two
+       long edges, |fn| twice the area), so the plane and the edges' lines miss a thin triangle by
+       that times |x - a|: past the bounds' margin (1e-12 of the mesh's size) once |fn| < ~1e-4
+       lmax^2. A triangle thinner than |fn| = 1e-2 lmax^2 (its height under 1% of its longest edge:
+       the loader accepts down to 1e-12) keeps all-zero numbers, a bound of 0 that never passes it
+       over: it always takes its closest point and its exact crossing test (a sliver 1e-6 off its
+       long edge gave a bound 4e-10 above its distance, and a nearer triangle was passed over) */
+    PetscReal lmax2 = 0;
+    for (int k = 0; k < 3; k++) lmax2 = PetscMax(lmax2, (mo->tri[t].vertex((k + 1) % 3) - mo->tri[t].vertex(k)).squared_length());
+    if (!(l >= 1e-2 * lmax2)) {
+      for (int c = 0; c < _n_MSimMeshObstacle::PLANE_STRIDE; c++) pl[c] = 0;
+      continue;
+    }
     for (int c = 0; c < 3; c++) pl[c] = fn[c] / l;
     pl[3] = -(pl[0] * v[0][0] + pl[1] * v[0][1] + pl[2] * v[0][2]);
     for (int k = 0; k < 3; k++) { /* edge v_k -> v_k+1: (v_k+1 - v_k) x normal points out of a counterclockwise triangle */
