@@ -263,8 +263,10 @@ static PetscErrorCode PCSetUp_LLT(PC pc)
     SETERRQ(PETSC_COMM_SELF, PETSC_ERR_MAT_CH_ZRPVT, "msimllt: the matrix is not positive definite (a non-positive pivot at its row %" PetscInt_FMT ")", row);
   }
   PetscCall(PetscLogFlops(done));
-  ctx->aptr = aptr;
-  ctx->acol = acol;
+  if (!keep) { /* kept: the pattern is the one held (keep's test) */
+    ctx->aptr = aptr;
+    ctx->acol = acol;
+  }
   ctx->aval = aval;
   if (keep && ctx->partial) ctx->npartial++;
   else ctx->nfull++;

@@ -67,6 +67,20 @@ static PetscErrorCode SetDiagonal(Mat A, const std::vector<std::pair<PetscInt, P
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A's symmetric pair (i, j) and (j, i) := a, on the owning ranks */
+static PetscErrorCode SetPair(Mat A, PetscInt i, PetscInt j, PetscReal a)
+{
+  PetscInt r0, r1;
+
+  PetscFunctionBeginUser;
+  PetscCall(MatGetOwnershipRange(A, &r0, &r1));
+  if (i >= r0 && i < r1) PetscCall(MatSetValue(A, i, j, a, INSERT_VALUES));
+  if (j >= r0 && j < r1) PetscCall(MatSetValue(A, j, i, a, INSERT_VALUES));
+  PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* max |x - y| / max |y| over every rank, and whether the bits agree */
 static PetscErrorCode Difference(PetscInt n, const PetscScalar *x, const PetscScalar *y, PetscReal *rel, PetscBool *same)
 {
@@ -244,14 +258,7 @@ static PetscErrorCode TestLLTUpdate(void)
     PetscCall(MSimDestroy(&b, &x1, &x2, &d, &Ar));
   }
   /* 7. an off-diagonal pair changed: a refactorization */
-  {
-    PetscInt r0, r1, i = SIDE * (SIDE / 2) + SIDE / 3;
-    PetscCall(MatGetOwnershipRange(A, &r0, &r1));
-    if (i >= r0 && i < r1) PetscCall(MatSetValue(A, i, i + 1, -0.5, INSERT_VALUES));
-    if (i + 1 >= r0 && i + 1 < r1) PetscCall(MatSetValue(A, i + 1, i, -0.5, INSERT_VALUES));
-    PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
-    PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
-  }
+  PetscCall(SetPair(A, SIDE * (SIDE / 2) + SIDE / 3, SIDE * (SIDE / 2) + SIDE / 3 + 1, -0.5));
   PetscCall(Compare("an off-diagonal pair", A, pc, 0, PETSC_TRUE));
   /* 8. a weight of 1e6 x the diagonal added (an update), then refactored into the base by 40
         more rows, then removed: C = 1/d + (B^-1)_jj would cancel (about eps |d| / a_jj lost),
@@ -271,15 +278,8 @@ static PetscErrorCode TestLLTUpdate(void)
   /* 9. a new nonzero pair (A's pattern changed, which the PC's kept lower triangle must see, not
         only its changed values): a new analysis and factorization; then a weight on the new
         pattern, an update again */
-  {
-    PetscInt r0, r1, i = SIDE * (SIDE / 4) + 5;
-    PetscCall(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
-    PetscCall(MatGetOwnershipRange(A, &r0, &r1));
-    if (i >= r0 && i < r1) PetscCall(MatSetValue(A, i, i + 2, -0.25, INSERT_VALUES));
-    if (i + 2 >= r0 && i + 2 < r1) PetscCall(MatSetValue(A, i + 2, i, -0.25, INSERT_VALUES));
-    PetscCall(MatAssemblyBegin(A, MAT_FINAL_ASSEMBLY));
-    PetscCall(MatAssemblyEnd(A, MAT_FINAL_ASSEMBLY));
-  }
+  PetscCall(MatSetOption(A, MAT_NEW_NONZERO_ALLOCATION_ERR, PETSC_FALSE));
+  PetscCall(SetPair(A, SIDE * (SIDE / 4) + 5, SIDE * (SIDE / 4) + 7, -0.25));
   PetscCall(Compare("a new nonzero pair", A, pc, 0, PETSC_TRUE));
   v.clear();
   v.emplace_back(row(140), 40.0);
