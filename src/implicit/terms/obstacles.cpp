@@ -836,6 +836,35 @@ static void AnchorDistances(PetscInt nown, const PetscReal *__restrict an, const
   AnchorRoots(nown, r);
 }
 
+/* max(q), infinite where some q is NaN (no bound); q >= 0. 4 at a time with AVX (the compiler
+   does not vectorize a floating-point max) */
+static PetscReal LargestOf(PetscInt n, const PetscReal *q)
+{
+  PetscReal m = 0;
+  PetscInt  v = 0;
+  PetscBool nan = PETSC_FALSE;
+#if defined(__AVX__)
+  __m256d mm = _mm256_setzero_pd(), un = _mm256_setzero_pd();
+  for (; v + 4 <= n; v += 4) {
+    const __m256d qv = _mm256_loadu_pd(q + v);
+    mm               = _mm256_max_pd(mm, qv);
+    un               = _mm256_or_pd(un, _mm256_cmp_pd(qv, qv, _CMP_UNORD_Q));
+  }
+  PetscReal lanes[4], bad[4];
+  _mm256_storeu_pd(lanes, mm);
+  _mm256_storeu_pd(bad, un);
+  for (int l = 0; l < 4; l++) {
+    m   = PetscMax(m, lanes[l]);
+    nan = (PetscBool)(nan || bad[l] != 0);
+  }
+#endif
+  for (; v < n; v++) {
+    m   = PetscMax(m, q[v]);
+    nan = (PetscBool)(nan || q[v] != q[v]);
+  }
+  return nan ? PETSC_INFINITY : m;
+}
+
 /* max_step from an X without kept distances: X - alpha Y, at alpha^2 = a2 */
 static void AnchorMoveMask(PetscInt nown, const PetscReal *__restrict an, const PetscReal *__restrict ex, PetscReal dhat, const PetscScalar *__restrict xr, const PetscScalar *__restrict yr, PetscReal a2, PetscReal *__restrict r, unsigned char *__restrict mv)
 {
@@ -898,25 +927,17 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     const PetscInt nown = sys->nown; /* a char store could alias sys->nown */
     if (dmin) {
       const PetscReal *__restrict dr = dmin;
-      /* and the largest |y_v|^2, for the next local step's flags (FarFlags: PD's iterate moves by
-         alpha y from X), in the same pass (a second pass over the q's was 0.25 M instructions a
-         step of the 101 x 101 drape): q >= +0 or NaN, and the bits of doubles >= +0 order as
-         they do, so their largest as integers, in a reduction the compiler vectorizes (it does
-         not vectorize a floating-point max); none where some q is NaN */
-      std::int64_t  qbits = 0;
-      unsigned char nan   = 0;
+      pw->work.resize(nown + 4);
+      PetscReal *__restrict qs = pw->work.data();
       for (PetscInt v = 0; v < nown; v++) {
         const PetscReal dm = dr[v], q = yr[3 * v] * yr[3 * v] + yr[3 * v + 1] * yr[3 * v + 1] + yr[3 * v + 2] * yr[3 * v + 2];
-        std::int64_t    b;
-        std::memcpy(&b, &q, sizeof b);
-        mv[v] = (unsigned char)((dm <= 0) | !(0.5625 * dm * dm > a2 * q)); /* | and !: no branch */
-        qbits = qbits > b ? qbits : b;
-        nan |= (unsigned char)(q != q);
+        mv[v]              = (unsigned char)((dm <= 0) | !(0.5625 * dm * dm > a2 * q)); /* | and !: no branch */
+        qs[v]              = q;
       }
-      PetscReal qmax;
-      std::memcpy(&qmax, &qbits, sizeof qmax);
-      /* with a margin for the roundoff of q and its root */
-      if (!nan && qmax < PETSC_INFINITY) PetscCall(MSimImplicitPDSetVertexBound(Y, PetscSqrtReal(qmax) * (1 + 8 * PETSC_MACHINE_EPSILON)));
+      /* the largest |y_v|, for the next local step's flags (FarFlags: PD's iterate moves by alpha y
+         from X), with a margin for the roundoff of q and its root */
+      const PetscReal qmax = LargestOf(nown, qs);
+      if (qmax < PETSC_INFINITY) PetscCall(MSimImplicitPDSetVertexBound(Y, PetscSqrtReal(qmax) * (1 + 8 * PETSC_MACHINE_EPSILON)));
     } else { /* the first iterate's max_step from x_n's copy */
       pw->work.resize(nown + 4);
       AnchorMoveMask(nown, pw->anchor.data(), pw->ex.data(), dhat, x, y, a2, pw->work.data(), mv);
