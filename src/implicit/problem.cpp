@@ -27,7 +27,7 @@ PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp)
     for (PetscInt k = 0; k < (*imp)->scheme->nwork; k++) PetscCall(VecDestroy(&(*imp)->scheme->work[k]));
     delete (*imp)->scheme;
   }
-  PetscCall(MSimDestroy(&(*imp)->Vprev, &(*imp)->Vstar, &(*imp)->Vwork));
+  PetscCall(MSimDestroy(&(*imp)->Vprev, &(*imp)->Vstar, &(*imp)->Vwork, &(*imp)->guess_a, &(*imp)->guess_d));
   PetscCall(MSimDestroy(&(*imp)->Xn, &(*imp)->Y, &(*imp)->rhs, &(*imp)->A, &(*imp)->A3, &(*imp)->B, &(*imp)->Xd, &(*imp)->pdb, &(*imp)->pdx, &(*imp)->pdksp));
   PetscCall(MSimDestroy(&(*imp)->pd_px, &(*imp)->pd_x0, &(*imp)->pd_d));
   delete *imp;
@@ -144,20 +144,15 @@ PetscErrorCode MSimImplicitGuess(MSimImplicit imp, Vec V, Vec X)
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
   if (!feasible) { /* towards x_n, or a feasible start a term makes from it (moving obstacles) */
-    Vec       D, A;
     PetscReal alpha;
-    /* work Vecs made once, freed with x_n (two VecDuplicates a step, each zeroing its array, were
-       0.5 M instructions of a PD-10 step of the 101 x 101 drape on the ball) */
-    PetscCall(PetscObjectQuery((PetscObject)imp->Xn, "MSimGuessStart", (PetscObject *)&A));
-    PetscCall(PetscObjectQuery((PetscObject)imp->Xn, "MSimGuessStep", (PetscObject *)&D));
-    if (!A) {
-      PetscCall(VecDuplicate(imp->Xn, &A));
-      PetscCall(VecDuplicate(imp->Xn, &D));
-      PetscCall(PetscObjectCompose((PetscObject)imp->Xn, "MSimGuessStart", (PetscObject)A));
-      PetscCall(PetscObjectCompose((PetscObject)imp->Xn, "MSimGuessStep", (PetscObject)D));
-      PetscCall(PetscObjectDereference((PetscObject)A));
-      PetscCall(PetscObjectDereference((PetscObject)D));
+    /* work Vecs made once, freed with imp (two VecDuplicates a step, each zeroing its array, were
+       0.5 M instructions of a PD-10 step of the 101 x 101 drape on the ball); kept in imp, not
+       composed on x_n, whose duplicates would carry them */
+    if (!imp->guess_a) {
+      PetscCall(VecDuplicate(imp->Xn, &imp->guess_a));
+      PetscCall(VecDuplicate(imp->Xn, &imp->guess_d));
     }
+    Vec A = imp->guess_a, D = imp->guess_d;
     PetscCall(VecCopy(imp->Xn, A));
     for (PetscInt k = 0; k < imp->nterms; k++)
       if (imp->terms[k]->ops.feasible_start) PetscCall(imp->terms[k]->ops.feasible_start(imp->terms[k], A));

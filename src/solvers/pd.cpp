@@ -186,11 +186,13 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   /* the right-hand side's Vec made once, freed with the SNES (one VecDuplicate a solve, which
      zeroes its array, was 0.25 M instructions of a PD-10 step of the 101 x 101 drape) */
   PetscCall(PetscObjectQuery((PetscObject)snes, "SNESPDRHS", (PetscObject *)&rhs));
-  if (rhs) {
-    PetscInt n, nr;
-    PetscCall(VecGetLocalSize(X, &n));
-    PetscCall(VecGetLocalSize(rhs, &nr));
-    if (n != nr) rhs = NULL;
+  if (rhs) { /* X's layout (its ranges, the same on every rank, so every rank decides alike) */
+    PetscLayout lx, lr;
+    PetscBool   same;
+    PetscCall(VecGetLayout(X, &lx));
+    PetscCall(VecGetLayout(rhs, &lr));
+    PetscCall(PetscLayoutCompare(lx, lr, &same));
+    if (!same) rhs = NULL;
   }
   if (!rhs) {
     PetscCall(VecDuplicate(X, &rhs));

@@ -200,6 +200,7 @@ struct _n_MSimImplicit {
   PetscReal          h, t;    /* step and start time of the current step */
   MSimImplicitStep   step;    /* the terms' view of the step (MSimImplicitStepUpdate) */
   Vec                Xn, Y;   /* x_n and y */
+  Vec                guess_a, guess_d; /* MSimImplicitGuess's work: the feasible start and the step from it (made once) */
   /* the first iterate (-msim_implicit_guess, problem.cpp): x_n + guess h v_n, the scheme's
      position at the extrapolated v_{n+1} = 2 v_n - v_{n-1} (Vprev: v_{n-1}, kept by EndStep,
      valid once a step has ended or a restart loaded it; a checkpoint carries it after the
