@@ -962,14 +962,12 @@ static bool NearAnswer(MSimMeshObstacle mo, const _n_MSimMeshObstacle::Near &ns,
     const PetscReal tol = 1e-9 * mo->diam;
     if (r <= tol) return false;
     const PetscReal d[3] = {x[0] - ns.x[0], x[1] - ns.x[1], x[2] - ns.x[2]};
-    const PetscReal reach = delta + margin, reach2 = reach * reach;
     bool            degenerate = false;
     int             count      = 0;
     for (int k = 0; k < ns.n && !degenerate; k++) {
-      /* both ends clearly on one side of the triangle's plane (by far more than its roundoff), or
-         the triangle farther from x than the segment's length (its bound, plus the exact test's
-         tolerances): no crossing, and no degenerate one, without the exact test */
-      if ((ns.s0[k] > tol && h[k] > tol) || (ns.s0[k] < -tol && h[k] < -tol) || lb2[k] > reach2) continue;
+      /* both ends clearly on one side of the triangle's plane (by far more than its roundoff):
+         no crossing, without the exact test */
+      if ((ns.s0[k] > tol && h[k] > tol) || (ns.s0[k] < -tol && h[k] < -tol)) continue;
       count += SegmentCrosses(ns.x, d, delta, mo->tri[ns.t[k]], tol, &degenerate);
     }
     if (degenerate) return false;
@@ -977,15 +975,6 @@ static bool NearAnswer(MSimMeshObstacle mo, const _n_MSimMeshObstacle::Near &ns,
   }
   use->d = Answer(mo, q, r, inside ? -1.0 : 1.0, region, e, &mo->tri[ns.t[bi]], use->n, use->H);
   return true;
-}
-
-/* a and b hold the same bits: memcmp's test, inline (the library call was 0.26 M instructions a step of the mesh-ball drape) */
-static inline bool SameBits(const PetscReal a[3], const PetscReal b[3])
-{
-  uint64_t u[3], w[3];
-  std::memcpy(u, a, sizeof(u));
-  std::memcpy(w, b, sizeof(w));
-  return ((u[0] ^ w[0]) | (u[1] ^ w[1]) | (u[2] ^ w[2])) == 0;
 }
 
 static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9])
@@ -996,7 +985,7 @@ static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle m
   _n_MSimMeshObstacle::Far &f = mo->far[v]; /* (its skip was tested by the caller) */
   _n_MSimMeshObstacle::Answer *a = &mo->memo[MEMO_SLOTS * (size_t)v], *use = NULL, *old = a;
   for (int k = 0; k < MEMO_SLOTS && !use; k++) {
-    if (a[k].stamp > mo->memo_epoch && SameBits(a[k].x, x)) use = &a[k];
+    if (a[k].stamp > mo->memo_epoch && !std::memcmp(a[k].x, x, sizeof(a[k].x))) use = &a[k];
     else if (a[k].stamp < old->stamp) old = &a[k];
   }
   if (!use) { /* the least recently used slot takes the new point */
