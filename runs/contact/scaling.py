@@ -6,6 +6,7 @@ Usage (from the repository root):
     /usr/bin/python3 runs/contact/scaling.py [--msim build/msim] [--ranks 1,2] [--springs 1e6]
         [--steps pd:2,newton_cg:1,explicit:100] [--repeat 2] [--methods pd,newton_cg,explicit]
         [--out runs/contact/scaling.csv]
+    /usr/bin/python3 runs/contact/scaling.py --merge A.csv B.csv --out C.csv   # one table from earlier runs
 Runs unchanged on a cluster (--ranks 1,2,4,8 ...; --mpirun "srun --cpu-bind=cores"). Writes the CSV
 and, beside it, the PNG of the same name.
 
@@ -257,6 +258,31 @@ def summarize(a, runs):
     return rows
 
 
+def merged_runs(a, files):
+    """the runs of several earlier runs of this script, from their CSVs (e.g. two sessions on one
+    machine): each row's step_s_all gives one run per repetition, carrying the row's other columns,
+    with repetitions numbered on across the files so that summarize() pairs the four runs of one
+    repetition of one file, as when they ran"""
+    runs, rep0 = [], 0
+    for f in files:
+        with open(f) as fh:
+            rows = list(csv.DictReader(fh))
+        nrep = 0
+        for r in rows:
+            for k in ("ranks", "contact", "springs"):
+                r[k] = int(r[k])
+            times = [float(x) for x in r["step_s_all"].split(";")]
+            nrep = max(nrep, len(times))
+            for i, t in enumerate(times):
+                runs.append(dict(r, step_s=t, rep=rep0 + i))
+        rep0 += nrep
+    a.repeat = rep0
+    a.ranks = sorted({r["ranks"] for r in runs})
+    a.methods = [m for m in a.methods if any(r["method"] == m for r in runs)]
+    a.owners = {}
+    return runs
+
+
 def plot(a, rows, png):
     import matplotlib
     matplotlib.use("Agg")
@@ -271,19 +297,25 @@ def plot(a, rows, png):
     ax1.plot(a.ranks, a.ranks, ":", color="grey", label="ideal")
     ax1.set_xlabel("ranks")
     ax1.set_ylabel(f"speed-up over {a.ranks[0]} rank(s), best runs")
-    ax1.set_xticks(a.ranks)
+    if a.ranks[-1] >= 8 * a.ranks[0]:  # many rank counts: spread them evenly
+        for ax in (ax1, ax3):
+            ax.set_xscale("log", base=2)
+    ax1.set_xticks(a.ranks, [str(p) for p in a.ranks])
     ax1.set_title("Speed-up without (dashed) and with the plane")
     ax1.legend(fontsize=7)
     # the target's ratio: from the best runs, and from each repetition's own runs (the noise)
     for i, m in enumerate(a.methods):
+        label = f"{m}: best runs (x: each repetition)"
         for r in rows:
             if r["method"] == m and r["contact"] and r["ranks"] != a.ranks[0]:
-                x = r["ranks"] + 0.12 * (i - (len(a.methods) - 1) / 2)
+                x = r["ranks"] * (1 + 0.04 * (i - (len(a.methods) - 1) / 2))
                 per = [float(v) for v in r["speedup_ratio_per_rep"].split(";") if v]
                 ax3.plot([x] * len(per), per, "x", color=f"C{i}", alpha=0.6)
-                ax3.plot([x], [r["speedup_ratio"]], marks.get(m, "o"), color=f"C{i}", ms=9, label=f"{m}: best runs (x: each repetition)")
+                ax3.plot([x], [r["speedup_ratio"]], marks.get(m, "o"), color=f"C{i}", ms=9, label=label)
+                label = None
     ax3.axhspan(0.9, 1.1, color="green", alpha=0.12, label="target 0.9-1.1")
-    ax3.set_xticks([p for p in a.ranks if p != a.ranks[0]])
+    ax3.set_xticks([p for p in a.ranks if p != a.ranks[0]], [str(p) for p in a.ranks if p != a.ranks[0]])
+    ax3.minorticks_off()
     ax3.set_xlabel("ranks")
     ax3.set_ylabel("speed-up with contact / without")
     ax3.set_yscale("log")
@@ -324,6 +356,7 @@ def main():
     p.add_argument("--timeout", type=float, default=1800)
     p.add_argument("--out", default=os.path.join(HERE, "scaling.csv"))
     p.add_argument("--plot-only", action="store_true", help="redraw the PNG from --out's CSV, run nothing")
+    p.add_argument("--merge", nargs="+", metavar="CSV", help="run nothing: one table (--out and its PNG) from these CSVs of earlier runs, best of all their repetitions")
     a = p.parse_args()
     a.msim = os.path.abspath(a.msim)
     a.ranks = [int(x) for x in a.ranks.split(",")]
@@ -347,6 +380,13 @@ def main():
         a.methods = [m for m in a.methods if any(r["method"] == m for r in rows)]
         plot(a, rows, os.path.splitext(a.out)[0] + ".png")
         return
+    if a.merge:
+        runs = merged_runs(a, a.merge)
+        rows = summarize(a, runs)
+        write_csv(a.out, rows)
+        plot(a, rows, os.path.splitext(a.out)[0] + ".png")
+        report(a, rows, f"{len(a.merge)} runs merged")
+        return
     t0 = time.time()
     try:
         load = open("/proc/loadavg").read().split()[:3]
@@ -358,7 +398,11 @@ def main():
     os.makedirs(os.path.dirname(os.path.abspath(a.out)), exist_ok=True)
     write_csv(a.out, rows)
     plot(a, rows, os.path.splitext(a.out)[0] + ".png")
-    print(f"\nbox {n}^3, {rows[0]['springs']} springs; best of {a.repeat}; {time.time() - t0:.0f} s in all")
+    report(a, rows, f"box {n}^3; {time.time() - t0:.0f} s in all")
+
+
+def report(a, rows, what):
+    print(f"\n{rows[0]['springs']} springs; best of {a.repeat}; {what}")
     for r in rows:
         line = f"{r['method']:9s} {r['ranks']} ranks {'contact' if r['contact'] else 'free   '}: {r['step_s'] * 1e3:10.2f} ms/step  speed-up {r['speedup']:.3f}"
         if r["contact"]:
