@@ -15,10 +15,12 @@
   weight, so it sinks m_v g / kc below the plane (within 1%); both stability guards count kc
   (Gershgorin: 2 / sqrt((2 sum k + kc) / m); SLEPc: 2 / sqrt(kc / m) for a flat cloth, whose springs
   are not stiff across its plane);
+- PETSc's implicit TS (beuler, bdf, theta, alpha2) takes the same penalty with its stiffness in the
+  Jacobian: at rest the cloth carries m g (1e-3) and sinks m_v g / kc (1%);
 - bad input: a sphere given with 3 values, a cloth starting inside a sphere, implicit_midpoint
   with an obstacle (refused: the barrier keeps its unknown, the midpoint, feasible, not x_{n+1})
-  and ksponly with an obstacle (refused: one linear step, no feasible line search) are one error
-  line.
+  and ksponly with an obstacle (refused: one linear step, no feasible line search), and friction
+  with a penalty (explicit or TS: it has none) are one error line.
 Usage: contact.py path/to/msim [--np N]"""
 import math
 import os
@@ -152,6 +154,21 @@ def main():
             z = p[:, 2]
             err = max(abs(z.max() - (-0.05 - sink)), abs(z.min() - (-0.05 - sink)))
             check(err <= 0.01 * sink, f"np {np_}: penalty: rest height {z.min():.8f}..{z.max():.8f} is -0.05 - m_v g / kc = {-0.05 - sink:.8f} (within 1% of the sink {sink:.3g})")
+        # PETSc's implicit TS types take the penalty too, with its stiffness in their Jacobian: at rest
+        # the same cloth carries its weight m g and sinks m_v g / kc (a Newton step on the force alone,
+        # without the penalty's stiffness, stops short: 9.51 N of 9.81 with beuler)
+        for ts in (["beuler"], ["bdf", "-ts_adapt_type", "none"], ["theta", "-ts_theta_theta", "0.7"], ["alpha2", "-ts_alpha_radius", "0.5"]):
+            mon = os.path.join(tmp, f"ts_penalty_{ts[0]}_{np_}.csv")
+            p, r = mt.final_positions(exe, ["-msim_integrator", "ts", "-ts_type"] + ts + ["-msim_cloth_n", "5", "-msim_fix", "none", "-msim_mass", str(mass), "-msim_drag", "0.5",
+                                            "-msim_contact_plane", "0,0,1,-0.05", "-msim_contact_stiffness", str(kc), "-msim_dt", "0.01", "-msim_steps", "300",
+                                            "-msim_monitor_csv", mon], np_, tmp, name=f"ts_penalty_{ts[0]}")
+            if check(p is not None, f"np {np_}: ts {ts[0]} with the penalty runs"):
+                sink = mass / 25 * G / kc
+                z = p[:, 2]
+                err = max(abs(z.max() - (-0.05 - sink)), abs(z.min() - (-0.05 - sink)))
+                fz = float(mt.read_csv(mon)[-1]["contact_fz"])
+                check(err <= 0.01 * sink and abs(fz - mass * G) <= 1e-3 * mass * G,
+                      f"np {np_}: ts {ts[0]} with the penalty: rest height {z.min():.8f}..{z.max():.8f} is -0.05 - m_v g / kc = {-0.05 - sink:.8f} (within 1% of the sink), contact force {fz:.6g} N = m g = {mass * G:.6g} N (1e-3)")
         # the stability guard counts the penalty: Gershgorin omega_max^2 <= max_i (2 sum_j k_ij + kc) / m_i;
         # an interior vertex of the 5 x 5 grid has 12 springs of 1000 N/m, m_i = 1/25 kg, and
         # symplectic Euler's limit is 2 / omega_max
@@ -182,7 +199,9 @@ def main():
                     (("a sphere of 3 values", ["-msim_contact_sphere", "0,0,0"], ["-msim_contact_sphere", "4 values"]),
                      ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["vertex 12 starts inside obstacle 0", "-msim_contact_sphere"]),
                      ("implicit_midpoint with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-msim_integrator", "implicit_midpoint"], ["implicit_midpoint", "not supported"]),
-                     ("Baraff-Witkin (ksponly) with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "ksponly"], ["-snes_type ksponly", "not supported"])), np_)
+                     ("Baraff-Witkin (ksponly) with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "ksponly"], ["-snes_type ksponly", "not supported"]),
+                     ("friction with the explicit penalty", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_integrator", "symplectic_euler"], ["-msim_friction", "symplectic_euler", "not supported"]),
+                     ("friction with TS's penalty", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_integrator", "ts"], ["-msim_friction", "-msim_integrator ts", "not supported"])), np_)
     return check.exit_code()
 
 

@@ -89,3 +89,9 @@ PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Ve
    contact state's (Weyl: adding PSD blocks only raises eigenvalues), which the SLEPc stability guard
    adds to (K, M), as the Gershgorin guard adds kc to every row. Nothing without obstacles. */
 PetscErrorCode MSimContactAddPenaltyStiffness(MSimSystem sys, PetscReal t, Vec X, Mat K);
+/* K += w (-dF/dX) of MSimContactAddPenaltyForce's F at X: w kc (n n^T + d D^2 d) on the diagonal
+   block of each free owned vertex inside an obstacle (d < 0), for the implicit integrators that
+   take the penalty (PETSc's TS: a Newton step needs the penalty's stiffness, without which its
+   steps in contact converge linearly, if at all). ADD_VALUES, then assembled. Nothing without
+   obstacles. */
+PetscErrorCode MSimContactAddPenaltyJacobian(MSimSystem sys, PetscReal t, Vec X, PetscReal w, Mat K);

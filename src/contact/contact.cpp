@@ -16,7 +16,8 @@
    explicit method and PETSc's TS take it without a change to their updates, and its stiffness is
    a diagonal term the Gershgorin guard bounds exactly (max_i (2 sum_j k_ij + kc) / m_i). The
    penalty lets a vertex sink m g / kc at rest, and has no friction: -msim_friction acts in the
-   implicit integrators only. The SLEPc guard (-msim_spectrum_guard slepc) takes the largest
+   implicit integrators only (the others refuse it, contact_force.cpp). PETSc's implicit TS types
+   take the penalty's stiffness in their Jacobian (MSimContactAddPenaltyJacobian). The SLEPc guard (-msim_spectrum_guard slepc) takes the largest
    eigenvalue of (K + kc sum_o n_o n_o^T per vertex, M) (MSimContactAddPenaltyStiffness): every
    vertex as if pressed into every obstacle, exact for a cloth lying on a plane. */
 #include <msim/contact.h>
@@ -390,14 +391,14 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   }
   PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
-  PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Explicit integrators' penalty stiffness kc, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
+  PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Penalty stiffness kc of the explicit integrators and -msim_integrator ts, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal (A refactored per -msim_contact_pd_refactor); 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_pd_refactor", "PD with -msim_contact_pd_weight: keep the factor until some vertex's wanted diagonal (A's plus the barrier's weight, taken once per step) is off the factored one by more than this factor; 0: refactor whenever the set of vertices within dhat changes", NULL, ct->pd_refactor, &ct->pd_refactor, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pd_bound", "PD: take the global step's length from a bound on Phi that needs only the contact terms' change (no pass over the springs); 0: halve until Phi, evaluated in full, does not rise", NULL, ct->pd_bound, &ct->pd_bound, NULL));
   PetscCall(MSimOptionsInt("-msim_contact_pd_refactor_selective", "PD with -msim_contact_pd_refactor r > 0: when some vertex's weight is off by more than r, only the vertices off by more than sqrt(r) take their current weight (the others keep the factored one, so msimllt can update its factor instead of refactoring), while at most this many vertices change; more: every vertex takes its weight. 0: every vertex always", NULL, ct->pd_refactor_selective, &ct->pd_refactor_selective, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pc_pd_weight", "Newton with -msim_pc_pd: the PD factor preconditioning CG includes the barrier's weights (taken at every Jacobian, refactored by -msim_contact_pd_refactor's rule)", NULL, ct->pc_pd_weight, &ct->pc_pd_weight, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
-  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit integrators: IPC's lagged smoothed friction; the explicit penalty has none)", NULL, ct->mu, &ct->mu, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit_euler, bdf2: IPC's lagged smoothed friction; the penalty of the explicit integrators and ts has none, and refuses it)", NULL, ct->mu, &ct->mu, NULL));
   PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing: tangential speed (m/s) below which friction acts as static (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
   PetscOptionsEnd();
   PetscCheck(ct->dhat > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be > 0 (got %g)", (double)ct->dhat);
@@ -459,6 +460,33 @@ PetscErrorCode MSimContactAddPenaltyStiffness(MSimSystem sys, PetscReal t, Vec X
     for (int a = 0; a < 3; a++) idx[a] = 3 * (sys->rstart + v) + a;
     PetscCall(MatSetValues(K, 3, idx, 3, idx, blk, ADD_VALUES));
   }
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactAddPenaltyJacobian(MSimSystem sys, PetscReal t, Vec X, PetscReal w, Mat K)
+{
+  MSimContact        ct;
+  const PetscScalar *x;
+  PetscErrorCode     ierr = PETSC_SUCCESS;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(X, &x));
+  /* f = -kc d n: df/dx = -kc (n n^T + d dn/dx), dn/dx = D^2 d (0 for a plane or a box face) */
+  MSimContactForEachNear(ct, sys->nown, x, t, 0.0, PETSC_TRUE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *H) {
+    PetscScalar blk[9];
+    PetscInt    idx[3];
+    for (int a = 0; a < 3; a++) {
+      idx[a] = 3 * (sys->rstart + v) + a;
+      for (int b = 0; b < 3; b++) blk[3 * a + b] = w * ct->kc * (n[a] * n[b] + d * H[3 * a + b]);
+    }
+    if (!ierr) ierr = MatSetValues(K, 3, idx, 3, idx, blk, ADD_VALUES);
+  });
+  PetscCall(ierr);
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscCall(MatAssemblyBegin(K, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(K, MAT_FINAL_ASSEMBLY));

@@ -22,10 +22,14 @@ PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
 {
   PetscBool      barrier;
   PetscContainer mark;
+  MSimContact    ct;
 
   PetscFunctionBeginUser;
   /* the implicit integrators (the registered schemes) use the barrier; the others the penalty */
   PetscCall(MSimImplicitSchemeIsRegistered(type, &barrier));
+  /* the penalty has no friction: a coefficient it would ignore is refused, not dropped */
+  PetscCall(MSimContactGet(sys, &ct));
+  PetscCheck(barrier || !ct || ct->mu == 0, sys->comm, PETSC_ERR_SUP, "-msim_friction with -msim_integrator %s is not supported: its contact is a penalty, which has no friction; use implicit_euler or bdf2 (IPC's friction)", type);
   if (barrier) {
     PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &mark));
     PetscCall(PetscObjectCompose((PetscObject)sys->X0, barrier_key, (PetscObject)mark));

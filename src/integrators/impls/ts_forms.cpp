@@ -1,6 +1,7 @@
 /* Implicit forms of the spring system for PETSc's TS, with analytic sparse Jacobians
    (ts_forms.h). */
 #include "ts_forms.h"
+#include <msim/contact.h>
 #include <msim/solvers.h>
 #include <msim/volume.h>
 #include <msim/private/systemimpl.h>
@@ -28,6 +29,7 @@ static PetscErrorCode Assemble(MSimSystem sys, PetscReal t, Vec X, PetscReal mas
   const MSimMatrixCoefficients c = {t, X, mass_coef, damp_coef * sys->drag, stiff_coef, PETSC_FALSE, t, damp_coef != 0 && sys->damping > 0 ? X : NULL, damp_coef};
   PetscCall(MSimSystemAssembleMatrix(sys, &c, A));
   if (stiff_coef != 0) PetscCall(MSimSystemVolumeHessian(sys, t, X, stiff_coef, PETSC_FALSE, A)); /* the tets' volume term, if any */
+  if (stiff_coef != 0) PetscCall(MSimContactAddPenaltyJacobian(sys, t, X, stiff_coef, A)); /* the obstacles' penalty, which the TS's force has (msim/contact.h) */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
