@@ -54,8 +54,8 @@ typedef struct {
   PetscObjectId          diag_id    = 0; /* of A at the state it was read at: read again only where A changed */
   PetscObjectState       diag_state = 0; /* (MatGetDiagonal searched every row: 0.4 M instructions a PD-10 step of the 101 x 101 drape) */
   /* a restart: w holds the checkpoint's weights (those the run's factor held), A was assembled
-     without them at set-up; `restored` makes the next reweight decide as the run would have
-     with them in A, and assemble them if it keeps them (PDReweight_Obstacles) */
+     without them at set-up; `restored` makes the reweight that HistoryLoaded_Obstacles calls
+     assemble them as they are, so that A is the run's before the first step */
   Vec                    hist     = NULL;
   PetscBool              restored = PETSC_FALSE;
   /* set by the Hessian (-msim_contact_pc_pd_weight) around its reweight: the weights of each
@@ -448,6 +448,11 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
   MSimContact ct;
 
   PetscFunctionBeginUser;
+  if (pw->restored) { /* the checkpoint's weights into A (pending is false: PDMatrix_Obstacles takes w), X unused */
+    pw->restored = PETSC_FALSE;
+    *changed     = PETSC_TRUE;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(Contact(term, &ct));
   if (!ct || !ct->pd_weight) PetscFunctionReturn(PETSC_SUCCESS);
   /* once per time step, at its first local step (the same on every rank): the weights only speed
@@ -467,10 +472,6 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     w[v] += h2k * m * d2b;
   }));
   PetscBool same = (PetscBool)(pw->w.size() == w.size());
-  /* after a restart A lacks the weights w the run's factor held: judge as if it had them, then
-     assemble them (the next swap takes `next`) unless the run would have refactored anyway */
-  const PetscBool restored = pw->restored;
-  pw->restored             = PETSC_FALSE;
   if (ct->pd_refactor > 0 && same && term->imp->A) {
     /* lazy (-msim_contact_pd_refactor r): the factor's weights only speed the iteration up, and a
        vertex whose factored diagonal A_vv is within a factor r of the wanted one converges nearly
@@ -517,7 +518,7 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
     if (selective) keep.assign(w.size(), 0);
     PetscCall(VecGetArrayRead(pw->diag, &a));
     for (size_t v = 0; (selective || !off) && v < w.size(); v++) {
-      const PetscReal have = PetscRealPart(a[v]) + (restored ? pw->w[v] : 0), want = have - pw->w[v] + w[v];
+      const PetscReal have = PetscRealPart(a[v]), want = have - pw->w[v] + w[v];
       if (want > r * have || have > rhigh * want) off = PETSC_TRUE;
       if (!selective) continue;
       keep[v] = !(want > rkeep * have || have > rkeep * want);
@@ -537,18 +538,9 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
           if (keep[v]) w[v] = pw->w[v];
     }
     if (off) *changed = PETSC_TRUE; /* reduced over the ranks by the caller */
-    same = (PetscBool)!off;
   } else {
     for (size_t v = 0; same && v < w.size(); v++) same = (PetscBool)((w[v] > 0) == (pw->w[v] > 0));
     if (!same) *changed = PETSC_TRUE;
-  }
-  if (restored) {
-    /* every rank restores at once, so this reduction is collective: the caller's decides whether
-       to assemble, this one which weights: the run's own when no rank would have refactored */
-    PetscBool keep = same;
-    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &keep, 1, MPIU_BOOL, MPI_LAND, sys->comm));
-    if (keep) w = pw->w;
-    *changed = PETSC_TRUE;
   }
   pw->pending = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -803,6 +795,12 @@ static PetscErrorCode HistoryLoaded_Obstacles(MSimImplicitTerm term)
   PetscCall(VecRestoreArrayRead(pw->hist, &x));
   pw->pending  = PETSC_FALSE;
   pw->restored = PETSC_TRUE;
+  /* A takes the weights now (where it exists; else its set-up does), so that the first step sees
+     the run's A, factor and decisions: assembled at that step's first reweight instead, A changed
+     there, where the run's did not, and PD + L-BFGS's fused gradient, which takes such a change
+     for a new A, computed that step's gradients by the product and dropped its pairs
+     (MSimImplicitPDGradient): 1.9e-4 m off the uninterrupted run after 17 more steps */
+  PetscCall(MSimImplicitPDReweight(term->imp, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
