@@ -15,6 +15,11 @@
   and PD; a closed OBJ sphere, Newton, its exact point-triangle distance computed here), and the
   ball pushes the cloth above the corners' plane (the cloth's top is within dhat of the ball's top
   at the end, 0.18 m up; without the ball nothing rises above z = 0);
+- an open wall (one vertical rectangle, x in [0.25, 0.75], z in [-0.5, -0.1]) in the plane y = 0.2
+  of a falling cloth's row, which lands on its top edge moving within the plane: in every frame
+  every vertex is at distance > 0 from it (none enters the wall through its edge: the safe step
+  sees a move along a triangle's plane enter the triangle), and the run converges with no stalled
+  steps;
 - bad input, one error line each: a face naming a missing vertex (the reader's error), a triangle
   of zero area (naming the file), a cloth vertex inside a closed mesh (naming the vertex and the
   obstacle), a velocity list of the wrong length, a negative thickness.
@@ -132,6 +137,10 @@ def main():
     sheet_obj = os.path.join(tmp, "sheet.obj")
     with open(sheet_obj, "w") as f:
         f.write("v -1 -1 -0.1\nv 2 -1 -0.1\nv 2 2 -0.1\nv -1 2 -0.1\nf 1 2 3\nf 1 3 4\n")
+    wall = [0.25, 0.75, 0.2, 0.2, -0.5, -0.1]
+    wall_obj = os.path.join(tmp, "wall.obj")
+    with open(wall_obj, "w") as f:
+        f.write("v 0.25 0.2 -0.5\nv 0.75 0.2 -0.5\nv 0.75 0.2 -0.1\nv 0.25 0.2 -0.1\nf 1 2 3\nf 1 3 4\n")
     cloth = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "7", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "40"]
     solvers = {"newton": [], "pd": ["-snes_type", "pd", "-snes_max_it", "200"], "lbfgs": ["-snes_type", "qn"]}
     s = 0.01
@@ -191,7 +200,15 @@ def main():
             # the cloth slides a little off the very top (no friction): within dhat (1e-2 of the
             # cloth's diagonal) of it
             check(zmax >= top - 0.01 * math.sqrt(2) and top > 0.1, f"np {np_}: a moving {label}: pushes the cloth up to z = {zmax:.4f} (the ball's top {top:.4f}; the corners at 0)")
-        # (e) bad input: one line each
+        # (e) a cloth row exactly in an open wall's plane, falling onto its top edge
+        out = os.path.join(tmp, f"wall_{np_}")
+        r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "11", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "20",
+                         "-msim_contact_mesh", wall_obj, "-msim_output", out, "-msim_output_every", "1"], np_)
+        if check(r.returncode == 0 and "stalled" not in r.stderr, f"np {np_}: a cloth row in an open wall's plane: runs and converges ({r.stderr.strip()[-300:]})"):
+            fr = frames(out)
+            least = min(float(box_distance(p, wall).min()) for _, p in fr)  # (a box flat in y: the rectangle's distance)
+            check(len(fr) == 21 and least > 0, f"np {np_}: a cloth row in an open wall's plane: every vertex off the wall in all {len(fr)} frames (least distance {least:.3g})")
+        # (f) bad input: one line each
         bad_face = os.path.join(tmp, "bad_face.obj")
         with open(bad_face, "w") as f:
             f.write("v 0 0 -1\nv 1 0 -1\nv 0 1 -1\nf 1 2 4\n")

@@ -17,7 +17,8 @@
      tried (the degenerate cases that break parity). An open surface has no inside: either side,
      at distance >= thickness.
    - Safe step: with no thickness, 0.8 of the move's first crossing of the surface (a box query on
-     the tree, then each triangle's exact crossing), as for the analytic shapes. With a thickness, conservative advancement (Li et al.
+     the tree, then each triangle's exact crossing; a move along a triangle's plane, which crosses
+     no plane, meets the triangle where it crosses an edge), as for the analytic shapes. With a thickness, conservative advancement (Li et al.
      2021, "Codimensional IPC", additive CCD without the additive part): the distance is
      1-Lipschitz, so moving by 0.9 d/|u| along u can never reach the shell; repeat until the step
      is covered or the gap is a tenth of the start's. The segment x -> x + t u then neither
@@ -1013,20 +1014,43 @@ static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle m
 }
 
 /* Moller-Trumbore: the time t >= 0 at which o + t d meets T, edges and corners included (within
-   roundoff: a segment through an edge counts as a hit, the conservative side); infinity if none */
-static PetscReal SegmentHitTime(const PetscReal o[3], const PetscReal d[3], const Triangle &T)
+   roundoff: a segment through an edge counts as a hit, the conservative side); infinity if none.
+   A move along T's plane (d within 1e-10 of it) from a point within lentol of the plane (a cloth
+   vertex exactly in an open wall's plane, falling along it) never crosses the plane, so the
+   crossing above cannot see it enter T through an edge: there the first time the move meets one
+   of T's edges (in the plane) is a hit too */
+static PetscReal SegmentHitTime(const PetscReal o[3], const PetscReal d[3], const Triangle &T, PetscReal lentol)
 {
-  PetscReal e1[3], e2[3], s[3], pv[3], qv[3];
+  PetscReal e1[3], e2[3], s[3], pv[3], qv[3], th = PETSC_INFINITY;
   for (int k = 0; k < 3; k++) e1[k] = T[1][k] - T[0][k], e2[k] = T[2][k] - T[0][k], s[k] = o[k] - T[0][k];
   pv[0] = d[1] * e2[2] - d[2] * e2[1], pv[1] = d[2] * e2[0] - d[0] * e2[2], pv[2] = d[0] * e2[1] - d[1] * e2[0];
   const PetscReal det = e1[0] * pv[0] + e1[1] * pv[1] + e1[2] * pv[2];
-  if (det == 0) return PETSC_INFINITY; /* parallel to the plane: a point outside never meets it */
-  const PetscReal u = (s[0] * pv[0] + s[1] * pv[1] + s[2] * pv[2]) / det;
-  qv[0] = s[1] * e1[2] - s[2] * e1[1], qv[1] = s[2] * e1[0] - s[0] * e1[2], qv[2] = s[0] * e1[1] - s[1] * e1[0];
-  const PetscReal v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) / det, t = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
   const PetscReal tol = 1e-9;
-  if (u < -tol || v < -tol || u + v > 1 + tol) return PETSC_INFINITY;
-  return t >= 0 ? t : PETSC_INFINITY;
+  if (det != 0) { /* (det = 0: parallel to the plane, no crossing) */
+    const PetscReal u = (s[0] * pv[0] + s[1] * pv[1] + s[2] * pv[2]) / det;
+    qv[0] = s[1] * e1[2] - s[2] * e1[1], qv[1] = s[2] * e1[0] - s[0] * e1[2], qv[2] = s[0] * e1[1] - s[1] * e1[0];
+    const PetscReal v = (d[0] * qv[0] + d[1] * qv[1] + d[2] * qv[2]) / det, t = (e2[0] * qv[0] + e2[1] * qv[1] + e2[2] * qv[2]) / det;
+    if (!(u < -tol || v < -tol || u + v > 1 + tol) && t >= 0) th = t;
+  }
+  const PetscReal n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+  const PetscReal nn = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), dl = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (std::abs(det) <= 1e-10 * nn * dl && std::abs(s[0] * n[0] + s[1] * n[1] + s[2] * n[2]) <= lentol * nn) {
+    /* edge a -> a + f against the line o + t d, both in the plane: with w = a - o, o + t d = a + r f
+       at t = (w x f).n / (d x f).n, r = (w x d).n / (d x f).n; an edge parallel to d is met, if at
+       all, at its ends, which the other two edges' crossings find */
+    auto tri = [&](const PetscReal *p, const PetscReal *q) { /* (p x q).n */
+      return (p[1] * q[2] - p[2] * q[1]) * n[0] + (p[2] * q[0] - p[0] * q[2]) * n[1] + (p[0] * q[1] - p[1] * q[0]) * n[2];
+    };
+    for (int k = 0; k < 3; k++) {
+      PetscReal a[3], f[3], w[3];
+      for (int c = 0; c < 3; c++) a[c] = T[k][c], f[c] = T[(k + 1) % 3][c] - a[c], w[c] = a[c] - o[c];
+      const PetscReal den = tri(d, f);
+      if (den == 0) continue;
+      const PetscReal t = tri(w, f) / den, r = tri(w, d) / den;
+      if (r >= -tol && r <= 1 + tol && t >= 0) th = PetscMin(th, t);
+    }
+  }
+  return th;
 }
 
 PetscReal MSimMeshObstacleSafeStep(MSimMeshObstacle mo, const PetscReal x[3], const PetscReal u[3], PetscReal tmax)
@@ -1070,11 +1094,11 @@ PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mo, PetscInt v, const 
     }
     if (C) {
       for (size_t k = C->off; k < C->off + C->n && mo->pool[k].dc <= far; k++)
-        if (CGAL::do_intersect(box, *mo->pool[k].T)) th = PetscMin(th, SegmentHitTime(x, u, *mo->pool[k].T));
+        if (CGAL::do_intersect(box, *mo->pool[k].T)) th = PetscMin(th, SegmentHitTime(x, u, *mo->pool[k].T, eps));
     } else {
       std::vector<Primitive::Id> hit;
       mo->tree.all_intersected_primitives(box, std::back_inserter(hit));
-      for (const auto &id : hit) th = PetscMin(th, SegmentHitTime(x, u, *id));
+      for (const auto &id : hit) th = PetscMin(th, SegmentHitTime(x, u, *id, eps));
     }
     return 0.8 * th < tmax ? 0.8 * th : PETSC_INFINITY;
   }
