@@ -3,7 +3,9 @@
 naming the option (and the allowed range) or the options file (and its line), and must not create
 the output directory. A misspelled option must be named in one warning line, and so must implicit
 steps cut off by -snes_max_it; an implicit solve that fails is named with PETSc's reason, and its convergence history is kept. A run that diverges must keep the frames written before it and the
-last finite state."""
+last finite state. Every case runs at 1 and 2 ranks, or with `--np N` at N alone (ctest's
+bad_input_np1 and _np2: the 1-rank half runs beside other tests); the diverging run at 1 rank only.
+Usage: bad_input.py path/to/msim [--np N]"""
 import os
 import re
 import sys
@@ -96,10 +98,11 @@ def run(args, cwd, np=1):
 
 def main():
     check = mt.Checks(quiet=True)
+    nps = mt.ranks()  # ctest runs each rank count as a test of its own (bad_input_np1, _np2)
     with tempfile.TemporaryDirectory() as tmp:
         with open(os.path.join(tmp, "malformed.opts"), "w") as f:
             f.write("-msim_cloth_n 8\nmsim_steps 3\n")  # the dash forgotten on line 2
-        for np in (1, 2):
+        for np in nps:
             for i, (args, message) in enumerate(CASES + (PARALLEL_CASES if np > 1 else [])):
                 out = os.path.join(tmp, f"series_{np}_{i}")
                 # options given in the case (or in its options file) are not overridden
@@ -116,7 +119,7 @@ def main():
                     problems.append("output directory was created")
                 check(not problems, f"np={np} {' '.join(args)}: " + "; ".join(problems))
         # a misspelled option runs with the defaults, so it is named in a warning (one line, exit 0)
-        for np in (1, 2):
+        for np in nps:
             r = run(["-msim_stifness", "10", "-msim_steps", "2"], tmp, np)
             lines = mt.lines(r.stderr)
             check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: -msim_stifness was set but never used"),
@@ -124,7 +127,7 @@ def main():
         # an implicit solve cut off by -snes_max_it before its tolerance: the run goes on, and one
         # warning line at its end says how many steps stopped short; a fixed count says nothing
         implicit = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "8", "-msim_dt", "0.0333", "-msim_steps", "4"]
-        for np in (1, 2):
+        for np in nps:
             r = run(implicit + ["-snes_type", "newtonls", "-snes_max_it", "1"], tmp, np)
             lines = mt.lines(r.stderr)
             r2 = run(implicit + ["-snes_type", "pd", "-snes_max_it", "3", "-snes_pd_fixed"], tmp, np)
@@ -134,7 +137,7 @@ def main():
         # an implicit solve that fails (here a function-evaluation cap it cannot meet): one error
         # line naming the step, the SNES type and PETSc's reason
         # its per-iteration history up to the failure is kept under the name given
-        for np in (1, 2):
+        for np in nps:
             hist = os.path.join(tmp, f"failed_history_{np}.csv")
             r = run(implicit + ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-snes_max_funcs", "5", "-msim_monitor_convergence", hist], tmp, np)
             lines = mt.lines(r.stderr)
@@ -146,23 +149,24 @@ def main():
         # whose springs compress as it sags: negative transverse curvature): one error line naming
         # the matrix's row, a global row index (the factor's own numbering is AMD's), at 1 and 2
         # ranks (on 2, each rank's local factor; the row is the least failing one over the ranks)
-        for np in (1, 2):
+        for np in nps:
             r = run(["-msim_cloth_n", "21", "-msim_integrator", "implicit_euler", "-msim_dt", "0.05", "-msim_steps", "20", "-snes_type", "newtonls",
                      "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "msimllt", "-msim_output", os.path.join(tmp, f"pivot_{np}")], tmp, np)
             lines = mt.lines(r.stderr)
             m = re.search(r"msimllt: the matrix is not positive definite \(a non-positive pivot at its row (\d+)\)", lines[0]) if len(lines) == 1 else None
             check(r.returncode != 0 and m is not None and 0 <= int(m.group(1)) < 3 * 21 * 21,
                   f"np={np} msimllt on an indefinite matrix: rc {r.returncode}, stderr {lines!r}")
-        # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps
-        out = os.path.join(tmp, "diverged")
-        r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)
-        frames = sorted(f for f in os.listdir(out) if f.startswith("frame_")) if os.path.isdir(out) else []
-        err = [l for l in r.stderr.splitlines() if l.startswith("msim: error:")]
-        ok = (r.returncode != 0 and len(err) == 1 and "diverged at step" in err[0] and "explicit_euler" in err[0] and "h = 0.002" in err[0]
-              and len(frames) >= 1 and os.path.exists(os.path.join(out, "last_finite.vtu")) and os.path.exists(os.path.join(out, "series.pvd"))
-              and not any(f.endswith(".tmp") for f in os.listdir(out)))
-        if check(ok, f"divergence: rc {r.returncode}, stderr {r.stderr[-500:]!r}, frames {frames}"):
-            print(f"divergence: '{err[0]}', {len(frames)} frames kept, last_finite.vtu written")
+        # a diverging run: explicit Euler on a stiff cloth, frames every 10 steps (at 1 rank)
+        if 1 in nps:
+            out = os.path.join(tmp, "diverged")
+            r = run(["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_output", out, "-msim_output_every", "10", "-msim_spectrum_check", "0"], tmp)
+            frames = sorted(f for f in os.listdir(out) if f.startswith("frame_")) if os.path.isdir(out) else []
+            err = [l for l in r.stderr.splitlines() if l.startswith("msim: error:")]
+            ok = (r.returncode != 0 and len(err) == 1 and "diverged at step" in err[0] and "explicit_euler" in err[0] and "h = 0.002" in err[0]
+                  and len(frames) >= 1 and os.path.exists(os.path.join(out, "last_finite.vtu")) and os.path.exists(os.path.join(out, "series.pvd"))
+                  and not any(f.endswith(".tmp") for f in os.listdir(out)))
+            if check(ok, f"divergence: rc {r.returncode}, stderr {r.stderr[-500:]!r}, frames {frames}"):
+                print(f"divergence: '{err[0]}', {len(frames)} frames kept, last_finite.vtu written")
     sys.exit(check.exit_code())
 
 

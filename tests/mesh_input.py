@@ -15,7 +15,9 @@ mass derived here, independently of msim:
 - partitions (-msim_partition_view) of the bunny: the owned vertices of all ranks add up to the
   free ones at 2 and 3 ranks, and METIS cuts at 2 parts far fewer springs (under a quarter) than
   contiguous blocks of TetGen's vertex order.
-Usage: mesh_input.py path/to/msim corpus|valid [--no-tetgen]"""
+The corpus runs at 1 and 2 ranks, or with `--np N` at N alone (ctest's mesh_input_corpus_np1 and
+_np2: the 1-rank half runs beside other tests).
+Usage: mesh_input.py path/to/msim corpus|valid [--no-tetgen] [--np N]"""
 import os
 import re
 import shutil
@@ -122,7 +124,7 @@ def test_corpus(tmp):
     files = sorted(f for f in os.listdir(BAD) if not f.endswith((".node", ".opts")))  # bad options files: bad_input.py
     listed = {f for f, _, _ in CORPUS}
     check(set(files) == listed, f"every file of tests/data/bad is in CORPUS: {sorted(set(files) ^ listed)}")
-    for np in (1, 2):
+    for np in mt.ranks():
         for name, scene, message in CORPUS:
             if name in NEEDS_TETGEN and not TETGEN:
                 continue
