@@ -66,6 +66,13 @@ typedef struct _n_MSimContact *MSimContact;
    the first call: reads -msim_contact_*, checks every start vertex outside every obstacle. */
 PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact);
 PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
+/* A restarted run's state X at time t against the obstacles, as the start's: one error line naming
+   the first vertex inside an obstacle or within 1e-6 dhat of one (the obstacles are options, not
+   part of the checkpoint). Collective; nothing without obstacles. */
+PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X);
+/* *speed = the fastest obstacle's speed (-msim_contact_velocity; 0 without obstacles): a moving
+   obstacle gives the scene kinetic energy, which the divergence check's energy scale counts */
+PetscErrorCode MSimContactObstacleSpeed(MSimSystem sys, PetscReal *speed);
 /* Signed distance of x to obstacle o (positive outside), its gradient n (unit) and, when H is
    not NULL, its Hessian (3 x 3, row major; zero for planes and box faces). */
 PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);

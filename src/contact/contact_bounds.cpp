@@ -59,6 +59,8 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
     PetscCheck(!what, sys->comm, PETSC_ERR_SUP, "%s takes axis-aligned planes and boxes only as variable bounds: obstacle %d is %s (use the barrier: no -msim_contact_bounds, a -snes_type that is not a VI)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls", (int)k, what);
     PetscCheck(o.v[0] == 0 && o.v[1] == 0 && o.v[2] == 0, sys->comm, PETSC_ERR_SUP, "%s takes static obstacles only as variable bounds: obstacle %d moves (-msim_contact_velocity)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls", (int)k);
   }
+  /* IPC's friction takes each vertex's normal force from the barrier, which the bounds replace */
+  PetscCheck(ct->mu == 0, sys->comm, PETSC_ERR_SUP, "-msim_friction with obstacles as variable bounds (%s) is not supported: friction takes its normal force from the barrier, which the bounds replace; use the barrier (no -msim_contact_bounds, a -snes_type that is not a VI)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls");
   *b         = new _n_MSimContactBounds();
   (*b)->sys  = sys;
   (*b)->snes = snes;

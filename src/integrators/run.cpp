@@ -2,6 +2,7 @@
 #include <csignal>
 #include <msim/run.h>
 #include <msim/spectrum.h>
+#include <msim/contact.h>
 #include <msim/contact_force.h>
 #include <msim/signals.h>
 #include <msim/log.h>
@@ -74,7 +75,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscReal      t_ck = 0, dt_ck = 0, E0_ck = 0;
   PetscBool      restarted;
   PetscBool   want_mon, want_out;
-  PetscReal   factor = 10, kin, pot, E0, scale, gnorm;
+  PetscReal   factor = 10, kin, pot, E0, scale, gnorm, vobs;
   PetscInt    check_every = 10, last_good = 0;
   Vec         Xgood, Vgood;
 
@@ -100,6 +101,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimGuard(sys, integ, X, info));
   PetscCall(MSimCheckpointSetIntegrator(ck, integ));
   PetscCall(MSimCheckpointRestart(ck, integ->steps, X, V, &step0, &t_ck, &dt_ck, &E0_ck, &restarted));
+  if (restarted) PetscCall(MSimContactCheckRestart(sys, t_ck, X)); /* the obstacles may be new */
   /* all input is valid from here on: create the output directory (a monitor file may live in
      it), then open the monitor files */
   PetscCall(MSimOutputSetUp(out));
@@ -118,12 +120,13 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   auto            time_at = [&](PetscInt k) { return same_dt ? k * integ->dt : t_ck + (k - step0) * integ->dt; };
 
   /* Energy scale: the initial energy, what gravity can release over the scene's size, the kinetic
-     energy of the whole mass moving with the handles or the wind. Divergence is an energy change
-     many times larger than all of them. */
+     energy of the whole mass moving with the handles, the wind or the fastest obstacle. Divergence
+     is an energy change many times larger than all of them. */
   PetscCall(MSimSystemComputeEnergy(sys, 0, X, V, &kin, &pot));
+  PetscCall(MSimContactObstacleSpeed(sys, &vobs));
   E0    = restarted ? E0_ck : kin + pot; /* a restarted run compares with the first run's start */
   gnorm = PetscSqrtReal(sys->gravity[0] * sys->gravity[0] + sys->gravity[1] * sys->gravity[1] + sys->gravity[2] * sys->gravity[2]);
-  scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2] + sys->wind[0] * sys->wind[0] + sys->wind[1] * sys->wind[1] + sys->wind[2] * sys->wind[2]) + PETSC_SMALL;
+  scale = PetscAbsReal(E0) + sys->total_mass * gnorm * sys->diameter + 0.5 * sys->total_mass * (sys->fix_velocity[0] * sys->fix_velocity[0] + sys->fix_velocity[1] * sys->fix_velocity[1] + sys->fix_velocity[2] * sys->fix_velocity[2] + sys->wind[0] * sys->wind[0] + sys->wind[1] * sys->wind[1] + sys->wind[2] * sys->wind[2] + vobs * vobs) + PETSC_SMALL;
   if (!restarted) { /* a restarted run has these from the first */
     if (want_mon) {
       PetscReal contact[4];

@@ -569,7 +569,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
          feasible line search: a vertex went inside a sphere a cloth fell on */
       PetscCall(PetscObjectTypeCompareAny((PetscObject)ie->snes, &unguarded, SNESKSPONLY, SNESANDERSON, SNESNGMRES, ""));
       PetscCall(SNESGetType(ie->snes, &type));
-      PetscCheck(!unguarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with obstacles (-msim_contact_*) is not supported: its steps have no feasible line search; use newtonls (-snes_max_it 1 for one Baraff-Witkin step), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type);
+      PetscCheck(!unguarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with obstacles (-msim_contact_*) is not supported: its steps have no feasible line search; use newtonls (to convergence: one Newton step, Baraff-Witkin's, stops wherever its line search meets the barrier), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type);
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
       PetscCall(SNESLineSearchSetPreCheck(ls, LineSearchPreCheckMaxStep, ie));
       /* L-BFGS's default cp search extrapolates past the shortened step on gradients alone (it
