@@ -25,6 +25,7 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <cstdio>
+#include <unistd.h>
 #include <string>
 
 static PetscErrorCode FindTerm(MSimImplicit imp, const char name[], MSimImplicitTerm *term)
@@ -103,7 +104,8 @@ static PetscErrorCode At(Vec X, Vec G, const PetscReal p[3], PetscReal gp[3], Pe
 /* once: -msim_self_contact_once; without it the pairs' sum: derived multiplicities 1, 5, 19 */
 static PetscErrorCode Run(PetscBool once)
 {
-  const char     *path = "/tmp/msim_test_self_features.off";
+  char            path[PETSC_MAX_PATH_LEN];
+  int             pid = (int)getpid();
   const PetscReal dhat = 0.1, p0[3] = {1.3, 1.6, 0.5};
   PetscMPIInt     rank;
   TestSim         s;
@@ -115,6 +117,9 @@ static PetscErrorCode Run(PetscBool once)
 
   PetscFunctionBeginUser;
   PetscCallMPI(MPI_Comm_rank(PETSC_COMM_WORLD, &rank));
+  /* rank 0's process id in the name: the tests at 1 and 2 ranks may run at once (ctest -j) */
+  PetscCallMPI(MPI_Bcast(&pid, 1, MPI_INT, 0, PETSC_COMM_WORLD));
+  PetscCall(PetscSNPrintf(path, sizeof path, "/tmp/msim_test_self_features_%d.off", pid));
   if (!rank) {
     FILE *f = fopen(path, "w");
     PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
