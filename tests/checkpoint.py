@@ -172,6 +172,20 @@ def main():
                 lines = mt.lines(r.stderr)
                 check(r.returncode != 0 and len(lines) == 1 and message in lines[0] and not os.path.exists(out),
                       f"np={np}: refused: {message} ({lines[:2]})")
+        # BDF2 restarted at another -msim_dt: its history (x_{n-1}, v_{n-1}) is one old step back,
+        # so it starts up again, saying so once; BDF2 damps, so the undamped chain's energy does not
+        # rise after the restart (taking the old history as one new step back, it rose from
+        # -1.7e-3 J to +2.5e-3 J)
+        chain = ["-msim_scene", "chain", "-msim_chain_n", "12", "-msim_fix", "corners", "-msim_integrator", "bdf2"]
+        for np in (1, 2):
+            ck, mon = os.path.join(tmp, f"bdf2_{np}.ck"), os.path.join(tmp, f"bdf2_{np}.csv")
+            r0 = run(np, chain + ["-msim_dt", "0.01", "-msim_steps", "10", "-msim_checkpoint", ck, "-msim_monitor_csv", mon], tmp)
+            e_ck = float(mt.read_csv(mon)[-1]["total"]) if r0.returncode == 0 else float("nan")
+            r = run(np, chain + ["-msim_dt", "0.005", "-msim_steps", "16", "-msim_restart", ck, "-msim_monitor_csv", mon], tmp)
+            lines = mt.lines(r.stderr)
+            total = [float(row["total"]) for row in mt.read_csv(mon) if int(row["step"]) > 10] if r.returncode == 0 else []
+            check(r.returncode == 0 and len(lines) == 1 and "starts up again" in lines[0] and total and max(total) <= e_ck + 1e-9,
+                  f"np={np}: bdf2 restarted at half the step: one warning ({lines[:2]}), energy {e_ck:.6g} J at the checkpoint, at most {max(total) if total else float('nan'):.6g} J after")
     return check.exit_code()
 
 

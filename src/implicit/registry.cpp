@@ -45,6 +45,7 @@ static PetscErrorCode MSimImplicitSchemeCreateFromType(MSimImplicitScheme scheme
   scheme->ops.end_step   = type->end_step;
   scheme->ops.predict    = type->predict;
   scheme->nhistory       = type->nhistory;
+  scheme->history_at_h   = type->history_at_h;
   for (; scheme->nwork < type->nwork; scheme->nwork++) PetscCall(VecDuplicate(scheme->imp->sys->X0, &scheme->work[scheme->nwork]));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

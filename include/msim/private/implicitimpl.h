@@ -44,6 +44,7 @@ typedef struct {
   MSimImplicitSchemeBeginStep begin_step;
   MSimImplicitSchemeEndStep   end_step;
   MSimImplicitSchemePredict   predict;
+  PetscBool                   history_at_h; /* the history is states one step h back: valid only at the step it was written with */
 } MSimImplicitSchemeType;
 
 #define MSIM_SCHEME_MAX_WORK 8
@@ -73,6 +74,7 @@ struct _n_MSimImplicitScheme {
   /* the history vectors hold the previous step's history: set by end_step, and by a restart
      that loaded them; while false, begin_step starts the scheme up from (x_n, v_n) alone */
   PetscBool             history_valid;
+  PetscBool             history_at_h; /* its type's */
 };
 
 /* An energy term. Every op is optional but energy and gradient; a term with a diagonal op is the

@@ -24,6 +24,7 @@ struct _n_MSimIntegrator {
   char              type[64];
   MSimSystem        sys;
   PetscReal         dt;
+  PetscReal         restart_dt; /* a restart: the checkpoint's -msim_dt, set before history_loaded */
   PetscInt          steps;
   PetscInt          step, first_step; /* the step being taken (1 ... steps, counted by MSimIntegratorStep); this run's first (after a restart, not 1) */
   MSimIntegratorOps ops;

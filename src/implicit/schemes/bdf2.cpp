@@ -101,4 +101,4 @@ static PetscErrorCode Predict_BDF2(MSimImplicitScheme scheme, MSimImplicit imp, 
 }
 
 /* beta 4/9, gamma 2/3, first iterate x_n + h v_n; restarts need x_{n-1}, v_{n-1} */
-extern const MSimImplicitSchemeType MSimImplicitSchemeBDF2 = {4.0 / 9.0, 2.0 / 3.0, 1, NWORK, 2, NULL, NULL, BeginStep_BDF2, EndStep_BDF2, Predict_BDF2};
+extern const MSimImplicitSchemeType MSimImplicitSchemeBDF2 = {4.0 / 9.0, 2.0 / 3.0, 1, NWORK, 2, NULL, NULL, BeginStep_BDF2, EndStep_BDF2, Predict_BDF2, PETSC_TRUE};

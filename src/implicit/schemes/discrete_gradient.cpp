@@ -83,4 +83,4 @@ static PetscErrorCode Predict_DG(MSimImplicitScheme scheme, MSimImplicit imp, Ve
 /* beta 1/2, gamma 1/2, first iterate x_n + h v_n, no history; the step is a residual (no
    objective), so a barrier, which needs a minimization with a feasible line search, is refused */
 extern const MSimImplicitSchemeType MSimImplicitSchemeDiscreteGradient = {0.5, 0.5, 1, NWORK, 0, "a barrier needs a minimization with a feasible line search, and this step is a residual",
-                                                                          "its step is a discrete-gradient residual, not the gradient of an energy", BeginStep_DG, EndStep_DG, Predict_DG};
+                                                                          "its step is a discrete-gradient residual, not the gradient of an energy", BeginStep_DG, EndStep_DG, Predict_DG, PETSC_FALSE};

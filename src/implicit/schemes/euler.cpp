@@ -35,4 +35,4 @@ static PetscErrorCode Predict_Euler(MSimImplicitScheme scheme, MSimImplicit imp,
 }
 
 /* beta 1, gamma 1, first iterate x_n + h v_n, no vectors kept */
-extern const MSimImplicitSchemeType MSimImplicitSchemeEuler = {1, 1, 1, 0, 0, NULL, NULL, BeginStep_Euler, EndStep_Euler, Predict_Euler};
+extern const MSimImplicitSchemeType MSimImplicitSchemeEuler = {1, 1, 1, 0, 0, NULL, NULL, BeginStep_Euler, EndStep_Euler, Predict_Euler, PETSC_FALSE};

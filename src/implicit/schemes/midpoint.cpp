@@ -55,4 +55,4 @@ static PetscErrorCode Predict_Midpoint(MSimImplicitScheme scheme, MSimImplicit i
 
 /* beta 1/4, gamma 1/2, first iterate x_n + h/2 v_n, no history; a barrier is refused (x_{n+1} =
    2 x_m - x_n went inside a box a cloth fell on) */
-extern const MSimImplicitSchemeType MSimImplicitSchemeMidpoint = {0.25, 0.5, 0.5, NWORK, 0, "a barrier keeps the midpoint feasible, not x_{n+1} = 2 x_m - x_n", NULL, BeginStep_Midpoint, EndStep_Midpoint, Predict_Midpoint};
+extern const MSimImplicitSchemeType MSimImplicitSchemeMidpoint = {0.25, 0.5, 0.5, NWORK, 0, "a barrier keeps the midpoint feasible, not x_{n+1} = 2 x_m - x_n", NULL, BeginStep_Midpoint, EndStep_Midpoint, Predict_Midpoint, PETSC_FALSE};

@@ -69,4 +69,4 @@ static PetscErrorCode Predict_Newmark(MSimImplicitScheme scheme, MSimImplicit im
 
 /* beta 1/4, gamma 1/2, first iterate x_n + h v_n; restarts need a_n; a barrier is refused (a cloth
    dropped on a box diverged: nothing damps the recursions' response to the barrier) */
-extern const MSimImplicitSchemeType MSimImplicitSchemeNewmark = {0.25, 0.5, 1, NWORK, 1, "its trapezoidal velocity and acceleration recursions ring on a barrier's stiff response and diverge", NULL, BeginStep_Newmark, EndStep_Newmark, Predict_Newmark};
+extern const MSimImplicitSchemeType MSimImplicitSchemeNewmark = {0.25, 0.5, 1, NWORK, 1, "its trapezoidal velocity and acceleration recursions ring on a barrier's stiff response and diverge", NULL, BeginStep_Newmark, EndStep_Newmark, Predict_Newmark, PETSC_FALSE};

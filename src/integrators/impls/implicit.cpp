@@ -861,6 +861,10 @@ static PetscErrorCode HistoryLoaded_Implicit(MSimIntegrator integ)
 
   PetscFunctionBeginUser;
   ie->imp->scheme->history_valid = PETSC_TRUE;
+  if (ie->imp->scheme->history_at_h && integ->restart_dt != integ->dt) { /* BDF2's x_{n-1}, v_{n-1} are one old step back */
+    ie->imp->scheme->history_valid = PETSC_FALSE;
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart with -msim_dt %g, the checkpoint's %g: %s's history is one step of the checkpoint's back, so it starts up again (one first-order step) at the new step\n", (double)integ->dt, (double)integ->restart_dt, integ->type));
+  }
   if (ie->imp->Vprev) ie->imp->vprev_valid = PETSC_TRUE;
   for (PetscInt k = 0; k < ie->imp->nterms; k++)
     if (ie->imp->terms[k]->ops.history_loaded) PetscCall(ie->imp->terms[k]->ops.history_loaded(ie->imp->terms[k]));
