@@ -138,7 +138,7 @@ static PetscErrorCode SNESPDGetProblem(SNES snes, MSimPDProblem **pd)
   PetscFunctionBeginUser;
   PetscCall(SNESGetDM(snes, &dm));
   PetscCall(PetscObjectQuery((PetscObject)dm, "MSimPDProblem", (PetscObject *)&c));
-  PetscCheck(c, PetscObjectComm((PetscObject)snes), PETSC_ERR_ARG_WRONGSTATE, "-snes_type pd needs a problem that provides projective-dynamics steps (msim's implicit_euler)");
+  PetscCheck(c, PetscObjectComm((PetscObject)snes), PETSC_ERR_ARG_WRONGSTATE, "-snes_type pd needs a problem that provides projective-dynamics steps (msim's implicit schemes: implicit_euler, bdf2, implicit_midpoint, newmark; not -msim_integrator ts)");
   PetscCall(PetscContainerGetPointer(c, (void **)pd));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
