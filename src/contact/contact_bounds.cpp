@@ -74,7 +74,15 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
      steps go on, and l2 is msim's search where there is no Phi. A VI type, set here or by
      -snes_type, resets the line search to bt after its options were read, so they are read again
      here: a user's -snes_linesearch_type still wins. */
-  if (!vi) PetscCall(SNESSetType(snes, SNESVINEWTONRSLS));
+  if (!vi) { /* msim's default solver gives way to the VI; a type the user named is not overridden silently */
+    const char *prefix, *type;
+    PetscBool   named;
+    PetscCall(SNESGetOptionsPrefix(snes, &prefix));
+    PetscCall(PetscOptionsHasName(NULL, prefix, "-snes_type", &named));
+    PetscCall(SNESGetType(snes, &type));
+    PetscCheck(!named, sys->comm, PETSC_ERR_ARG_INCOMP, "-msim_contact_bounds takes SNES's VI solvers (vinewtonrsls, the default there, or vinewtonssls), not -snes_type %s; or keep -snes_type %s and use the barrier (no -msim_contact_bounds)", type, type);
+    PetscCall(SNESSetType(snes, SNESVINEWTONRSLS));
+  }
   PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESVINEWTONSSLS, &ssls));
   {
     SNESLineSearch ls;
