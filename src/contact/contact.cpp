@@ -325,13 +325,13 @@ static PetscErrorCode CheckState(MSimContact ct, PetscReal t, Vec X, const char 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X)
+PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, PetscBool barrier)
 {
   MSimContact ct;
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, &ct));
-  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!ct || !barrier) PetscFunctionReturn(PETSC_SUCCESS); /* a penalty's vertices sink m g / kc into an obstacle at rest */
   for (MSimObstacle &o : ct->obs)
     if (o.mesh) MSimMeshObstacleSetBand(o.mesh, PETSC_MAX_REAL); /* full answers, as at the start */
   char when[64];

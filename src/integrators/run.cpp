@@ -4,6 +4,7 @@
 #include <msim/spectrum.h>
 #include <msim/contact.h>
 #include <msim/contact_force.h>
+#include <msim/implicit.h>
 #include <msim/signals.h>
 #include <msim/log.h>
 #include <msim/private/integratorimpl.h>
@@ -101,7 +102,11 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimGuard(sys, integ, X, info));
   PetscCall(MSimCheckpointSetIntegrator(ck, integ));
   PetscCall(MSimCheckpointRestart(ck, integ->steps, X, V, &step0, &t_ck, &dt_ck, &E0_ck, &restarted));
-  if (restarted) PetscCall(MSimContactCheckRestart(sys, t_ck, X)); /* the obstacles may be new */
+  if (restarted) { /* the obstacles may be new: the barrier's state must be outside them */
+    PetscBool barrier;
+    PetscCall(MSimImplicitSchemeIsRegistered(integ->type, &barrier));
+    PetscCall(MSimContactCheckRestart(sys, t_ck, X, barrier));
+  }
   /* all input is valid from here on: create the output directory (a monitor file may live in
      it), then open the monitor files */
   PetscCall(MSimOutputSetUp(out));

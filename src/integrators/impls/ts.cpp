@@ -189,10 +189,11 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTNONE, &known));
     d->adaptive = (PetscBool)!known;
   }
-  /* the first internal step: -ts_dt where given, else -msim_dt, except for an adaptive beuler,
-     theta or cn: their error estimate needs the previous step's state, so PETSc accepts their
-     first step unchecked (a whole -msim_dt of 0.3 s ended 5e-2 m off at any tolerance); they start
-     at 1e-3 -msim_dt, where that step's error is small, and the controller grows the steps */
+  /* an adaptive TS's first internal step (a fixed-step one always takes -msim_dt): -ts_dt where
+     given, else -msim_dt, except for beuler, theta or cn: their error estimate needs the previous
+     step's state, so PETSc accepts their first step unchecked (a whole -msim_dt of 0.3 s ended
+     5e-2 m off at any tolerance); they start at 1e-3 -msim_dt, where that step's error is small,
+     and the controller grows the steps */
   {
     const char *prefix;
     PetscBool   given, theta_family = PETSC_FALSE;
