@@ -284,7 +284,7 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     PetscCall(MSimSNESHistoryIsComplete(snes, &complete));
     if (!complete) PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: -msim_restart with -snes_type qn: PETSc keeps qn's pairs from step to step where a checkpoint cannot reach them, so the restarted run is not bit for bit the uninterrupted one\n"));
   }
-  ck->integ->restart_dt = reals[1];
+  if (ck->integ) ck->integ->restart_dt = reals[1]; /* a reader without an integrator (fuzz_checkpoint) has none */
   if (load_hist) PetscCall(ck->integ->ops.history_loaded(ck->integ));
   *step      = header[H_STEP];
   *t         = reals[0];
