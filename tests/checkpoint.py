@@ -87,15 +87,23 @@ def main():
                 check(listed == rlisted, f"{np1} -> {np2} ranks: the same frames listed ({len(listed)})")
             check(mon == rmon if np1 == np2 else len(mon) == len(rmon), f"{np1} -> {np2} ranks: the monitor rows of the uninterrupted run ({len(mon)} lines)")
 
-        # the parallel series (HDF5 + XDMF) goes on too: the same index as the uninterrupted run's
-        for name, parts in (("h5ref", [("60", [])]), ("h5split", [("30", []), ("60", ["-msim_restart"])])):
-            out = os.path.join(tmp, name)
-            for steps, extra in parts:
-                args = SCENE + ["-msim_output", out, "-msim_output_format", "hdf5", "-msim_checkpoint", out + ".ck", "-msim_steps", steps]
-                r = run(2, args + (extra + [out + ".ck"] if extra else []), tmp)
-                check(r.returncode == 0, f"hdf5 series, {name} to step {steps} ({r.stderr.strip()[:200]})")
-        xdmf = [open(os.path.join(tmp, n, "series.xdmf")).read() for n in ("h5ref", "h5split")]
-        check(xdmf[0] == xdmf[1] and xdmf[0].count("<Grid Name=\"frame_") == 7, "hdf5 series: series.xdmf after a restart lists the uninterrupted run's 7 frames")
+        # both series formats go on too, the first part stopped off the frame schedule (35, frames
+        # every 10): the index is the uninterrupted run's, without the first part's end frame
+        for fmt, index, entry in (("hdf5", "series.xdmf", '<Grid Name="frame_'), ("vtu", "series.pvd", "<DataSet ")):
+            for name, parts in (("ref", [("60", [])]), ("split", [("35", []), ("60", ["-msim_restart"])])):
+                out = os.path.join(tmp, fmt + name)
+                for steps, extra in parts:
+                    args = SCENE + ["-msim_output", out, "-msim_output_format", fmt, "-msim_checkpoint", out + ".ck", "-msim_steps", steps]
+                    r = run(2, args + (extra + [out + ".ck"] if extra else []), tmp)
+                    check(r.returncode == 0, f"{fmt} series, {name} to step {steps} ({r.stderr.strip()[:200]})")
+            text = [open(os.path.join(tmp, fmt + n, index)).read() for n in ("ref", "split")]
+            check(text[0] == text[1] and text[0].count(entry) == 7, f"{fmt} series: {index} after a restart at step 35 lists the uninterrupted run's 7 frames")
+
+        # a restarted run's warnings count the steps it ran: 17 + 13, each stopped at one iteration
+        small = ["-msim_cloth_n", "5", "-msim_integrator", "implicit_euler", "-msim_dt", "0.02", "-snes_max_it", "1", "-msim_checkpoint", "few.ck"]
+        r1, r2 = (run(1, small + ["-msim_steps", n] + extra, tmp) for n, extra in (("17", []), ("30", ["-msim_restart", "few.ck"])))
+        check(r1.returncode == 0 and "in 17 of 17 steps" in r1.stderr and r2.returncode == 0 and "in 13 of 13 steps" in r2.stderr,
+              f"the unconverged-steps warning counts each part's own steps ({r1.stderr.strip()[:120]} | {r2.stderr.strip()[:120]})")
 
         # killed at a random moment, restarted from the last checkpoint
         random.seed(7)

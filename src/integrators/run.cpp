@@ -226,13 +226,14 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(PetscLogStagePop());
   PetscCall(MSimCheckpointDestroy(&ck));
   info->steps_done = integ->steps;
+  /* the warnings below count this run's steps: a restarted run's counters start at its checkpoint */
   info->t          = time_at(integ->steps);
   if (integ->saddle_steps)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps Newton converged to a saddle point of Phi, not a minimum (up to %" PetscInt_FMT " negative eigenvalues of the exact Hessian): an unstable state, usually a cloth compressed flat; -msim_inertia_correction or a descent method (-msim_psd 1, pd, qn) moves off it\n", integ->saddle_steps, integ->steps, integ->saddle_negative));
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps Newton converged to a saddle point of Phi, not a minimum (up to %" PetscInt_FMT " negative eigenvalues of the exact Hessian): an unstable state, usually a cloth compressed flat; -msim_inertia_correction or a descent method (-msim_psd 1, pd, qn) moves off it\n", integ->saddle_steps, integ->steps - step0, integ->saddle_negative));
   if (integ->unconverged_steps)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, integ->steps, integ->tolerance));
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, integ->steps - step0, integ->tolerance));
   if (integ->stalled_steps)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, integ->steps, integ->stall));
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, integ->steps - step0, integ->stall));
   if (integ->barrier_energy0 > scale - integ->barrier_energy0)
     PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: the contact barriers held %g J at the start, %g x the scene's energy scale %g J: elements that start within the contact distance (-msim_self_contact_start_gap below it, or a vertex near an obstacle) spring apart and turn it into kinetic energy; a start resting in contact needs its gaps near that distance, or a smaller -msim_self_contact_distance\n", (double)integ->barrier_energy0, (double)(integ->barrier_energy0 / (scale - integ->barrier_energy0)), (double)(scale - integ->barrier_energy0)));
   PetscCall(MSimViewFinal(sys, info->t, X));

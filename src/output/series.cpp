@@ -3,7 +3,8 @@
    velocities gathered whole (small runs; the topology, file ids, rest lengths and volumes
    gathered once), or the parallel HDF5 + XDMF series of hdf5_series.cpp that every rank writes
    its part of (any size). The fields each frame holds: msim/output.h. The collection is rewritten
-   whole after each frame so that it always lists exactly the frames on disk. */
+   whole after each frame so that it always lists exactly the frames written (a restart drops the
+   entries after its checkpoint, and the checkpoint's own frame where it is off the schedule). */
 #include "hdf5_series.h"
 #include "frame_fields.h"
 #include <msim/contact_force.h>
@@ -127,7 +128,10 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
   PetscFunctionBeginUser;
   if (!out || out->sys->rank) PetscFunctionReturn(PETSC_SUCCESS);
   /* the collection as the earlier run left it, its entries after the checkpoint dropped (their
-     frames are written again) */
+     frames are written again). The checkpoint's own frame stays only where this run's schedule
+     has it: a first run that ended there off the schedule wrote it as its last frame, which the
+     run it continues would not have (the series then matches an uninterrupted run's) */
+  auto keep = [&](long k) { return k >= 0 && (k < step || (k == step && step % out->every == 0)); };
   const std::string path = std::string(out->dir) + (out->hdf5 ? "/series.xdmf" : "/series.pvd");
   FILE             *fp   = fopen(path.c_str(), "r");
   std::string       text, kept;
@@ -143,7 +147,7 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
       const size_t end = text.find(close, at);
       if (end == std::string::npos) break;
       const std::string grid = text.substr(at, end + close.size() - at);
-      if (FrameStep(grid) <= step) kept += grid;
+      if (keep(FrameStep(grid))) kept += grid;
       at = end + close.size();
     }
     out->h5.grids = kept;
@@ -152,7 +156,7 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
     while (at < text.size()) {
       size_t            nl   = text.find('\n', at);
       const std::string line = text.substr(at, nl == std::string::npos ? std::string::npos : nl + 1 - at);
-      if (line.find("<DataSet ") != std::string::npos && FrameStep(line) >= 0 && FrameStep(line) <= step) kept += line;
+      if (line.find("<DataSet ") != std::string::npos && keep(FrameStep(line))) kept += line;
       if (nl == std::string::npos) break;
       at = nl + 1;
     }
