@@ -62,9 +62,19 @@ def command(exe, args=(), np=1):
     return ([] if np == 1 else mpirun(np)) + [exe] + [str(a) for a in args]
 
 
+# For runs to their end (run(), not popen()): when a rank exits non-zero (bad input at 2 ranks),
+# mpirun sends the job's ranks SIGTERM and waits odls_base_sigkill_timeout (1 s) before SIGKILL,
+# even when every rank has already exited: 1-2 s more per refused run (bad_input's 2-rank half:
+# 67 s without the wait, 137 and 146 s with it, load ~5-8). Not for popen(): a SIGTERM to mpirun
+# reaches the ranks the same way, and without the wait they are killed before they save their
+# checkpoint (tests/checkpoint.py's SIGTERM check).
+RUN_ENV = dict(ENV)
+RUN_ENV.setdefault("OMPI_MCA_odls_base_sigkill_timeout", "0")
+
+
 def run(exe, args=(), np=1, cwd=None, **kw):
     """runs exe to its end; stdout and stderr captured as text"""
-    kw.setdefault("env", ENV)
+    kw.setdefault("env", RUN_ENV)
     return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, **kw)
 
 
