@@ -272,8 +272,8 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
    a millionth of dhat: nearer, the barrier's force at the start is beyond any step's scale (a vertex
    2e-16 from a box gave a first step with 2.5e9 N and |g| 3e5, accepted on the step norm); the
    first offender named by its input id (the id users type, whatever the rank count) and the
-   obstacle. Meshes answer in full here (no band), so a vertex deep inside one is found too. */
-static PetscErrorCode CheckState(MSimContact ct, PetscReal t, Vec X, const char *when)
+   obstacle. The meshes answer as set (CheckState sets them to answer in full). */
+static PetscErrorCode CheckVertices(MSimContact ct, PetscReal t, Vec X, const char *when)
 {
   MSimSystem         sys = ct->sys;
   const PetscScalar *x, *nat;
@@ -325,6 +325,19 @@ static PetscErrorCode CheckState(MSimContact ct, PetscReal t, Vec X, const char 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* CheckVertices with the meshes answering in full (no band), so that a vertex deep inside one is
+   found too; then back to the band the barrier's queries take (where it reaches) */
+static PetscErrorCode CheckState(MSimContact ct, PetscReal t, Vec X, const char *when)
+{
+  PetscFunctionBeginUser;
+  for (MSimObstacle &o : ct->obs)
+    if (o.mesh) MSimMeshObstacleSetBand(o.mesh, PETSC_MAX_REAL);
+  PetscCall(CheckVertices(ct, t, X, when));
+  for (MSimObstacle &o : ct->obs)
+    if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, PetscBool barrier)
 {
   MSimContact ct;
@@ -332,13 +345,9 @@ PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, Petsc
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, &ct));
   if (!ct || !barrier) PetscFunctionReturn(PETSC_SUCCESS); /* a penalty's vertices sink m g / kc into an obstacle at rest */
-  for (MSimObstacle &o : ct->obs)
-    if (o.mesh) MSimMeshObstacleSetBand(o.mesh, PETSC_MAX_REAL); /* full answers, as at the start */
   char when[64];
   PetscCall(PetscSNPrintf(when, sizeof(when), "is at the restart (t = %g s)", (double)t));
   PetscCall(CheckState(ct, t, X, when));
-  for (MSimObstacle &o : ct->obs)
-    if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -446,9 +455,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
-  PetscCall(CheckState(ct, 0.0, sys->X0, "starts")); /* the meshes' inside test everywhere, then only where the barrier reaches */
-  for (MSimObstacle &o : ct->obs)
-    if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
+  PetscCall(CheckState(ct, 0.0, sys->X0, "starts"));
   /* -msim_scene_view is the scene's option; the system carries it here */
   if (sys->scene_view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;
