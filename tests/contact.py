@@ -20,7 +20,8 @@
 - bad input: a sphere given with 3 values, a cloth starting inside a sphere, implicit_midpoint
   with an obstacle (refused: the barrier keeps its unknown, the midpoint, feasible, not x_{n+1})
   and ksponly with an obstacle (refused: one linear step, no feasible line search), and friction
-  with a penalty (explicit or TS: it has none) or with obstacles as VI bounds, a named -snes_type
+  with a penalty (explicit or TS: it has none) or with obstacles as VI bounds and no self-contact
+  (nothing for it to act on), a named -snes_type
   that is not a VI with bounds (not overridden silently), a start within 1e-6 dhat of an obstacle
   and a restart whose state is inside a (new) obstacle are one error line.
 Usage: contact.py path/to/msim [--np N]"""
@@ -216,7 +217,7 @@ def main():
                      ("friction with the explicit penalty", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_integrator", "symplectic_euler"], ["-msim_friction", "symplectic_euler", "not supported"]),
                      ("friction with TS's penalty", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_integrator", "ts"], ["-msim_friction", "-msim_integrator ts", "not supported"]),
                      ("a named -snes_type that is not a VI with obstacles as bounds", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_bounds", "-snes_type", "pd"], ["-msim_contact_bounds", "not -snes_type pd"]),
-                     ("friction with obstacles as variable bounds", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_contact_bounds"], ["-msim_friction", "variable bounds", "not supported"]),
+                     ("friction with obstacles as variable bounds and no self-contact", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_contact_bounds"], ["-msim_friction", "variable bounds", "not supported", "-msim_self_contact"]),
                      ("a cloth starting a roundoff (2.2e-16 m) from a box", ["-msim_contact_box", "1.0000000000000002,2,0,1,-1,1"], ["starts at distance 2.22045e-16 from obstacle 0", "-msim_contact_box", "below 1e-6 of the contact distance"])), np_)
         # a restart checks its state against the obstacles as a start does (they are options, not
         # part of the checkpoint): a plane added across the checkpoint's cloth is refused in one

@@ -20,7 +20,10 @@ touching elements then):
 - mu > tan(theta) with the large sheet moving up the incline at v (-msim_fix_velocity: a conveyor
   belt; the slip is relative to it): the small sheet is carried up with it, v T within eps_v T plus
   one step's v h (friction catches it up within the first step: g (sin + mu cos) h > v);
-- no frame has the small sheet's vertices below the large sheet (gap > 0).
+- no frame has the small sheet's vertices below the large sheet (gap > 0);
+- mu > tan(theta) with an obstacle far below taken as variable bounds (-msim_contact_bounds): the
+  sheet stays as without it, and one warning line says the obstacles have no friction (it needs
+  the barrier's normal force); the bounds once refused every -msim_friction, this one too.
 Usage: self_friction.py path/to/msim [--np N]"""
 import math
 import os
@@ -97,11 +100,16 @@ def main():
     T = STEPS * H
     eps_v = 1e-3 * math.hypot(2, 1)  # -msim_friction_eps's default: 1e-3 of the scene's diameter per second
     belt = -0.05  # m/s along x: up the incline
-    for np_, mu, v in ((n, m, b) for n in mt.ranks() for m, b in ((0.8, 0.0), (0.2, 0.0), (0.0, 0.0), (0.8, belt))):
-        out = os.path.join(tmp, f"mu{mu}_{v}_{np_}")
-        r = mt.run(exe, base + ["-msim_friction", str(mu), "-msim_fix_velocity", f"{v},0,0", "-msim_output", out], np_)
-        if not check(r.returncode == 0, f"np {np_}: mu {mu}{', belt' if v else ''}: runs ({r.stderr.strip()[-300:]})"):
+    bounds = ["-msim_contact_plane", "0,0,1,-0.5", "-msim_contact_bounds"]
+    for np_, mu, v, extra in ((n, m, b, e) for n in mt.ranks() for m, b, e in ((0.8, 0.0, []), (0.2, 0.0, []), (0.0, 0.0, []), (0.8, belt, []), (0.8, 0.0, bounds))):
+        out = os.path.join(tmp, f"mu{mu}_{v}_{len(extra)}_{np_}")
+        r = mt.run(exe, base + extra + ["-msim_friction", str(mu), "-msim_fix_velocity", f"{v},0,0", "-msim_output", out], np_)
+        if not check(r.returncode == 0, f"np {np_}: mu {mu}{', belt' if v else ''}{', a plane as bounds' if extra else ''}: runs ({r.stderr.strip()[-300:]})"):
             continue
+        if extra:
+            said = [l for l in mt.lines(r.stderr) if "warning" in l]
+            check(len(said) == 1 and "-msim_friction acts between surfaces in self-contact only" in said[0],
+                  f"np {np_}: mu {mu}, a plane as bounds: one warning line that the obstacles have no friction ({said})")
         series = vtu.read_pvd(os.path.join(out, "series.pvd"))
         first, least = None, float("inf")
         for _, path in series:

@@ -14,7 +14,8 @@ typedef struct _n_MSimContactBounds *MSimContactBounds;
 
 /* Reads -msim_contact_bounds; with it, or with a VI -snes_type, takes every obstacle out of the
    barrier's list as bounds (an obstacle that is not an axis-aligned plane or box, or one that
-   moves, is refused in one line), sets -snes_type vinewtonrsls where the SNES is not a VI
+   moves, is refused in one line, as is -msim_friction without self-contact, the one friction left
+   to it), sets -snes_type vinewtonrsls where the SNES is not a VI
    already, and PETSc's l2 line search (which projects onto the bounds) unless
    -snes_linesearch_type is given (vinewtonssls: not msim's shell search, refused in one line;
    its KSP and objective: src/integrators/impls/implicit.cpp). *b = NULL when bounds are not used.

@@ -59,8 +59,16 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
     PetscCheck(!what, sys->comm, PETSC_ERR_SUP, "%s takes axis-aligned planes and boxes only as variable bounds: obstacle %d is %s (use the barrier: no -msim_contact_bounds, a -snes_type that is not a VI)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls", (int)k, what);
     PetscCheck(o.v[0] == 0 && o.v[1] == 0 && o.v[2] == 0, sys->comm, PETSC_ERR_SUP, "%s takes static obstacles only as variable bounds: obstacle %d moves (-msim_contact_velocity)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls", (int)k);
   }
-  /* IPC's friction takes each vertex's normal force from the barrier, which the bounds replace */
-  PetscCheck(ct->mu == 0, sys->comm, PETSC_ERR_SUP, "-msim_friction with obstacles as variable bounds (%s) is not supported: friction takes its normal force from the barrier, which the bounds replace; use the barrier (no -msim_contact_bounds, a -snes_type that is not a VI)", want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls");
+  /* IPC's friction takes each vertex's normal force from the barrier, which the bounds replace: the
+     obstacles' friction term finds them gone and adds nothing. -msim_friction also sets the
+     friction between surfaces in self-contact, a barrier of its own that the bounds leave alone:
+     with it the run goes on, and says once what it leaves out; without it the coefficient would
+     act nowhere, so it is refused, as the penalty refuses it */
+  if (ct->mu > 0) {
+    const char *how = want ? "-msim_contact_bounds" : "-snes_type vinewtonrsls/vinewtonssls";
+    PetscCheck(sys->self_contact.on, sys->comm, PETSC_ERR_SUP, "-msim_friction with obstacles as variable bounds (%s) is not supported: friction with an obstacle takes its normal force from the barrier, which the bounds replace; use the barrier (no -msim_contact_bounds, a -snes_type that is not a VI), or add -msim_self_contact for friction between surfaces", how);
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: -msim_friction acts between surfaces in self-contact only: the obstacles, variable bounds here (%s), have no friction, which takes its normal force from the barrier\n", how));
+  }
   *b         = new _n_MSimContactBounds();
   (*b)->sys  = sys;
   (*b)->snes = snes;

@@ -155,6 +155,8 @@ static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* *ct NULL where the obstacles became VI bounds after this term was made (msim/contact_bounds.h):
+   they give no normal force, so friction with them is nothing (self-contact's is its own term) */
 static PetscErrorCode Contact(MSimImplicitTerm term, MSimContact *ct)
 {
   PetscFunctionBeginUser;
@@ -180,7 +182,7 @@ static PetscErrorCode Energy_Friction(MSimImplicitTerm term, Vec X, PetscReal *e
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
-  PetscCall(LocalEnergy(term, ct, X, &local));
+  if (ct) PetscCall(LocalEnergy(term, ct, X, &local));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &local, 1, MPIU_REAL, MPIU_SUM, term->imp->sys->comm));
   *e += local;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -205,7 +207,7 @@ static PetscErrorCode Gradient_Friction(MSimImplicitTerm term, Vec X, Vec G)
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
-  PetscCall(AddGradient(term, ct, X, G, 1.0));
+  if (ct) PetscCall(AddGradient(term, ct, X, G, 1.0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -217,6 +219,7 @@ static PetscErrorCode Hessian_Friction(MSimImplicitTerm term, Vec X, PetscBool p
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
   const PetscReal w = term->imp->step.h2 * ct->mu, eps = ct->eps_v * term->imp->step.h;
   PetscCall(ForEachSliding(term, ct, X, [&](PetscInt v, PetscReal lambda, const PetscReal *P, const PetscReal *u, PetscReal y) {
     PetscScalar blk[9];
@@ -242,6 +245,7 @@ static PetscErrorCode PDRHS_Friction(MSimImplicitTerm term, Vec X, Vec rhs, Pets
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
   if (!e) PetscCall(AddGradient(term, ct, X, rhs, -1.0));
   else {
     /* AddGradient's and LocalEnergy's terms in one pass over the sliding vertices (same order) */
@@ -263,7 +267,7 @@ static PetscErrorCode View_Friction(MSimImplicitTerm term, PetscViewer viewer)
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(term->imp->sys, &ct));
-  PetscCall(PetscViewerASCIIPrintf(viewer, "friction: mu %g, lagged normal forces, smoothing eps_v %g m/s\n", (double)ct->mu, (double)ct->eps_v));
+  if (ct) PetscCall(PetscViewerASCIIPrintf(viewer, "friction: mu %g, lagged normal forces, smoothing eps_v %g m/s\n", (double)ct->mu, (double)ct->eps_v));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
