@@ -23,7 +23,8 @@
   with a penalty (explicit or TS: it has none) or with obstacles as VI bounds and no self-contact
   (nothing for it to act on), a named -snes_type
   that is not a VI with bounds (not overridden silently), a start within 1e-6 dhat of an obstacle
-  and a restart whose state is inside a (new) obstacle are one error line.
+  and a restart whose state is inside a (new) obstacle are one error line; with obstacles as VI
+  bounds too, where a restart at rest on them (d = 0) is bit for bit.
 Usage: contact.py path/to/msim [--np N]"""
 import math
 import os
@@ -230,6 +231,24 @@ def main():
             err = mt.lines(r.stderr)
             check(r.returncode != 0 and len(err) == 1 and "at the restart (t = 0.1 s) inside obstacle 0" in err[0] and not os.path.exists(out),
                   f"np {np_}: a restart whose cloth is inside a new plane: one error line naming it, no output ({err})")
+        # with obstacles as VI bounds (which take them out of the barrier's list, where that check
+        # looked) the restart is checked against the bounds: a cloth resting on a plane as a bound,
+        # at d = 0 exactly, restarts bit for bit; the plane moved up across the checkpoint's cloth
+        # is refused in one line, before any output (it ran on, projected out of the plane)
+        bound = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_contact_bounds"]
+        onplane = bound + ["-msim_contact_plane", "0,0,1,-0.05"]
+        ck, whole, resting, resumed, mon, out = (os.path.join(tmp, f"bounds_{k}_{np_}") for k in ("ck", "whole.bin", "resting.bin", "resumed.bin", "m.csv", "out"))
+        r1 = mt.run(exe, onplane + ["-msim_steps", "30", "-msim_view_final", f"binary:{whole}"], np_)
+        r2 = mt.run(exe, onplane + ["-msim_steps", "20", "-msim_checkpoint", ck, "-msim_view_final", f"binary:{resting}", "-msim_monitor_csv", mon], np_)
+        r3 = mt.run(exe, onplane + ["-msim_steps", "30", "-msim_restart", ck, "-msim_view_final", f"binary:{resumed}"], np_)
+        if check(r1.returncode == r2.returncode == r3.returncode == 0, f"np {np_}: a cloth resting on a plane as bounds, checkpointed and restarted ({(r1.stderr + r2.stderr + r3.stderr).strip()[-300:]})"):
+            z = mt.read_binary_vec(resting)[2::3]
+            check(min(z) == max(z) == -0.05 and int(mt.read_csv(mon)[-1]["contact_n"]) == 25, f"np {np_}: bounds: the checkpoint's cloth rests on the plane at d = 0 exactly (z {min(z)!r}..{max(z)!r})")
+            check(mt.read_binary_vec(whole) == mt.read_binary_vec(resumed), f"np {np_}: bounds: the restarted run ends bit for bit where the uninterrupted one does")
+            r = mt.run(exe, bound + ["-msim_contact_plane", "0,0,1,-0.02", "-msim_steps", "30", "-msim_restart", ck, "-msim_output", out], np_)
+            err = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(err) == 1 and "at the restart (t = 0.4 s) inside obstacle 0 (-msim_contact_plane, distance -0.03)" in err[0] and not os.path.exists(out),
+                  f"np {np_}: bounds: a restart whose cloth is inside the plane moved up: one error line naming it, no output ({err})")
         # a moving obstacle gives the scene its kinetic energy, which the divergence check counts: a
         # ball rising at 1 m/s through a cloth in zero gravity pushes it along (it diverged at step
         # 10 when the energy scale, 0 here, did not count the ball's speed), no vertex inside it

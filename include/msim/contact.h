@@ -69,7 +69,8 @@ PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
 /* A restarted run's state X at time t against the obstacles, as the start's: one error line naming
    the first vertex inside an obstacle or within 1e-6 dhat of one (the obstacles are options, not
    part of the checkpoint). Only where contact is the barrier (barrier true): the penalty's state
-   rests inside an obstacle by design. Collective; nothing without obstacles. */
+   rests inside an obstacle by design; against the obstacles VI bounds hold, a vertex strictly
+   inside (d < 0), as their runs rest on them at d = 0. Collective; nothing without obstacles. */
 PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, PetscBool barrier);
 /* *speed = the fastest obstacle's speed (-msim_contact_velocity; 0 without obstacles): a moving
    obstacle gives the scene kinetic energy, which the divergence check's energy scale counts */

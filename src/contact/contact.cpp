@@ -268,12 +268,13 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* every free vertex at X (time t) outside every obstacle (outside the shell of a mesh) by more than
-   a millionth of dhat: nearer, the barrier's force at the start is beyond any step's scale (a vertex
-   2e-16 from a box gave a first step with 2.5e9 N and |g| 3e5, accepted on the step norm); the
-   first offender named by its input id (the id users type, whatever the rank count) and the
-   obstacle. The meshes answer as set (CheckState sets them to answer in full). */
-static PetscErrorCode CheckVertices(MSimContact ct, PetscReal t, Vec X, const char *when)
+/* every free vertex at X (time t) outside every obstacle of obs (outside the shell of a mesh);
+   for the barrier, by more than a millionth of dhat: nearer, its force at the start is beyond any
+   step's scale (a vertex 2e-16 from a box gave a first step with 2.5e9 N and |g| 3e5, accepted on
+   the step norm); else on it (d = 0) is allowed: VI bounds rest there. The first offender named by
+   its input id (the id users type, whatever the rank count) and the obstacle. The meshes answer as
+   set (CheckState sets them to answer in full). */
+static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when)
 {
   MSimSystem         sys = ct->sys;
   const PetscScalar *x, *nat;
@@ -289,10 +290,10 @@ static PetscErrorCode CheckVertices(MSimContact ct, PetscReal t, Vec X, const ch
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArray(flag, &f));
   for (PetscInt v = 0; v < sys->nown; v++)
-    for (size_t k = 0; k < ct->obs.size(); k++) {
+    for (size_t k = 0; k < obs.size(); k++) {
       PetscReal       n[3];
-      const PetscReal d = MSimObstacleDistanceAt(&ct->obs[k], t, x + 3 * v, n, NULL);
-      if (d <= tol && f[3 * v] == 0) {
+      const PetscReal d = MSimObstacleDistanceAt(&obs[k], t, x + 3 * v, n, NULL);
+      if ((barrier ? d <= tol : d < 0) && f[3 * v] == 0) {
         f[3 * v] = (PetscScalar)(k + 1), f[3 * v + 1] = d;
         bad++;
       }
@@ -311,8 +312,8 @@ static PetscErrorCode CheckVertices(MSimContact ct, PetscReal t, Vec X, const ch
         const PetscReal d   = PetscRealPart(nat[3 * i + 1]);
         char            buf[512];
         first = id;
-        if (d <= 0) PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (int)k, KindOption(ct->obs[k].kind), (double)d));
-        else PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (double)d, (int)k, KindOption(ct->obs[k].kind), (double)ct->dhat));
+        if (d <= 0) PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (int)k, KindOption(obs[k].kind), (double)d));
+        else PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (double)d, (int)k, KindOption(obs[k].kind), (double)ct->dhat));
         msg = buf;
       }
     PetscCall(VecRestoreArrayRead(sys->natural, &nat));
@@ -327,27 +328,43 @@ static PetscErrorCode CheckVertices(MSimContact ct, PetscReal t, Vec X, const ch
 
 /* CheckVertices with the meshes answering in full (no band), so that a vertex deep inside one is
    found too; then back to the band the barrier's queries take (where it reaches) */
-static PetscErrorCode CheckState(MSimContact ct, PetscReal t, Vec X, const char *when)
+static PetscErrorCode CheckState(MSimContact ct, std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when)
 {
   PetscFunctionBeginUser;
-  for (MSimObstacle &o : ct->obs)
+  for (MSimObstacle &o : obs)
     if (o.mesh) MSimMeshObstacleSetBand(o.mesh, PETSC_MAX_REAL);
-  PetscCall(CheckVertices(ct, t, X, when));
-  for (MSimObstacle &o : ct->obs)
+  PetscCall(CheckVertices(ct, obs, barrier, t, X, when));
+  for (MSimObstacle &o : obs)
     if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the system's contact object whatever it holds (MSimContactGet gives NULL once it holds no
+   obstacle for the barrier), or NULL before MSimContactGet made it */
+static PetscErrorCode Query(MSimSystem sys, MSimContact *ct)
+{
+  PetscContainer container;
+
+  PetscFunctionBeginUser;
+  *ct = NULL;
+  PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));
+  if (container) PetscCall(PetscContainerGetPointer(container, (void **)ct));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, PetscBool barrier)
 {
   MSimContact ct;
+  char        when[64];
 
   PetscFunctionBeginUser;
-  PetscCall(MSimContactGet(sys, &ct));
-  if (!ct || !barrier) PetscFunctionReturn(PETSC_SUCCESS); /* a penalty's vertices sink m g / kc into an obstacle at rest */
-  char when[64];
+  PetscCall(MSimContactGet(sys, &ct)); /* made here if nothing made it yet */
+  PetscCall(Query(sys, &ct));
   PetscCall(PetscSNPrintf(when, sizeof(when), "is at the restart (t = %g s)", (double)t));
-  PetscCall(CheckState(ct, t, X, when));
+  /* VI bounds hold every obstacle or none; their runs rest on a bound at d = 0 exactly (the step
+     ends projected onto it), never inside */
+  if (!ct->bounds.empty()) PetscCall(CheckState(ct, ct->bounds, PETSC_FALSE, t, X, when));
+  else if (barrier) PetscCall(CheckState(ct, ct->obs, PETSC_TRUE, t, X, when)); /* not a penalty's: its vertices sink m g / kc into an obstacle at rest */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -369,9 +386,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   MSimContact    ct;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));
-  if (container) {
-    PetscCall(PetscContainerGetPointer(container, (void **)&ct));
+  PetscCall(Query(sys, &ct));
+  if (ct) {
     *contact = ct->obs.empty() ? NULL : ct;
     PetscFunctionReturn(PETSC_SUCCESS);
   }
@@ -455,7 +471,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
-  PetscCall(CheckState(ct, 0.0, sys->X0, "starts"));
+  PetscCall(CheckState(ct, ct->obs, PETSC_TRUE, 0.0, sys->X0, "starts"));
   /* -msim_scene_view is the scene's option; the system carries it here */
   if (sys->scene_view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;

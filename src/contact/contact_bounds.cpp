@@ -72,7 +72,8 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
   *b         = new _n_MSimContactBounds();
   (*b)->sys  = sys;
   (*b)->snes = snes;
-  (*b)->obs.swap(ct->obs); /* the barrier, its friction and its line-search limit no longer see them */
+  ct->bounds.swap(ct->obs); /* the barrier, its friction and its line-search limit no longer see them */
+  (*b)->obs = ct->bounds;
   /* The line search: l2 unless the user names one. msim's energy search (the shell type, msim's
      default) does not project onto the bounds; PETSc's do. Not bt, PETSc's choice for its VI types:
      it backtracks on Phi (msim's objective), whose roundoff (eps |Phi|, 5e-16 J on an 11 x 11 cloth)

@@ -10,6 +10,7 @@
 struct _n_MSimContact {
   MSimSystem                sys;
   std::vector<MSimObstacle> obs;
+  std::vector<MSimObstacle> bounds; /* those the VI's variable bounds took out of obs (msim/contact_bounds.h): a restart is checked against them */
   PetscReal                 dhat;  /* the barrier acts below this distance */
   PetscReal                 mu;    /* Coulomb friction coefficient */
   PetscReal                 kappa; /* barrier stiffness per unit mass (1/s^2); 0: chosen at the first step */
