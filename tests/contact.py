@@ -24,7 +24,8 @@
   (nothing for it to act on), a named -snes_type
   that is not a VI with bounds (not overridden silently), a start within 1e-6 dhat of an obstacle
   and a restart whose state is inside a (new) obstacle are one error line; with obstacles as VI
-  bounds too, where a restart at rest on them (d = 0) is bit for bit.
+  bounds too, where a restart at rest on them (d = 0) is bit for bit. The 1e-6 dhat margin is the
+  barrier's: a penalty or VI bounds start on an obstacle (d = 0, or a roundoff from it).
 Usage: contact.py path/to/msim [--np N]"""
 import math
 import os
@@ -220,6 +221,18 @@ def main():
                      ("a named -snes_type that is not a VI with obstacles as bounds", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_bounds", "-snes_type", "pd"], ["-msim_contact_bounds", "not -snes_type pd"]),
                      ("friction with obstacles as variable bounds and no self-contact", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_contact_bounds"], ["-msim_friction", "variable bounds", "not supported", "-msim_self_contact"]),
                      ("a cloth starting a roundoff (2.2e-16 m) from a box", ["-msim_contact_box", "1.0000000000000002,2,0,1,-1,1"], ["starts at distance 2.22045e-16 from obstacle 0", "-msim_contact_box", "below 1e-6 of the contact distance"])), np_)
+        # the start's margin of 1e-6 dhat is the barrier's (its force nearer is beyond any step's
+        # scale); a penalty (explicit, ts) and VI bounds have no dhat and start on an obstacle well:
+        # a roundoff from a box, or exactly on a plane (where the bounds rest). Inside is refused
+        # for them too. All were refused before, as for the barrier
+        on = ["-msim_cloth_n", "5", "-msim_fix", "none", "-msim_steps", "3"]
+        for label, args in (("symplectic Euler, a roundoff from a box", ["-msim_integrator", "symplectic_euler", "-msim_contact_box", "1.0000000000000002,2,0,1,-1,1"]),
+                            ("ts, exactly on a plane", ["-msim_integrator", "ts", "-msim_contact_plane", "0,0,1,0"]),
+                            ("VI bounds, exactly on a plane", ["-msim_integrator", "implicit_euler", "-msim_contact_bounds", "-msim_contact_plane", "0,0,1,0"])):
+            r = mt.run(exe, on + args, np_)
+            check(r.returncode == 0 and not r.stderr.strip(), f"np {np_}: {label}: starts and runs ({r.stderr.strip()[-300:]})")
+        mt.refusals(check, exe, on, (("VI bounds, a cloth starting 1e-300 inside a plane", ["-msim_integrator", "implicit_euler", "-msim_contact_bounds", "-msim_contact_plane", "0,0,1,1e-300"],
+                                      ["vertex 0 starts inside obstacle 0", "-msim_contact_plane"]),), np_)
         # a restart checks its state against the obstacles as a start does (they are options, not
         # part of the checkpoint): a plane added across the checkpoint's cloth is refused in one
         # line, before any output

@@ -63,9 +63,15 @@ typedef struct {
 typedef struct _n_MSimContact *MSimContact;
 
 /* The system's contact object (NULL when no obstacle option is given), made from the options on
-   the first call: reads -msim_contact_*, checks every start vertex outside every obstacle. */
+   the first call: reads -msim_contact_*, checks every start vertex outside every obstacle (or on
+   it). */
 PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact);
 PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
+/* The start state against the obstacles the barrier takes, with its margin: one error line naming
+   the first vertex within 1e-6 dhat of one (MSimContactGet refuses only a vertex inside, as a
+   penalty or VI bounds can start on an obstacle; the implicit integrators call this where the
+   obstacles stay with the barrier, not bounds). Collective; nothing without obstacles. */
+PetscErrorCode MSimContactCheckBarrierStart(MSimSystem sys);
 /* A restarted run's state X at time t against the obstacles, as the start's: one error line naming
    the first vertex inside an obstacle or within 1e-6 dhat of one (the obstacles are options, not
    part of the checkpoint). Only where contact is the barrier (barrier true): the penalty's state

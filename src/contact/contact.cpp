@@ -368,6 +368,16 @@ PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, Petsc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimContactCheckBarrierStart(MSimSystem sys)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  if (ct) PetscCall(CheckState(ct, ct->obs, PETSC_TRUE, 0.0, sys->X0, "starts"));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimContactObstacleSpeed(MSimSystem sys, PetscReal *speed)
 {
   MSimContact ct;
@@ -471,7 +481,9 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
-  PetscCall(CheckState(ct, ct->obs, PETSC_TRUE, 0.0, sys->X0, "starts"));
+  /* inside refused here, whatever takes the obstacles; the barrier's margin once it is known to be
+     the barrier (MSimContactCheckBarrierStart): a penalty or VI bounds start on an obstacle well */
+  PetscCall(CheckState(ct, ct->obs, PETSC_FALSE, 0.0, sys->X0, "starts"));
   /* -msim_scene_view is the scene's option; the system carries it here */
   if (sys->scene_view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;

@@ -50,7 +50,10 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
   PetscCall(PetscOptionsBool("-msim_contact_bounds", "Implicit integrators: axis-aligned planes and boxes as variable bounds of SNES's VI solver (vinewtonrsls; also with -snes_type vinewtonrsls/vinewtonssls) instead of the barrier: zero gap at contact", NULL, want, &want, NULL));
   PetscOptionsEnd();
   PetscCall(PetscObjectTypeCompareAny((PetscObject)snes, &vi, SNESVINEWTONRSLS, SNESVINEWTONSSLS, ""));
-  if (!want && !vi) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!want && !vi) { /* the obstacles stay with the barrier: its margin at the start */
+    PetscCall(MSimContactCheckBarrierStart(sys));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   PetscCall(MSimContactGet(sys, &ct));
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS); /* nothing to bound: a VI type then solves unconstrained */
   for (size_t k = 0; k < ct->obs.size(); k++) {
