@@ -1043,7 +1043,10 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
     }
   }
   PetscCall(VecRestoreArray(A, &a));
-  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(bad < 0), "a vertex is squeezed between moving obstacles at t = " + std::to_string((double)imp->step.tx) + ": no position outside all of them (a smaller -msim_dt or obstacles farther apart)"));
+  /* with one obstacle nothing squeezes: a vertex it carries keeps its distance, so it is inside
+     only where that distance was within roundoff of 0 */
+  const std::string at = " at t = " + std::to_string((double)imp->step.tx);
+  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(bad < 0), ct->obs.size() == 1 ? "a vertex pushed by the moving obstacle is inside it" + at + ": no position outside it (a smaller -msim_dt)" : "a vertex is squeezed between moving obstacles" + at + ": no position outside all of them (a smaller -msim_dt or obstacles farther apart)"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
