@@ -19,7 +19,8 @@ over a step, orders above that: with -msim_self_contact_halo 0 (other ranks' ele
 slab's fold departs from 1 rank's by 1.9e-4 m at 2 ranks and by 2e-2 m at 3 (or its solve fails
 there: the runs are not bit-identical from one try to the next, ADD_VALUES sums arrive in any
 order), so the comparison sees the halo.
-Usage: self_contact_ranks.py path/to/msim [--np N] (N > 1: N ranks against 1; 1: nothing to compare)"""
+Usage: self_contact_ranks.py path/to/msim [--np N] (2 and 3 ranks against 1, whose runs are made once;
+N > 1: N ranks alone; 1: nothing to compare)"""
 import os
 import sys
 import tempfile
