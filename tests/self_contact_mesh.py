@@ -13,7 +13,8 @@ runs/self_contact/volume/tetcheck.py; no msim code), at the rank count given:
   the same way: its boundary faces intersect without the feature, never with it; with the volume
   term (-msim_volume) no tet is inverted in any frame;
 - at ranks > 1, the slab with -msim_self_contact_halo 0 (other ranks' elements left out) has
-  intersecting pairs where the fold crosses the partition (the halo matters; the test can fail);
+  intersecting pairs where the fold crosses the partition (the halo matters; the test can fail):
+  there this run stands for the slab's run without the feature, which runs at 1 rank only;
 - a scene with no surface (a chain) is refused in one line naming -msim_self_contact.
 Usage: self_contact_mesh.py path/to/msim [--np N]"""
 import os
@@ -85,9 +86,11 @@ def main():
     SHEET = COMMON + UP_Y + ["-msim_scene", "mesh", "-msim_mesh_file", sheet]
     for np_ in mt.ranks():
         for name, args in (("sheet", SHEET), ("slab", SLAB)):
-            off, _ = run(exe, check, args, np_, os.path.join(tmp, f"{name}_off_{np_}"), f"the {name} without self-contact")
-            if off is not None:
-                check(max(off) > 0, f"np {np_}: without self-contact the {name} passes through itself (intersecting pairs per frame {off})")
+            off = None
+            if name == "sheet" or np_ == 1:
+                off, _ = run(exe, check, args, np_, os.path.join(tmp, f"{name}_off_{np_}"), f"the {name} without self-contact")
+                if off is not None:
+                    check(max(off) > 0, f"np {np_}: without self-contact the {name} passes through itself (intersecting pairs per frame {off})")
             on, inv = run(exe, check, args + ["-msim_self_contact"], np_, os.path.join(tmp, f"{name}_on_{np_}"), f"the {name} with self-contact")
             if on is None:
                 continue
