@@ -30,10 +30,20 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *nt
 /* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,
    Hessian of the distance (face region 0; edge (I - n n^T - e e^T)/r; vertex (I - n n^T)/r) */
 PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+/* the further contacts of a vertex in a concave crease (right or acute), beside its nearest
+   triangle's: each another face's distance less the thickness and its unit normal towards the vertex
+   (the distance to the face's plane: Hessian 0), up to MSIM_MESH_CREASE_MAX of them
+   (src/contact/mesh_obstacle.cpp, CreaseContacts) */
+enum { MSIM_MESH_CREASE_MAX = 4 };
+typedef struct {
+  PetscInt  k;
+  PetscReal d[MSIM_MESH_CREASE_MAX], n[MSIM_MESH_CREASE_MAX][3];
+} MSimMeshCreases;
 /* the same for a rank's vertex v (>= 0; the per-vertex loops of msim/private/contactimpl.h): the
    same numbers, with a point asked again answered from v's last answers and a far vertex that
-   moved little answered as beyond band without a lookup (with the cache off: the plain query) */
-PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
+   moved little answered as beyond band without a lookup (with the cache off: the plain query);
+   with cr, also its creases' contacts (v < 0: the plain query's) */
+PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mesh, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr = NULL);
 /* a lower bound of x's distance (less the thickness) from what vertex v's last queries certified:
    where the answer at x was "beyond band" (the band less the thickness) and x lies in one of v's
    far balls (the points its last full query showed beyond band), band + x's depth in it less the

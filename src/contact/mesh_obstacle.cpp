@@ -104,6 +104,7 @@ struct _n_MSimMeshObstacle {
     PetscReal x[3];
     uint64_t  stamp;
     PetscReal d, n[3], H[9];
+    int32_t   t; /* the nearest triangle where d is within band (-1: none), for its creases (CreaseContacts) */
   };
   std::vector<Answer> memo;
   uint64_t            clock = 0, memo_epoch = 0;
@@ -132,6 +133,11 @@ struct _n_MSimMeshObstacle {
      test), then for each edge (a b, b c, c a) the unit normal and offset of the line in the plane,
      pointing out of the triangle (PlaneBound2) */
   std::vector<PetscReal> plane;
+  /* concave creases (CreaseContacts): per triangle t and side s of its plane (0: its normal's side,
+     1: the other), the triangles that can add a contact to a vertex whose nearest is t's face on
+     that side, cr_tri[cr_at[4 t + 2 s], cr_at[4 t + 2 s + 1]), listed at t's first answer within
+     band (CreasePartners; cr_at[4 t] = ~0: not yet) */
+  std::vector<uint32_t> cr_at, cr_tri;
   uint64_t          nvq[5] = {0, 0, 0, 0, 0}; /* vertex queries in the band's box: answered again, skipped as far, full, by the near set; of the far ones, by the centre's ball alone */
 };
 
@@ -565,6 +571,8 @@ void MSimMeshObstacleSetBand(MSimMeshObstacle mo, PetscReal band)
   mo->far.clear();
   mo->nearset.clear(); /* their cells and sets are the band's */
   ClearCells(mo);
+  mo->cr_at.assign(4 * mo->tri.size(), ~(uint32_t)0); /* the partners are the band's */
+  mo->cr_tri.clear();
   if (!(band > 0 && band < PETSC_MAX_REAL)) return;
   /* cells one band wide (half-diagonal 0.87 band; a quarter band before the per-vertex queries,
      which now ask the cells ~8 x less often, so that the cells' collections weigh more: 101 x 101
@@ -630,14 +638,22 @@ static PetscReal Answer(MSimMeshObstacle mo, const PetscReal q[3], PetscReal r, 
   return sign * r - mo->thickness;
 }
 
+/* how far the point p of triangle pl's plane lies outside the triangle's farthest edge line (<= 0:
+   p is in the triangle) */
+static inline PetscReal EdgeExcess(const PetscReal *pl, const PetscReal p[3])
+{
+  PetscReal o = -PETSC_MAX_REAL;
+  for (int k = 1; k < 4; k++) o = PetscMax(o, pl[4 * k] * p[0] + pl[4 * k + 1] * p[1] + pl[4 * k + 2] * p[2] + pl[4 * k + 3]);
+  return o;
+}
+
 /* a lower bound of the squared distance from x to triangle pl (its plane's numbers, h: x's signed
    distance to the plane): the triangle lies in the plane, within each edge's line, so x's foot is at
    least its distance outside any of the three lines from it (exact where the foot is inside the
    triangle or the nearest point is on an edge) */
 static inline PetscReal PlaneBound2(const PetscReal *pl, const PetscReal x[3], PetscReal h)
 {
-  PetscReal o = 0;
-  for (int k = 1; k < 4; k++) o = PetscMax(o, pl[4 * k] * x[0] + pl[4 * k + 1] * x[1] + pl[4 * k + 2] * x[2] + pl[4 * k + 3]);
+  const PetscReal o = PetscMax(0.0, EdgeExcess(pl, x));
   return h * h + o * o;
 }
 
@@ -654,8 +670,9 @@ static inline bool CellKey(MSimMeshObstacle mo, const PetscReal x[3], uint64_t *
   return true;
 }
 
-static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9], bool cube_bound, PetscReal *lower = NULL, _n_MSimMeshObstacle::Near *ns = NULL, PetscReal zball[4] = NULL)
+static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9], bool cube_bound, PetscReal *lower = NULL, _n_MSimMeshObstacle::Near *ns = NULL, PetscReal zball[4] = NULL, int32_t *tri = NULL)
 {
+  if (tri) *tri = -1; /* the nearest triangle, where within band */
   /* beyond the band around the surface's bounding box, the distance to the box is a lower bound
      of the distance to the surface (which lies in the box), and it is all the callers need there:
      the barrier, friction and the contact force skip a vertex farther than dhat < band, a safe step
@@ -807,7 +824,128 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
     for (int c = 0; c < 3; c++) ns->x[c] = x[c];
     ns->inside = sign < 0;
   }
+  if (tri && r <= mo->band) *tri = (int32_t)(T - mo->tri.data());
   return Answer(mo, q, r, sign, region, e, T, n, H);
+}
+
+/* Concave creases. The barrier takes one distance per vertex, the nearest triangle's. Inside a
+   concave crease (a box's floor meeting its wall, a fin standing on a plate) that distance is the
+   least of two smooth ones, kinked on the bisector, where its gradient flips from one face's normal
+   to the other's: a vertex pressed into the corner was pushed by the floor alone, then by the wall
+   alone, each Newton step undoing the last (an open box: a cloth's vertices in its corners closed
+   their gap 5 x a step and the run diverged). IPC sums the barrier over every triangle within dhat
+   (Li et al. 2020), which also counts a flat or convex surface's edges twice and would change every
+   mesh scene. Here a vertex x whose nearest triangle is A (x on side s of A's plane) also takes, as
+   a contact of its own, each other triangle B whose plane is within band with x's foot on it inside
+   B (so |h_B| is x's distance to B, Hessian 0) when
+     - the foot lies on side s of A's plane, beyond roundoff: on a convex surface (or a thin plate's
+       far side) every other triangle lies behind A's plane as x sees it, so none qualifies there
+       and the answers are the nearest's alone, bit for bit; a coplanar neighbour of A is in its
+       plane and is passed over too;
+     - and B's normal towards x makes an angle of at least 90 degrees with A's (right or acute
+       creases: boxes, fins, slots). Then the foot is on side s wherever x is (its height over A's
+       plane is at least x's), so it cannot leave B through the crease: the sum b(d_A) + b(d_B) is
+       smooth through the bisector. An obtuse crease would switch B on where the foot crosses the
+       crease, at d_B < dhat: a jump of b(d_B) in the energy, worse than the kink it removes, which
+       is milder there (the normals turn by less than 90 degrees); obtuse creases keep the nearest
+       triangle alone.
+   Where the foot passes to a coplanar neighbour (a wall's other triangle) the contact goes on, the
+   same plane counted once; where it leaves B through an edge of the surface's boundary (the rim of
+   an open box's wall) the contact leaves with b(d_B) still > 0 if d_B < dhat there: a jump in the
+   energy that the full point-triangle distance would avoid, at the cost of a contact that comes and
+   goes as a vertex lying on the rim crosses the wall's plane. Only faces are added: a vertex near
+   two edges of the boundary that meet at a concave angle (above an open box's rim at a corner) keeps
+   the kinked distance of the nearest edge. Each contact adds the barrier b(|h_B| - thickness)
+   along B's unit normal towards x, as the nearest does: energy, gradient, Hessian (b'' n n^T), PD's
+   weight and friction's lagged normal force sum over the contacts (IPC's point-triangle terms).
+   The safe step and the anchors keep the nearest distance, the least of them. The triangles that
+   can be such a B for a triangle A and side s are listed once per band, at A's first answer within
+   band (CreasePartners): those within 2 band of A with a vertex strictly on side s of A's plane
+   and, for a side s' of B's plane whose normal makes 90 degrees or more with s's, A having a vertex
+   strictly on side s' (where x is in the crease, A's nearest point is). The lists are empty for
+   every triangle of a convex surface seen from outside and for the shallow creases of a smooth
+   curved one, so the vertices there cost one comparison of two offsets. */
+static const PetscReal CREASE_COS = 1e-6; /* right angles to roundoff; well below any obtuse crease's cosine */
+
+static inline PetscReal PlaneHeight(const PetscReal *pl, const PetscReal x[3])
+{
+  return pl[0] * x[0] + pl[1] * x[1] + pl[2] * x[2] + pl[3];
+}
+
+/* the triangles whose boxes meet a box (CollectTraits' traversal without its distances) */
+struct OverlapTraits {
+  std::vector<uint32_t> *ids;
+  const Triangle        *base;
+  bool                   go_further() const { return true; }
+  bool                   do_intersect(const CGAL::Bbox_3 &q, const CGAL::AABB_node<Traits> &node) const { return CGAL::do_overlap(q, node.bbox()); }
+  void                   intersection(const CGAL::Bbox_3 &q, const Primitive &pr)
+  {
+    if (CGAL::do_overlap(q, pr.id()->bbox())) ids->push_back((uint32_t)(&*pr.id() - base));
+  }
+};
+
+/* triangle a's partner lists (see above), on its first answer within band: listing every
+   triangle's at once was half the run of a 24-step drape on the 20,480-triangle ball. A triangle of
+   all-zero plane numbers (too thin, MSimMeshObstacleCreate) is in none and has none. */
+static void CreasePartners(MSimMeshObstacle mo, size_t a)
+{
+  const PetscReal       tol = 1e-9 * (mo->diam + mo->band), reach = 2 * mo->band + tol;
+  std::vector<uint32_t> hit;
+  auto                  plane = [&](size_t t) { return &mo->plane[_n_MSimMeshObstacle::PLANE_STRIDE * t]; };
+  auto                  thin  = [&](size_t t) { return plane(t)[0] == 0 && plane(t)[1] == 0 && plane(t)[2] == 0; };
+  /* the least and largest heights over triangle t's plane of triangle u's vertices */
+  auto heights = [&](size_t t, size_t u, PetscReal *lo, PetscReal *hi) {
+    *lo = PETSC_MAX_REAL, *hi = -PETSC_MAX_REAL;
+    for (int k = 0; k < 3; k++) {
+      const PetscReal y[3] = {mo->tri[u].vertex(k)[0], mo->tri[u].vertex(k)[1], mo->tri[u].vertex(k)[2]}, h = PlaneHeight(plane(t), y);
+      *lo = PetscMin(*lo, h), *hi = PetscMax(*hi, h);
+    }
+  };
+  if (!thin(a)) {
+    const CGAL::Bbox_3 bb = mo->tri[a].bbox();
+    OverlapTraits      overlap{&hit, mo->tri.data()};
+    mo->tree.traversal(CGAL::Bbox_3(bb.xmin() - reach, bb.ymin() - reach, bb.zmin() - reach, bb.xmax() + reach, bb.ymax() + reach, bb.zmax() + reach), overlap);
+  }
+  for (int s = 0; s < 2; s++) {
+    const PetscReal sa = s ? -1.0 : 1.0, *pa = plane(a);
+    mo->cr_at[4 * a + 2 * s] = (uint32_t)mo->cr_tri.size();
+    for (const uint32_t b : hit) {
+      PetscReal lo, hi;
+      if (b == a || thin(b)) continue;
+      heights(a, b, &lo, &hi);
+      if (!((s ? -lo : hi) > tol)) continue; /* no vertex of b strictly on side s */
+      const PetscReal *pb = plane(b), c = pa[0] * pb[0] + pa[1] * pb[1] + pa[2] * pb[2];
+      heights(b, a, &lo, &hi);
+      if ((sa * c <= CREASE_COS && hi > tol) || (-sa * c <= CREASE_COS && -lo > tol)) mo->cr_tri.push_back(b);
+    }
+    mo->cr_at[4 * a + 2 * s + 1] = (uint32_t)mo->cr_tri.size();
+  }
+}
+
+/* the creases' contacts of the answer d at x whose nearest triangle is ta (-1: none within band) */
+static void CreaseContacts(MSimMeshObstacle mo, const PetscReal x[3], int32_t ta, PetscReal d, MSimMeshCreases *cr)
+{
+  cr->k = 0;
+  if (ta < 0 || mo->cr_at.empty() || !(d > 0)) return;
+  const uint32_t *at = &mo->cr_at[4 * (size_t)ta];
+  if (at[0] == ~(uint32_t)0) CreasePartners(mo, (size_t)ta);
+  if (at[0] == at[1] && at[2] == at[3]) return; /* no partner on either side (convex surfaces) */
+  const PetscReal *pa = &mo->plane[_n_MSimMeshObstacle::PLANE_STRIDE * (size_t)ta], ha = PlaneHeight(pa, x), sa = ha > 0 ? 1.0 : -1.0;
+  const size_t     k0 = at[ha > 0 ? 0 : 2], k1 = at[ha > 0 ? 1 : 3];
+  const PetscReal  tol = 1e-9 * (mo->diam + mo->band), peps = Roundoff(mo);
+  if (k0 == k1 || !(sa * ha > tol)) return;
+  for (size_t k = k0; k < k1; k++) {
+    const PetscReal *pb = &mo->plane[_n_MSimMeshObstacle::PLANE_STRIDE * (size_t)mo->cr_tri[k]], hb = PlaneHeight(pb, x), sb = hb > 0 ? 1.0 : -1.0;
+    if (!(std::abs(hb) < mo->band) || sa * sb * (pa[0] * pb[0] + pa[1] * pb[1] + pa[2] * pb[2]) > CREASE_COS) continue;
+    const PetscReal foot[3] = {x[0] - hb * pb[0], x[1] - hb * pb[1], x[2] - hb * pb[2]}, nb[3] = {sb * pb[0], sb * pb[1], sb * pb[2]}, db = std::abs(hb) - mo->thickness;
+    if (EdgeExcess(pb, foot) > peps || !(sa * PlaneHeight(pa, foot) > tol)) continue;
+    bool seen = false; /* the same plane's other triangle, where the foot is on their common edge: one contact */
+    for (PetscInt j = 0; j < cr->k && !seen; j++) seen = std::abs(cr->d[j] - db) <= peps && std::abs(cr->n[j][0] - nb[0]) + std::abs(cr->n[j][1] - nb[1]) + std::abs(cr->n[j][2] - nb[2]) <= 1e-9;
+    if (seen || cr->k == MSIM_MESH_CREASE_MAX) continue;
+    cr->d[cr->k] = db;
+    for (int c = 0; c < 3; c++) cr->n[cr->k][c] = nb[c];
+    cr->k++;
+  }
 }
 
 PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
@@ -844,12 +982,13 @@ enum { MEMO_SLOTS = 3 };
 /* the vertex query within the band around the box (kept out of line: most calls, a cloth's vertices
    far from a small obstacle and friction's at x_n, end at the box test, and this part's register
    saves and stack frame were a third of their cost; callgrind, runs/contact/README.md) */
-static PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9]);
+static PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr);
 
-PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr)
 {
   PetscReal       q[3];
   const PetscReal db2 = BoxOffset(mo, x, q);
+  if (cr) cr->k = 0; /* beyond band: none */
   if (db2 > mo->band * mo->band) { /* Distance's first answer, the same operations */
     const PetscReal db = std::sqrt(db2);
     for (int c = 0; c < 3; c++) n[c] = q[c] / db;
@@ -870,7 +1009,7 @@ PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const 
       return mo->band - mo->thickness;
     }
   }
-  return DistanceVertexNear(mo, v, x, q, db2, n, H);
+  return DistanceVertexNear(mo, v, x, q, db2, n, H, cr);
 }
 
 PetscReal MSimMeshObstacleVertexClearance(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3])
@@ -975,13 +1114,19 @@ static bool NearAnswer(MSimMeshObstacle mo, const _n_MSimMeshObstacle::Near &ns,
     inside = inside != (count % 2 == 1);
   }
   use->d = Answer(mo, q, r, inside ? -1.0 : 1.0, region, e, &mo->tri[ns.t[bi]], use->n, use->H);
+  use->t = (int32_t)ns.t[bi];
   return true;
 }
 
-static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9])
+static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr)
 {
-  if (v < 0 || !mo->use_cells) return Distance(mo, x, n, H, true); /* the kept answers are the cache path's */
-  if (mo->memo.size() < MEMO_SLOTS * (size_t)(v + 1)) mo->memo.resize(MEMO_SLOTS * (size_t)(v + 1), _n_MSimMeshObstacle::Answer{{0, 0, 0}, 0, 0, {0, 0, 0}, {0}});
+  if (v < 0 || !mo->use_cells) { /* the kept answers are the cache path's */
+    int32_t         t;
+    const PetscReal d = Distance(mo, x, n, H, true, NULL, NULL, NULL, &t);
+    if (cr) CreaseContacts(mo, x, t, d, cr);
+    return d;
+  }
+  if (mo->memo.size() < MEMO_SLOTS * (size_t)(v + 1)) mo->memo.resize(MEMO_SLOTS * (size_t)(v + 1), _n_MSimMeshObstacle::Answer{{0, 0, 0}, 0, 0, {0, 0, 0}, {0}, -1});
   if (mo->far.size() <= (size_t)v) mo->far.resize((size_t)v + 1, _n_MSimMeshObstacle::Far{{0, 0, 0}, 0, {0, 0, 0}, 0});
   _n_MSimMeshObstacle::Far &f = mo->far[v]; /* (its skip was tested by the caller) */
   _n_MSimMeshObstacle::Answer *a = &mo->memo[MEMO_SLOTS * (size_t)v], *use = NULL, *old = a;
@@ -999,7 +1144,7 @@ static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle m
       mo->nvq[3]++;
     } else {
       PetscReal lower, zb[4] = {0, 0, 0, 0}; /* zb[0..2] are set only for a beyond-band answer in a cell; rz = 0 otherwise */
-      use->d = Distance(mo, x, use->n, use->H, true, &lower, &ns, zb);
+      use->d = Distance(mo, x, use->n, use->H, true, &lower, &ns, zb, &use->t);
       for (int c = 0; c < 3; c++) use->x[c] = f.x[c] = x[c], f.z[c] = zb[c];
       f.r  = PetscMax(lower - mo->band - 1e-9 * (mo->diam + mo->band) - Roundoff(mo), 0.0); /* (0: none; a negative radius would pass the squared test) */
       f.rz = lower > 0 ? PetscMax(zb[3] - mo->band - 1e-9 * (mo->diam + mo->band) - Roundoff(mo), 0.0) : 0;
@@ -1010,6 +1155,7 @@ static __attribute__((noinline)) PetscReal DistanceVertexNear(MSimMeshObstacle m
   for (int c = 0; c < 3; c++) n[c] = use->n[c];
   if (H)
     for (int k = 0; k < 9; k++) H[k] = use->H[k];
+  if (cr) CreaseContacts(mo, x, use->t, use->d, cr);
   return use->d;
 }
 

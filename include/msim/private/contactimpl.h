@@ -33,18 +33,34 @@ struct _n_MSimContact {
 /* kappa's default once h is known (h2 = beta h^2): the barrier as stiff as the mass at dhat/2 */
 PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *ct);
 
-/* f(v, o, d, n, H) for every owned vertex v (x: its coordinates, 3 per vertex) and obstacle o
-   (where it is at time t) with d < reach; H only when hessian */
+/* obstacle o's contacts with the rank's vertex v at xv (o where it is at time t): f(d, n, H) for
+   each with d < reach, its distance, unit gradient and (when hessian) Hessian: the nearest point's,
+   then, on a mesh, those of the concave creases v sits in (msim/contact.h's MSimMeshCreases,
+   Hessian 0). Returns the nearest distance, the least of them. */
+template <class F>
+inline PetscReal MSimObstacleContacts(const MSimObstacle &o, PetscInt v, const PetscScalar *xv, PetscReal t, PetscReal reach, PetscBool hessian, F &&f)
+{
+  static const PetscReal H0[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  PetscReal              n[3], H[9], y[3];
+  MSimMeshCreases        cr;
+  cr.k = 0;
+  for (int c = 0; c < 3; c++) y[c] = xv[c] - o.v[c] * t; /* as MSimObstacleDistanceAt */
+  const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL, &cr) : MSimObstacleDistanceAt(&o, t, xv, n, hessian ? H : NULL);
+  if (d < reach) {
+    f(d, (const PetscReal *)n, (const PetscReal *)H);
+    for (PetscInt k = 0; k < cr.k; k++)
+      if (cr.d[k] < reach) f(cr.d[k], (const PetscReal *)cr.n[k], H0);
+  }
+  return d;
+}
+
+/* f(v, o, d, n, H) for every owned vertex v (x: its coordinates, 3 per vertex) and contact with an
+   obstacle o (where it is at time t: MSimObstacleContacts) with d < reach; H only when hessian */
 template <class F>
 inline void MSimContactForEachNear(const _n_MSimContact *ct, PetscInt nown, const PetscScalar *x, PetscReal t, PetscReal reach, PetscBool hessian, F &&f)
 {
   for (PetscInt v = 0; v < nown; v++)
-    for (const MSimObstacle &o : ct->obs) {
-      PetscReal       n[3], H[9], y[3];
-      for (int c = 0; c < 3; c++) y[c] = x[3 * v + c] - o.v[c] * t; /* as MSimObstacleDistanceAt */
-      const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL) : MSimObstacleDistanceAt(&o, t, x + 3 * v, n, hessian ? H : NULL);
-      if (d < reach) f(v, o, d, n, H);
-    }
+    for (const MSimObstacle &o : ct->obs) MSimObstacleContacts(o, v, x + 3 * v, t, reach, hessian, [&](PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, o, d, n, H); });
 }
 
 /* IPC's lagged friction (src/implicit/terms/friction.cpp): f(v, lambda, P, u, y) for every owned

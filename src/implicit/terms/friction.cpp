@@ -96,11 +96,11 @@ static PetscErrorCode GetLagged(MSimImplicitTerm term, MSimContact ct, const Lag
         PetscReal        dmin = PETSC_MAX_REAL, xmax = 0;
         if (ev > 0 && dx * dx + dy * dy + dz * dz <= ev * ev) continue;
         for (const MSimObstacle &o : ct->obs) {
-          PetscReal n[3], y[3];
-          for (int c = 0; c < 3; c++) y[c] = xn[3 * v + c] - o.v[c] * t; /* as MSimContactForEachNear */
-          const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, NULL) : MSimObstacleDistanceAt(&o, t, xn + 3 * v, n, NULL);
-          dmin              = PetscMin(dmin, o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat ? PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)) : d);
-          if (d < ct->dhat) add(v, o, d, n, NULL);
+          const PetscReal d = MSimObstacleContacts(o, v, xn + 3 * v, t, ct->dhat, PETSC_FALSE, [&](PetscReal dc, const PetscReal *n, const PetscReal *) { add(v, o, dc, n, NULL); }); /* each contact, a mesh's creases' too */
+          if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
+            const PetscReal y[3] = {xn[3 * v] - o.v[0] * t, xn[3 * v + 1] - o.v[1] * t, xn[3 * v + 2] - o.v[2] * t}; /* MSimObstacleContacts' point */
+            dmin                 = PetscMin(dmin, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
+          } else dmin = PetscMin(dmin, d);
         }
         for (int c = 0; c < 3; c++) {
           L->anchor[3 * v + c] = xn[3 * v + c];

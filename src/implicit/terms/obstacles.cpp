@@ -289,12 +289,12 @@ static void NearLoop(PDWeights *pw, MSimContact ct, PetscReal moved, PetscInt no
        runs/contact/README.md, h2's eighth-session section) */
     PetscReal dmin = PETSC_MAX_REAL, dlow = PETSC_MAX_REAL, xmax = 0;
     for (const MSimObstacle &o : ct->obs) {
-      PetscReal n[3], H[9], y[3];
-      for (int c = 0; c < 3; c++) y[c] = x[3 * v + c] - o.v[c] * t; /* as MSimObstacleDistanceAt */
-      const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL) : MSimObstacleDistanceAt(&o, t, x + 3 * v, n, hessian ? H : NULL);
+      const PetscReal d = MSimObstacleContacts(o, v, x + 3 * v, t, ct->dhat, hessian, [&](PetscReal dc, const PetscReal *n, const PetscReal *H) { f(v, o, dc, n, H); });
       dmin              = PetscMin(dmin, d);
-      dlow              = PetscMin(dlow, o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat ? PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)) : d);
-      if (d < ct->dhat) f(v, o, d, n, H);
+      if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
+        const PetscReal y[3] = {x[3 * v] - o.v[0] * t, x[3 * v + 1] - o.v[1] * t, x[3 * v + 2] - o.v[2] * t}; /* MSimObstacleContacts' point */
+        dlow                 = PetscMin(dlow, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
+      } else dlow = PetscMin(dlow, d);
     }
     /* the margin covers the distances' roundoff (a few eps of the coordinates and the distance) */
     for (int c = 0; c < 3; c++) {
@@ -676,24 +676,37 @@ static PetscErrorCode PDGap_Obstacles(MSimImplicitTerm term, Vec X0, Vec D, Pets
     if (v < (PetscInt)pw->w.size()) q += pw->w[v] * len * len;
     if (len == 0) continue;
     for (const MSimObstacle &o : ct->obs) {
-      PetscReal       n0[3], nn[3], b0 = 0, db0 = 0, d2b;
-      const PetscReal d0 = MSimObstacleDistanceAt(&o, tx, p, n0, NULL);
-      if (d0 - amax * len >= ct->dhat) continue;
+      /* B's part at X0 and its slope grad B(X0).D_v, as the right-hand side has them, summed over the
+         vertex's contacts (a mesh's creases': MSimObstacleContacts); v's answers are not kept here
+         (vertex -1: the plain query) */
       const PetscReal wm = w * PetscRealPart(m[3 * v]);
-      PetscReal       slope = 0; /* grad B(X0).D_v, as the right-hand side has it */
-      if (d0 <= 0) b0 = PETSC_INFINITY; /* not feasible: no bound (PD halves on Phi instead) */
-      else if (d0 < ct->dhat) {
-        PetscReal b;
-        MSimBarrier(d0, ct->dhat, &b0, &db0, &d2b);
-        MSimBarrier(PetscMax(d0, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db0, &d2b); /* AddGradient's */
-        slope = wm * db0 * (n0[0] * u[0] + n0[1] * u[1] + n0[2] * u[2]);
-      }
+      PetscReal       b0 = 0, slope = 0;
+      const PetscReal d0 = MSimObstacleContacts(o, -1, p, tx, ct->dhat, PETSC_FALSE, [&](PetscReal d, const PetscReal *n0, const PetscReal *) {
+        PetscReal b, db, d2b;
+        if (d <= 0) { /* not feasible: no bound (PD halves on Phi instead) */
+          b0 = PETSC_INFINITY;
+          return;
+        }
+        MSimBarrier(d, ct->dhat, &b, &db, &d2b);
+        b0 += b;
+        MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b); /* AddGradient's */
+        slope += wm * db * (n0[0] * u[0] + n0[1] * u[1] + n0[2] * u[2]);
+      });
+      if (d0 - amax * len >= ct->dhat) continue;
       for (PetscInt j = 0; j < n; j++) {
         const PetscReal xa[3] = {p[0] - alpha[j] * u[0], p[1] - alpha[j] * u[1], p[2] - alpha[j] * u[2]};
-        const PetscReal d     = d0 - alpha[j] * len >= ct->dhat ? ct->dhat : MSimObstacleDistanceAt(&o, tx, xa, nn, NULL);
-        PetscReal       b = 0, db;
-        if (d <= 0 || b0 == PETSC_INFINITY) g[j] = PETSC_INFINITY;
-        else if (d < ct->dhat) MSimBarrier(d, ct->dhat, &b, &db, &d2b);
+        PetscReal       b     = 0;
+        bool            bad   = b0 == PETSC_INFINITY;
+        if (d0 - alpha[j] * len < ct->dhat)
+          MSimObstacleContacts(o, -1, xa, tx, ct->dhat, PETSC_FALSE, [&](PetscReal d, const PetscReal *, const PetscReal *) {
+            PetscReal bd, db, d2b;
+            if (d <= 0) bad = true;
+            else {
+              MSimBarrier(d, ct->dhat, &bd, &db, &d2b);
+              b += bd;
+            }
+          });
+        if (bad) g[j] = PETSC_INFINITY;
         if (g[j] < PETSC_INFINITY) g[j] += wm * (b - b0) + alpha[j] * slope;
       }
     }
