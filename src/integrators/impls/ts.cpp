@@ -33,6 +33,9 @@ typedef struct {
   PetscInt    max_substeps;    /* -msim_ts_max_substeps: internal steps allowed per -msim_dt */
   PetscInt    substeps, nrejected; /* internal steps and rejections in the run so far */
   Vec         H;               /* the checkpoint's history: h_next in every entry */
+  PetscReal   fnorm0, fnorm;   /* the current stage solve's first and latest |F| (StageMonitor) */
+  char        refused[192];    /* the last stage solve CheckStage refused, in words */
+  PetscBool   linearised_noted; /* the note that a fixed-count solve (ksponly) makes a linearised scheme is out */
 } TSInteg;
 
 /* du/dt = [v; M^-1 f(x, v)] */
@@ -70,6 +73,93 @@ static PetscErrorCode RHS_Momentum(TS ts, PetscReal t, Vec X, Vec F, void *ctx)
   MSimIntegrator integ = (MSimIntegrator)ctx;
   PetscFunctionBeginUser;
   PetscCall(MSimSystemAcceleration(integ->sys, t, X, NULL, F));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Every SNES type calls its monitors with the norm of each iterate (ksponly evaluates F at its
+   result only when a monitor is set), so this sees each stage solve's first and last |F|. */
+static PetscErrorCode StageMonitor(SNES snes, PetscInt it, PetscReal fnorm, void *ctx)
+{
+  TSInteg *d = (TSInteg *)ctx;
+
+  PetscFunctionBeginUser;
+  if (it == 0) d->fnorm0 = fnorm;
+  d->fnorm = fnorm;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Whether Newton's own correction J^-1 F from the solve's result is below -snes_stol |x|, the
+   step test the solve stopped on: true after a full Newton step near roundoff, false where a
+   method's short step was a stall (qn, anderson), with the SNES's Jacobian and KSP. */
+static PetscErrorCode NewtonStepShort(SNES snes, PetscReal stol, PetscBool *is_short)
+{
+  Vec                x, F, e;
+  Mat                J, P;
+  KSP                ksp;
+  KSPConvergedReason kreason;
+  PetscReal          enorm, xnorm;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetSolution(snes, &x));
+  PetscCall(SNESGetFunction(snes, &F, NULL, NULL));
+  PetscCall(SNESGetJacobian(snes, &J, &P, NULL, NULL));
+  PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(SNESComputeFunction(snes, x, F));
+  PetscCall(SNESComputeJacobian(snes, x, J, P));
+  PetscCall(KSPSetOperators(ksp, J, P));
+  PetscCall(VecDuplicate(x, &e));
+  PetscCall(KSPSolve(ksp, F, e));
+  PetscCall(KSPGetConvergedReason(ksp, &kreason));
+  PetscCall(VecNorm(e, NORM_2, &enorm));
+  PetscCall(VecNorm(x, NORM_2, &xnorm));
+  PetscCall(VecDestroy(&e));
+  *is_short = (PetscBool)(kreason >= 0 && enorm <= stol * xnorm);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* TSAdaptCheckStage's hook, after a stage solve that its SNES did not report as failed. PETSc
+   takes any positive reason as converged, but qn and anderson also stop on a short step
+   (CONVERGED_SNORM_RELATIVE) with |F| barely below where it started, or above. Such a stage is
+   refused unless |F| meets the SNES's own tolerance or Newton's correction from it is as short
+   (Newton itself stops there near roundoff at tight tolerances), and the run stops on it: retried
+   at a quarter of the step, as TS would, these solvers stall again, and the steps they do accept
+   stay that short (a bdf cloth crawled at 1e-20 s steps). A fixed count (ksponly's one linear
+   solve, CONVERGED_ITS) is a linearised scheme the user chose: accepted, with a note once. The
+   monitor's residual is the largest |F| of the interval's accepted stage solves (0 for rosw,
+   linearly implicit by design). */
+static PetscErrorCode CheckStage(TSAdapt adapt, TS ts, PetscReal t, Vec Y, PetscBool *accept)
+{
+  MSimIntegrator      integ;
+  TSInteg            *d;
+  SNES                snes;
+  SNESType            stype;
+  TSType              type;
+  SNESConvergedReason reason;
+  PetscReal           atol, rtol, stol, tol, t0, h;
+  PetscInt            maxit, maxf;
+
+  PetscFunctionBeginUser;
+  PetscCall(TSGetApplicationContext(ts, &integ));
+  d       = (TSInteg *)integ->data;
+  *accept = PETSC_TRUE;
+  PetscCall(TSGetSNES(ts, &snes));
+  PetscCall(SNESGetConvergedReason(snes, &reason));
+  PetscCall(TSGetType(ts, &type));
+  if (!strcmp(type, TSROSW)) PetscFunctionReturn(PETSC_SUCCESS); /* linearly implicit: its own ksponly solves, no nonlinear stage */
+  PetscCall(SNESGetType(snes, &stype));
+  PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
+  tol = PetscMax(atol, rtol * d->fnorm0);
+  if (reason == SNES_CONVERGED_ITS && !d->linearised_noted) {
+    d->linearised_noted = PETSC_TRUE;
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: note: -snes_type %s with -ts_type %s stops each implicit stage after a fixed count (a linearised scheme), not at -snes_atol/-snes_rtol: the monitor's residual is |F| where it stopped\n", stype, type));
+  }
+  if (reason != SNES_CONVERGED_ITS && !(d->fnorm <= tol)) PetscCall(NewtonStepShort(snes, stol, accept));
+  if (!*accept) {
+    PetscCall(TSGetTime(ts, &t0));
+    PetscCall(TSGetTimeStep(ts, &h));
+    PetscCall(PetscSNPrintf(d->refused, sizeof(d->refused), "-snes_type %s stalled (%s) at |F| = %.3g > max(-snes_atol, -snes_rtol |F0|) = %.3g in the step from t = %g with h = %g", stype, SNESConvergedReasons[reason], (double)d->fnorm, (double)tol, (double)t0, (double)h));
+    PetscCall(TSSetConvergedReason(ts, TS_DIVERGED_NONLINEAR_SOLVE));
+  } else integ->residual = PetscMax(integ->residual, d->fnorm);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -188,6 +278,13 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     PetscCall(TSGetAdapt(d->ts, &adapt));
     PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTNONE, &known));
     d->adaptive = (PetscBool)!known;
+    if (d->forms) { /* after the options, which could cancel a monitor set before them */
+      SNES snes;
+      PetscCall(TSGetSNES(d->ts, &snes));
+      PetscCall(SNESMonitorSet(snes, StageMonitor, d, NULL));
+      PetscCall(TSSetApplicationContext(d->ts, integ));
+      PetscCall(TSAdaptSetCheckStage(adapt, CheckStage));
+    }
   }
   /* an adaptive TS's first internal step (a fixed-step one always takes -msim_dt): -ts_dt where
      given, else -msim_dt, except for beuler, theta or cn: their error estimate needs the previous
@@ -239,6 +336,8 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 
   PetscFunctionBeginUser;
   PetscCall(CopyState(d, X, V, PETSC_TRUE));
+  integ->residual = 0;
+  d->refused[0]   = 0;
   /* a fixed-step TS tries the whole -msim_dt again in every interval (a failed solve halves only
      the step that failed) */
   if (!d->adaptive) d->h_next = integ->dt;
@@ -269,10 +368,20 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   integ->linear_its    = ksp1 - ksp0;
   PetscCall(TSGetConvergedReason(d->ts, &reason));
   if (reason < 0) {
-    TSType type;
+    TSType              type;
+    SNESType            stype = NULL;
+    SNESConvergedReason sreason = SNES_CONVERGED_ITERATING;
     PetscCall(TSGetType(d->ts, &type));
+    if (d->forms) { /* the last try's stage solve: failed in its SNES's words, or refused by CheckStage */
+      SNES snes;
+      PetscCall(TSGetSNES(d->ts, &snes));
+      PetscCall(SNESGetConvergedReason(snes, &sreason));
+      PetscCall(SNESGetType(snes, &stype));
+    }
     integ->failed = PETSC_TRUE;
-    PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s)", type, TSConvergedReasons[reason]));
+    if (sreason < 0) PetscCall(PetscSNPrintf(d->refused, sizeof(d->refused), "-snes_type %s: %s in the step from t = %g", stype, SNESConvergedReasons[sreason], (double)tcur));
+    if (d->refused[0]) PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s: %s)", type, TSConvergedReasons[reason], d->refused));
+    else PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s)", type, TSConvergedReasons[reason]));
   }
   PetscCall(CopyState(d, X, V, PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
