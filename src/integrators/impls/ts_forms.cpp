@@ -17,7 +17,7 @@ struct _n_MSimTSForms {
   PetscBool  unit_mass; /* the velocity rows divided by M: v' - M^-1 f (ARKIMEX's explicit stages need dF/dU' = I) */
   /* second order: shiftA M + shiftV C + K */
   Mat        J2;
-  PetscBool  startup_fix; /* the user's alpha2 parameters are not the start-up's (1, 1, 1, 1/2) */
+  PetscBool  startup_fix; /* alpha or alpha2 whose user parameters are not its start-up's (StartupScale) */
   PetscInt   nfunction, njacobian; /* evaluations, for the view */
 };
 
@@ -43,13 +43,53 @@ static PetscErrorCode AccelerationResidual(MSimSystem sys, PetscReal t, Vec X, V
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* PETSc's TSALPHA2 (3.18, src/ts/impls/implicit/alpha/alpha2.c, TSAlpha_Restart) starts from an
+   acceleration a_0 it estimates from two backward-Euler-like solves of dt = h/2 with parameters
+   (alpha_m, alpha_f, gamma, beta) = (1, 1, 1, 1/2), v_k = v_{k-1} + dt a_k, as the one-sided
+   difference (-3 v_0 + 4 v_1 - v_2) / dt: that difference is 2 dt a_0 + O(dt^2), and it is not
+   divided by 2 dt, so the method starts from 2 a_0. With radius 1 (alpha_m = alpha_f = 1/2,
+   gamma = 1/2) the error alternates in sign between steps and cancels in x and v; with a radius
+   below 1, gamma = 1/2 + alpha_m - alpha_f > 1/2 and v_1 keeps h (1 - gamma) a_0 of it: an O(h)
+   error once, first order overall (free fall at radius 0.5: v_1 = 7/6 h g, x off by h g t / 6).
+   During those two solves (recognised by their parameters, unless the user's own are the same)
+   the residual is 2 M a - f, whose solution a = M^-1 f / 2 makes the difference 2 dt (a_0 / 2):
+   the estimate becomes a_0 + O(h), and the method second order.
+   TSALPHA (alpha1.c) starts the first-order form the same way, parameters (1, 1, 1), the same
+   difference of U = [x; v] giving 2 U'_0 (free fall at radius 0.5 ended 1.7e-3 m off at h = 0.01):
+   its start-up residual is F(t, U, 2 U'), [2 x' - v; 2 M v' - f], and its Jacobian's shift 2 a. */
+static PetscErrorCode InStartup(TS ts, PetscBool second_order, PetscBool *startup)
+{
+  PetscReal am, af, gamma, beta = 0.5;
+
+  PetscFunctionBeginUser;
+  if (second_order) PetscCall(TSAlpha2GetParams(ts, &am, &af, &gamma, &beta));
+  else PetscCall(TSAlphaGetParams(ts, &am, &af, &gamma));
+  *startup = (PetscBool)(am == 1 && af == 1 && gamma == 1 && beta == 0.5);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* 2 in alpha's or alpha2's start-up solves (above), else 1 */
+static PetscErrorCode StartupScale(MSimTSForms f, TS ts, PetscReal *scale)
+{
+  PetscBool startup = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  *scale = 1;
+  if (!f->startup_fix) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(InStartup(ts, (PetscBool)!!f->J2, &startup));
+  if (startup) *scale = 2;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode IFunction(TS ts, PetscReal t, Vec U, Vec Udot, Vec F, void *ctx)
 {
   MSimTSForms f = (MSimTSForms)ctx;
   Vec         X, V, Xd, Vd, Fx, Fv;
+  PetscReal   scale;
 
   PetscFunctionBeginUser;
   f->nfunction++;
+  PetscCall(StartupScale(f, ts, &scale));
   PetscCall(VecGetSubVector(U, f->is_pos, &X));
   PetscCall(VecGetSubVector(U, f->is_mom, &V));
   PetscCall(VecGetSubVector(Udot, f->is_pos, &Xd));
@@ -58,6 +98,10 @@ static PetscErrorCode IFunction(TS ts, PetscReal t, Vec U, Vec Udot, Vec F, void
   PetscCall(VecGetSubVector(F, f->is_mom, &Fv));
   PetscCall(VecWAXPY(Fx, -1.0, V, Xd));
   PetscCall(AccelerationResidual(f->sys, t, X, V, Vd, f->work, Fv));
+  if (scale != 1) { /* [2 x' - v; 2 M v' - f] = [x' - v; M v' - f] + [x'; M v'] */
+    PetscCall(VecAXPY(Fx, scale - 1, Xd));
+    PetscCall(VecAXPY(Fv, scale - 1, f->work)); /* M v', left in work */
+  }
   if (f->unit_mass) {
     Vec massinv;
     PetscCall(MSimSystemGetInverseMass(f->sys, &massinv));
@@ -77,12 +121,15 @@ static PetscErrorCode IJacobian(TS ts, PetscReal t, Vec U, Vec Udot, PetscReal a
   MSimTSForms f = (MSimTSForms)ctx;
   Vec         X;
   PetscBool   shell;
+  PetscReal   scale;
   SNES        snes;
   KSP         ksp;
   PC          pc;
 
   PetscFunctionBeginUser;
   f->njacobian++;
+  PetscCall(StartupScale(f, ts, &scale));
+  a *= scale; /* dF/dU' scaled with U' */
   f->shift = a;
   PetscCall(VecGetSubVector(U, f->is_pos, &X));
   PetscCall(MatZeroEntries(f->A00));
@@ -139,29 +186,6 @@ static PetscErrorCode SchurApply(PC pc, Vec R, Vec Y)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* PETSc's TSALPHA2 (3.18, src/ts/impls/implicit/alpha/alpha2.c, TSAlpha_Restart) starts from an
-   acceleration a_0 it estimates from two backward-Euler-like solves of dt = h/2 with parameters
-   (alpha_m, alpha_f, gamma, beta) = (1, 1, 1, 1/2), v_k = v_{k-1} + dt a_k, as the one-sided
-   difference (-3 v_0 + 4 v_1 - v_2) / dt: that difference is 2 dt a_0 + O(dt^2), and it is not
-   divided by 2 dt, so the method starts from 2 a_0. With radius 1 (alpha_m = alpha_f = 1/2,
-   gamma = 1/2) the error alternates in sign between steps and cancels in x and v; with a radius
-   below 1, gamma = 1/2 + alpha_m - alpha_f > 1/2 and v_1 keeps h (1 - gamma) a_0 of it: an O(h)
-   error once, first order overall (free fall at radius 0.5: v_1 = 7/6 h g, x off by h g t / 6).
-   During those two solves (recognised by their parameters, unless the user's own are the same)
-   the residual is 2 M a - f, whose solution a = M^-1 f / 2 makes the difference 2 dt (a_0 / 2):
-   the estimate becomes a_0 + O(h), and the method second order. */
-static PetscErrorCode MassScale(MSimTSForms f, TS ts, PetscReal *scale)
-{
-  PetscReal am, af, gamma, beta;
-
-  PetscFunctionBeginUser;
-  *scale = 1;
-  if (!f->startup_fix) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(TSAlpha2GetParams(ts, &am, &af, &gamma, &beta));
-  if (am == 1 && af == 1 && gamma == 1 && beta == 0.5) *scale = 2;
-  PetscFunctionReturn(PETSC_SUCCESS);
-}
-
 static PetscErrorCode I2Function(TS ts, PetscReal t, Vec X, Vec V, Vec A, Vec F, void *ctx)
 {
   MSimTSForms f = (MSimTSForms)ctx;
@@ -169,7 +193,7 @@ static PetscErrorCode I2Function(TS ts, PetscReal t, Vec X, Vec V, Vec A, Vec F,
 
   PetscFunctionBeginUser;
   f->nfunction++;
-  PetscCall(MassScale(f, ts, &scale));
+  PetscCall(StartupScale(f, ts, &scale));
   PetscCall(AccelerationResidual(f->sys, t, X, V, A, f->work, F));
   if (scale != 1) { /* 2 M a - f = (M a - f) + M a */
     PetscCall(VecPointwiseMult(f->work, f->sys->mass, A));
@@ -185,7 +209,7 @@ static PetscErrorCode I2Jacobian(TS ts, PetscReal t, Vec X, Vec V, Vec A, PetscR
 
   PetscFunctionBeginUser;
   f->njacobian++;
-  PetscCall(MassScale(f, ts, &scale));
+  PetscCall(StartupScale(f, ts, &scale));
   PetscCall(Assemble(f->sys, t, X, scale * shiftA, shiftV, 1.0, P));
   if (J != P) {
     PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
@@ -230,9 +254,15 @@ PetscErrorCode MSimTSFormsSetFirstOrder(MSimTSForms f, TS ts, PetscBool unit_mas
   KSP        ksp;
   PC         pc;
   Vec        one;
+  PetscBool  alpha, startup = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   f->unit_mass = unit_mass;
+  PetscCall(PetscObjectTypeCompare((PetscObject)ts, TSALPHA, &alpha));
+  if (alpha) { /* the user's parameters (after TSSetFromOptions) */
+    PetscCall(InStartup(ts, PETSC_FALSE, &startup));
+    f->startup_fix = (PetscBool)!startup;
+  }
   PetscCall(MatCreateAIJ(sys->comm, 3 * sys->nown, 3 * sys->nown, 3 * sys->nfree, 3 * sys->nfree, 1, NULL, 0, NULL, &f->A00));
   PetscCall(MatCreateAIJ(sys->comm, 3 * sys->nown, 3 * sys->nown, 3 * sys->nfree, 3 * sys->nfree, 1, NULL, 0, NULL, &f->A01));
   PetscCall(VecDuplicate(sys->X0, &one));
@@ -272,11 +302,11 @@ PetscErrorCode MSimTSFormsSetSecondOrder(MSimTSForms f, TS ts)
   SNES snes;
   KSP  ksp;
 
-  PetscReal am, af, gamma, beta;
+  PetscBool startup = PETSC_FALSE;
 
   PetscFunctionBeginUser;
-  PetscCall(TSAlpha2GetParams(ts, &am, &af, &gamma, &beta)); /* the user's (after TSSetFromOptions) */
-  f->startup_fix = (PetscBool)!(am == 1 && af == 1 && gamma == 1 && beta == 0.5);
+  PetscCall(InStartup(ts, PETSC_TRUE, &startup)); /* the user's parameters (after TSSetFromOptions) */
+  f->startup_fix = (PetscBool)!startup;
   PetscCall(MSimSystemCreateMatrix(f->sys, &f->J2));
   PetscCall(TSSetI2Function(ts, NULL, I2Function, f));
   PetscCall(TSSetI2Jacobian(ts, f->J2, f->J2, I2Jacobian, f));

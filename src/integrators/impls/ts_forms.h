@@ -3,6 +3,8 @@
    - first order, U = [x; v] (each rank its 3 nown positions, then velocities):
        F(t, U, U') = [x' - v; M v' - f(t, x, v)],
        dF/dU + a dF/dU' = [[a I, -I], [K, a M + C]]   (K = -df/dx, C = -df/dv),
+     (F(t, U, 2 U') and shift 2 a in TSALPHA's start-up solves, whose initial U' is otherwise twice
+     too large: ts_forms.cpp),
      a MATNEST of four blocks over the index sets of x and v. Its default preconditioner is exact:
      eliminating v' leaves (a^2 M + a C + K) dx = r_v + (a M + C) r_x, one sparse solve on the
      positions with the KSP of prefix ts_schur_ (MUMPS Cholesky, LDL^T, by default);
