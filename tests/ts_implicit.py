@@ -28,7 +28,11 @@ under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each r
   |F| 1e-4 to 1e-3, tolerance 1e-8) and were taken as converged, the monitor's residual 0; now the
   run stops at step 1 in one error line naming the solver and "stalled". The monitor's residual is
   the true |F| (newtonls: above 0, within its tolerance); ksponly, a linearised scheme, runs with a
-  note saying so and |F| after its one linear solve in the monitor."""
+  note saying so and |F| after its one linear solve in the monitor;
+- -snes_type ntr (it needs an objective), a factorization -pc_type on the first-order forms' nest
+  Jacobian, and an error control that rejects a step -ts_max_reject times are each one msim line
+  naming the options (were PETSc's "Must call SNESSetObjective()", "MatSolverType mumps does
+  not support matrix type nest", and "the nonlinear solver failed")."""
 import math
 import os
 import sys
@@ -140,6 +144,14 @@ def main():
                 mt.refusals(check, MSIM, cloth + ["-msim_steps", "1"],
                             ((f"-ts_type {ts_type} -snes_type {snes_type}", ["-ts_type", ts_type, "-snes_type", snes_type],
                               [f"-snes_type {snes_type} stalled", "at step 1"]),), np_)
+            # what stopped inside PETSc in its words ("Must call SNESSetObjective()", "MatSolverType
+            # mumps does not support matrix type nest", an error-control give-up as "the nonlinear
+            # solver failed"): one msim line naming the options
+            mt.refusals(check, MSIM, cloth + ["-msim_steps", "1"], (
+                ("alpha2 with ntr", ["-ts_type", "alpha2", "-snes_type", "ntr", "-ksp_type", "stcg"], ["-snes_type ntr", "-msim_integrator ts", "newtonls"]),
+                ("MUMPS on the nest", ["-ts_type", "beuler", "-pc_type", "lu", "-pc_factor_mat_solver_type", "mumps"], ["-pc_type lu", "nest", "-ts_schur_pc_factor_mat_solver_type"]),
+                ("error control", ["-ts_type", "arkimex", "-ts_adapt_type", "basic", "-ts_atol", "1e-14", "-ts_rtol", "1e-14", "-ts_max_reject", "1"],
+                 ["-ts_type arkimex", "error control", "-ts_max_reject", "not a solver failure"])), np_)
             for snes_type, lo, hi in (("newtonls", 0, 1e-6), ("ksponly", 1e-3, 1e3)):
                 mon = os.path.join(tmp, f"residual_{snes_type}.csv")
                 r = mt.run(MSIM, cloth + ["-ts_type", "beuler", "-snes_type", snes_type, "-msim_steps", "3", "-msim_monitor_csv", mon], np_)

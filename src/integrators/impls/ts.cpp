@@ -372,12 +372,15 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
     SNESType            stype = NULL;
     SNESConvergedReason sreason = SNES_CONVERGED_ITERATING;
     PetscCall(TSGetType(d->ts, &type));
-    if (d->forms) { /* the last try's stage solve: failed in its SNES's words, or refused by CheckStage */
+    if (d->forms) { /* the last try's stage solve: failed in its SNES's words, refused by CheckStage, or converged */
       SNES snes;
       PetscCall(TSGetSNES(d->ts, &snes));
       PetscCall(SNESGetConvergedReason(snes, &sreason));
       PetscCall(SNESGetType(snes, &stype));
     }
+    /* the last try's solves converged: the error control, not the solver, gave up on the step */
+    PetscCall(TSGetTimeStep(d->ts, &h));
+    PetscCheck(!(reason == TS_DIVERGED_STEP_REJECTED && d->adaptive && sreason >= 0 && !d->refused[0]), integ->comm, PETSC_ERR_NOT_CONVERGED, "-ts_type %s: the error control rejected the step from t = %g more than -ts_max_reject times, down to h = %g, where the stage solves converged (not a solver failure): loosen -ts_atol/-ts_rtol or raise -ts_max_reject", type, (double)tcur, (double)h);
     integ->failed = PETSC_TRUE;
     if (sreason < 0) PetscCall(PetscSNPrintf(d->refused, sizeof(d->refused), "-snes_type %s: %s in the step from t = %g", stype, SNESConvergedReasons[sreason], (double)tcur));
     if (d->refused[0]) PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s: %s)", type, TSConvergedReasons[reason], d->refused));

@@ -318,14 +318,25 @@ PetscErrorCode MSimTSFormsSetSecondOrder(MSimTSForms f, TS ts)
 
 PetscErrorCode MSimTSFormsSetFromOptions(MSimTSForms f, TS ts)
 {
-  SNES snes;
-  KSP  ksp;
+  SNES      snes;
+  KSP       ksp;
+  PC        pc;
+  PCType    pctype;
+  PetscBool ntr, factor;
 
   PetscFunctionBeginUser;
   /* the user's -snes_*, -ksp_*, -pc_* options over the defaults set above */
   PetscCall(TSGetSNES(ts, &snes));
   PetscCall(SNESSetFromOptions(snes));
   PetscCall(SNESGetKSP(snes, &ksp));
+  PetscCall(KSPGetPC(ksp, &pc));
+  /* what would otherwise stop inside PETSc with its own words ("Must call SNESSetObjective()",
+     "MatSolverType mumps does not support matrix type nest"), said here with the options */
+  PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESNTR, &ntr));
+  PetscCheck(!ntr, PetscObjectComm((PetscObject)ts), PETSC_ERR_ARG_INCOMP, "-snes_type ntr minimizes an objective (the implicit schemes' incremental potential Phi), which -msim_integrator ts has none of (its TS solves F(t, U, U') = 0): use ntr with implicit_euler, bdf2, implicit_midpoint or newmark, or newtonls with ts");
+  PetscCall(PCGetType(pc, &pctype));
+  PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCLU, PCCHOLESKY, PCILU, PCICC, ""));
+  PetscCheck(!(f->J && factor), PetscObjectComm((PetscObject)ts), PETSC_ERR_SUP, "-pc_type %s: the Jacobian of -ts_type beuler, theta, cn, bdf, rosw, arkimex and alpha is a nest of the [x; v] blocks, which no factorization takes: leave -pc_type unset (v eliminated exactly, then the positions' solve, MUMPS Cholesky by default, set with -ts_schur_pc_type and -ts_schur_pc_factor_mat_solver_type) or use -pc_type fieldsplit", pctype);
   if (f->schur) {
     PetscCall(KSPSetFromOptions(f->schur));
     PetscCall(MSimCheckFactorAvailable(f->schur, f->S));
