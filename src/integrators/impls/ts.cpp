@@ -8,7 +8,8 @@
    monitors and checkpoints; it starts each interval with the step it proposed last, which a
    checkpoint carries (as the one vector of the integrator's history, every entry that step), so
    a restart of a one-step type with an embedded error estimate (rosw, arkimex) repeats the
-   uninterrupted run bit for bit. Types whose TS keeps a history of its own (theta, cn and beuler's
+   uninterrupted run bit for bit with -ts_adapt_type basic (dsp's controller filters the last
+   steps' error estimates, private too: a warning). Types whose TS keeps a history of its own (theta, cn and beuler's
    adaptive error estimate from the previous step's state, bdf's past states, alpha2's
    acceleration) hold it in PETSc's private structs, which no public call reads or sets: a restart
    starts it afresh and says so in a warning (alpha2 at radius 0.5: 20 steps restarted at step 10
@@ -404,12 +405,14 @@ static PetscErrorCode GetHistory_TS(MSimIntegrator integ, PetscInt *n, Vec **his
 }
 
 /* The types that keep a history inside PETSc's TS: a fixed-step bdf or alpha2, an adaptive
-   theta/cn/beuler (their error estimate), or any adaptive multistep or alpha type */
+   theta/cn/beuler (their error estimate), or any adaptive multistep or alpha type; and the dsp
+   step controller, which filters the last steps' error estimates (its own private history) */
 static PetscErrorCode HistoryLoaded_TS(MSimIntegrator integ)
 {
   TSInteg  *d = (TSInteg *)integ->data;
   TSType    type;
-  PetscBool own, onestep;
+  TSAdapt   adapt;
+  PetscBool own, onestep, dsp;
 
   PetscFunctionBeginUser;
   PetscCall(VecMax(d->H, NULL, &d->h_next));
@@ -419,8 +422,12 @@ static PetscErrorCode HistoryLoaded_TS(MSimIntegrator integ)
     if (!strcmp(type, t)) own = PETSC_TRUE;
   for (const char *t : {TSROSW, TSARKIMEX, TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC})
     if (!strcmp(type, t)) onestep = PETSC_TRUE;
+  PetscCall(TSGetAdapt(d->ts, &adapt));
+  PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTDSP, &dsp));
   if (own || (d->adaptive && !onestep))
     PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart with -ts_type %s%s: its TS keeps a history of its own (%s) that PETSc holds privately, so it starts afresh here and the run need not repeat the uninterrupted one bit for bit\n", type, d->adaptive ? " and an adaptive step" : "", own ? "past states or the acceleration" : "the previous step's state for its error estimate"));
+  else if (dsp) /* arkimex at atol 1e-6 on the chain: 8.5e-9 m apart 10 intervals after the restart */
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart with -ts_adapt_type dsp: its controller's history (the last steps' error estimates) is PETSc's private state, so it starts afresh here: the TS's internal steps after the restart, and so the states, can differ from the uninterrupted run's within -ts_atol/-ts_rtol (-ts_adapt_type basic repeats it bit for bit)\n"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
