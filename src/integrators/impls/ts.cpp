@@ -15,6 +15,7 @@
    starts it afresh and says so in a warning (alpha2 at radius 0.5: 20 steps restarted at step 10
    differ from the uninterrupted run). */
 #include <msim/integrator.h>
+#include <initializer_list>
 #include "ts_forms.h"
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
@@ -164,30 +165,24 @@ static PetscErrorCode CheckStage(TSAdapt adapt, TS ts, PetscReal t, Vec Y, Petsc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The form each TS type is served with; PETSC_FALSE for a type msim has no analytic form for */
+/* Whether type is one of types */
+static PetscBool TypeIn(TSType type, std::initializer_list<TSType> types)
+{
+  for (TSType t : types)
+    if (!strcmp(type, t)) return PETSC_TRUE;
+  return PETSC_FALSE;
+}
+
+/* The form each TS type is served with; PETSC_FALSE for a type msim has no analytic form for
+   (not irk: its stages need the Jacobian as an AIJ matrix (MatKAIJ), and msim's is a nest) */
 static PetscErrorCode ClassifyType(TSType type, TSForm *form, PetscBool *known)
 {
-  const char *explicit_types[] = {TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC};
-  /* not irk: its stages need the Jacobian as an AIJ matrix (MatKAIJ), and msim's is a nest */
-  const char *first_order[]    = {TSBEULER, TSTHETA, TSCN, TSBDF, TSROSW, TSARKIMEX, TSALPHA};
-
   PetscFunctionBeginUser;
   *known = PETSC_TRUE;
-  for (const char *t : explicit_types)
-    if (!strcmp(type, t)) {
-      *form = TS_FORM_EXPLICIT;
-      PetscFunctionReturn(PETSC_SUCCESS);
-    }
-  for (const char *t : first_order)
-    if (!strcmp(type, t)) {
-      *form = TS_FORM_FIRST_ORDER;
-      PetscFunctionReturn(PETSC_SUCCESS);
-    }
-  if (!strcmp(type, TSALPHA2)) {
-    *form = TS_FORM_SECOND_ORDER;
-    PetscFunctionReturn(PETSC_SUCCESS);
-  }
-  *known = PETSC_FALSE;
+  if (TypeIn(type, {TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC})) *form = TS_FORM_EXPLICIT;
+  else if (TypeIn(type, {TSBEULER, TSTHETA, TSCN, TSBDF, TSROSW, TSARKIMEX, TSALPHA})) *form = TS_FORM_FIRST_ORDER;
+  else if (TypeIn(type, {TSALPHA2})) *form = TS_FORM_SECOND_ORDER;
+  else *known = PETSC_FALSE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -294,13 +289,11 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
      and the controller grows the steps */
   {
     const char *prefix;
-    PetscBool   given, theta_family = PETSC_FALSE;
+    PetscBool   given;
     PetscCall(TSGetOptionsPrefix(d->ts, &prefix));
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_dt", &given));
-    for (const char *t : {TSBEULER, TSTHETA, TSCN})
-      if (!strcmp(type, t)) theta_family = PETSC_TRUE;
     if (given) PetscCall(TSGetTimeStep(d->ts, &d->h_next));
-    else d->h_next = d->adaptive && theta_family ? 1e-3 * integ->dt : integ->dt;
+    else d->h_next = d->adaptive && TypeIn(type, {TSBEULER, TSTHETA, TSCN}) ? 1e-3 * integ->dt : integ->dt;
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -417,11 +410,8 @@ static PetscErrorCode HistoryLoaded_TS(MSimIntegrator integ)
   PetscFunctionBeginUser;
   PetscCall(VecMax(d->H, NULL, &d->h_next));
   PetscCall(TSGetType(d->ts, &type));
-  own = onestep = PETSC_FALSE;
-  for (const char *t : {TSBDF, TSALPHA, TSALPHA2})
-    if (!strcmp(type, t)) own = PETSC_TRUE;
-  for (const char *t : {TSROSW, TSARKIMEX, TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC})
-    if (!strcmp(type, t)) onestep = PETSC_TRUE;
+  own     = TypeIn(type, {TSBDF, TSALPHA, TSALPHA2});
+  onestep = TypeIn(type, {TSROSW, TSARKIMEX, TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC});
   PetscCall(TSGetAdapt(d->ts, &adapt));
   PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTDSP, &dsp));
   if (own || (d->adaptive && !onestep))
