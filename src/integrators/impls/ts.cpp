@@ -232,7 +232,8 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
   PetscCall(TSSetTimeStep(d->ts, integ->dt));
   PetscCall(TSSetMaxSteps(d->ts, PETSC_MAX_INT - 1)); /* msim drives the steps one TSStep at a time; PETSC_MAX_INT reads as unset */
   PetscCall(TSSetMaxTime(d->ts, PETSC_MAX_REAL));
-  /* a failed nonlinear solve retries the step at half its size (TSAdaptCheckStage), up to
+  /* a failed nonlinear solve retries the step at a quarter of its size (TSAdaptCheckStage,
+     -ts_adapt_scale_solve_failed), up to
      -ts_max_reject times, and a step that still fails stops the run as diverged through msim's
      own path (the last good state kept), not as an error inside TSStep */
   PetscCall(TSSetMaxSNESFailures(d->ts, -1));
@@ -332,7 +333,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   PetscCall(CopyState(d, X, V, PETSC_TRUE));
   integ->residual = 0;
   d->refused[0]   = 0;
-  /* a fixed-step TS tries the whole -msim_dt again in every interval (a failed solve halves only
+  /* a fixed-step TS tries the whole -msim_dt again in every interval (a failed solve shortens only
      the step that failed) */
   if (!d->adaptive) d->h_next = integ->dt;
   PetscCall(TSGetSNESIterations(d->ts, &snes0));
@@ -425,7 +426,7 @@ static PetscErrorCode View_TS(MSimIntegrator integ, PetscViewer viewer)
 {
   TSInteg *d = (TSInteg *)integ->data;
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "ts: %" PetscInt_FMT " internal steps, %" PetscInt_FMT " rejected (by the error control, or a nonlinear solve that failed and was retried at half the step)\n", d->substeps, d->nrejected));
+  PetscCall(PetscViewerASCIIPrintf(viewer, "ts: %" PetscInt_FMT " internal steps, %" PetscInt_FMT " rejected (by the error control, or a nonlinear solve that failed and was retried at a quarter of the step)\n", d->substeps, d->nrejected));
   if (d->forms) PetscCall(MSimTSFormsView(d->forms, viewer));
   if (d->ts) PetscCall(TSView(d->ts, viewer));
   PetscFunctionReturn(PETSC_SUCCESS);
