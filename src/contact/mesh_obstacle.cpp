@@ -906,18 +906,25 @@ static void CreasePartners(MSimMeshObstacle mo, size_t a)
     OverlapTraits      overlap{&hit, mo->tri.data()};
     mo->tree.traversal(CGAL::Bbox_3(bb.xmin() - reach, bb.ymin() - reach, bb.zmin() - reach, bb.xmax() + reach, bb.ymax() + reach, bb.zmax() + reach), overlap);
   }
-  for (int s = 0; s < 2; s++) {
-    const PetscReal sa = s ? -1.0 : 1.0, *pa = plane(a);
-    mo->cr_at[4 * a + 2 * s] = (uint32_t)mo->cr_tri.size();
-    for (const uint32_t b : hit) {
-      PetscReal lo, hi;
-      if (b == a || thin(b)) continue;
-      heights(a, b, &lo, &hi);
-      if (!((s ? -lo : hi) > tol)) continue; /* no vertex of b strictly on side s */
-      const PetscReal *pb = plane(b), c = pa[0] * pb[0] + pa[1] * pb[1] + pa[2] * pb[2];
-      heights(b, a, &lo, &hi);
-      if ((sa * c <= CREASE_COS && hi > tol) || (-sa * c <= CREASE_COS && -lo > tol)) mo->cr_tri.push_back(b);
+  /* each candidate's heights once, its sides' lists side[0], side[1] then in the order found */
+  std::vector<uint32_t> side[2];
+  const PetscReal      *pa = plane(a);
+  for (const uint32_t b : hit) {
+    PetscReal lo, hi;
+    if (b == a || thin(b)) continue;
+    heights(a, b, &lo, &hi);
+    const bool on[2] = {hi > tol, -lo > tol}; /* a vertex of b strictly on side s */
+    if (!on[0] && !on[1]) continue;
+    const PetscReal *pb = plane(b), c = pa[0] * pb[0] + pa[1] * pb[1] + pa[2] * pb[2];
+    heights(b, a, &lo, &hi);
+    for (int s = 0; s < 2; s++) {
+      const PetscReal sa = s ? -1.0 : 1.0;
+      if (on[s] && ((sa * c <= CREASE_COS && hi > tol) || (-sa * c <= CREASE_COS && -lo > tol))) side[s].push_back(b);
     }
+  }
+  for (int s = 0; s < 2; s++) {
+    mo->cr_at[4 * a + 2 * s] = (uint32_t)mo->cr_tri.size();
+    mo->cr_tri.insert(mo->cr_tri.end(), side[s].begin(), side[s].end());
     mo->cr_at[4 * a + 2 * s + 1] = (uint32_t)mo->cr_tri.size();
   }
 }
