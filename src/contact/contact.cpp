@@ -273,13 +273,14 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
    step's scale (a vertex 2e-16 from a box gave a first step with 2.5e9 N and |g| 3e5, accepted on
    the step norm); else on it (d = 0) is allowed: VI bounds rest there. The first offender named by
    its input id (the id users type, whatever the rank count) and the obstacle. The meshes answer as
-   set (CheckState sets them to answer in full). */
-static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when)
+   set (CheckState sets them to answer in full). near, where given, says whether some vertex is
+   within the barrier's margin (on every rank), so that the barrier's check need not query again. */
+static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when, PetscBool *near = NULL)
 {
   MSimSystem         sys = ct->sys;
   const PetscScalar *x, *nat;
   PetscScalar       *f;
-  PetscInt           bad = 0, lo, hi, first = PETSC_MAX_INT;
+  PetscInt           bad = 0, lo, hi, first = PETSC_MAX_INT, counts[2] = {0, 0};
   const PetscReal    tol = 1e-6 * ct->dhat;
   Vec                flag;
   std::string        msg;
@@ -295,12 +296,15 @@ static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstac
       const PetscReal d = MSimObstacleDistanceAt(&obs[k], t, x + 3 * v, n, NULL);
       if ((barrier ? d <= tol : d < 0) && f[3 * v] == 0) {
         f[3 * v] = (PetscScalar)(k + 1), f[3 * v + 1] = d;
-        bad++;
+        counts[0]++;
       }
+      if (d <= tol) counts[1]++;
     }
   PetscCall(VecRestoreArray(flag, &f));
   PetscCall(VecRestoreArrayRead(X, &x));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &bad, 1, MPIU_INT, MPI_SUM, sys->comm));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, counts, 2, MPIU_INT, MPI_SUM, sys->comm));
+  bad = counts[0];
+  if (near) *near = (PetscBool)(counts[1] > 0);
   if (bad) { /* name the vertex by its input id: through the natural (input-order) layout */
     PetscCall(MSimSystemNaturalVector(sys, flag));
     PetscCall(VecGetOwnershipRange(sys->natural, &lo, &hi));
@@ -328,12 +332,12 @@ static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstac
 
 /* CheckVertices with the meshes answering in full (no band), so that a vertex deep inside one is
    found too; then back to the band the barrier's queries take (where it reaches) */
-static PetscErrorCode CheckState(MSimContact ct, std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when)
+static PetscErrorCode CheckState(MSimContact ct, std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when, PetscBool *near = NULL)
 {
   PetscFunctionBeginUser;
   for (MSimObstacle &o : obs)
     if (o.mesh) MSimMeshObstacleSetBand(o.mesh, PETSC_MAX_REAL);
-  PetscCall(CheckVertices(ct, obs, barrier, t, X, when));
+  PetscCall(CheckVertices(ct, obs, barrier, t, X, when, near));
   for (MSimObstacle &o : obs)
     if (o.mesh) MSimMeshObstacleSetBand(o.mesh, ct->thickness + ct->dhat);
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -374,7 +378,9 @@ PetscErrorCode MSimContactCheckBarrierStart(MSimSystem sys)
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, &ct));
-  if (ct) PetscCall(CheckState(ct, ct->obs, PETSC_TRUE, 0.0, sys->X0, "starts"));
+  /* the start's check already knows whether any vertex is that near: query again (meshes in
+     full, a pass as dear as the set-up's) only to name it */
+  if (ct && ct->start_near) PetscCall(CheckState(ct, ct->obs, PETSC_TRUE, 0.0, sys->X0, "starts"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -483,7 +489,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
   /* inside refused here, whatever takes the obstacles; the barrier's margin once it is known to be
      the barrier (MSimContactCheckBarrierStart): a penalty or VI bounds start on an obstacle well */
-  PetscCall(CheckState(ct, ct->obs, PETSC_FALSE, 0.0, sys->X0, "starts"));
+  PetscCall(CheckState(ct, ct->obs, PETSC_FALSE, 0.0, sys->X0, "starts", &ct->start_near));
   /* -msim_scene_view is the scene's option; the system carries it here */
   if (sys->scene_view) PetscCall(MSimContactView(ct, PETSC_VIEWER_STDOUT_(sys->comm)));
   *contact = ct;

@@ -18,6 +18,7 @@ struct _n_MSimContact {
   PetscReal                 eps_v; /* friction's static velocity threshold (m/s) */
   PetscReal                 thickness; /* mesh obstacles: the shell the cloth keeps out of */
   PetscBool                 moving;    /* some obstacle has a velocity */
+  PetscBool                 start_near; /* the start's check found a vertex within the barrier's margin (1e-6 dhat): MSimContactCheckBarrierStart names it */
   PetscBool                 pd_weight; /* PD: the barrier's stiffness in the matrix (else the rhs only) */
   PetscBool                 psd_curvature; /* PSD Hessian: keep the barrier's curvature term, clamped */
   PetscReal                 pd_refactor; /* PD's contact weights: refactor when some vertex's diagonal is off the factored one by more than this factor (0: whenever the set within dhat changes) */
