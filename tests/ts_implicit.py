@@ -158,6 +158,12 @@ def main():
                 ("MUMPS on the nest", ["-ts_type", "beuler", "-pc_type", "lu", "-pc_factor_mat_solver_type", "mumps"], ["-pc_type lu", "nest", "-ts_schur_pc_factor_mat_solver_type"]),
                 ("error control", ["-ts_type", "arkimex", "-ts_adapt_type", "basic", "-ts_atol", "1e-14", "-ts_rtol", "1e-14", "-ts_max_reject", "1"],
                  ["-ts_type arkimex", "error control", "-ts_max_reject", "not a solver failure"])), np_)
+            # the error control's give-up ends the run as a failed step does: the last finite state kept
+            out = os.path.join(tmp, f"gave_up_{np_}")
+            r = mt.run(MSIM, cloth + ["-msim_steps", "3", "-ts_type", "arkimex", "-ts_adapt_type", "basic", "-ts_atol", "1e-14", "-ts_rtol", "1e-14",
+                                      "-ts_max_reject", "1", "-msim_output", out, "-msim_output_every", "1"], np_)
+            check(r.returncode != 0 and "the error control gave up" in r.stderr and os.path.exists(os.path.join(out, "last_finite.vtu")),
+                  f"np={np_}: an error-control give-up keeps the last finite state (exit {r.returncode}, {r.stderr.strip()[-160:]})")
             for snes_type, lo, hi in (("newtonls", 0, 1e-6), ("ksponly", 1e-3, 1e3)):
                 mon = os.path.join(tmp, f"residual_{snes_type}.csv")
                 r = mt.run(MSIM, cloth + ["-ts_type", "beuler", "-snes_type", snes_type, "-msim_steps", "3", "-msim_monitor_csv", mon], np_)

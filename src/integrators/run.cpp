@@ -193,7 +193,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(VecCopy(Xgood, X));
       PetscCall(VecCopy(Vgood, V));
       PetscCall(EndEarly());
-      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? "the nonlinear solver failed" : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
+      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
     }
     if (check) {
       last_good = n;

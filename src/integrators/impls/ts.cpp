@@ -373,13 +373,18 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
       PetscCall(SNESGetConvergedReason(snes, &sreason));
       PetscCall(SNESGetType(snes, &stype));
     }
-    /* the last try's solves converged: the error control, not the solver, gave up on the step */
-    PetscCall(TSGetTimeStep(d->ts, &h));
-    PetscCheck(!(reason == TS_DIVERGED_STEP_REJECTED && d->adaptive && sreason >= 0 && !d->refused[0]), integ->comm, PETSC_ERR_NOT_CONVERGED, "-ts_type %s: the error control rejected the step from t = %g more than -ts_max_reject times, down to h = %g, where the stage solves converged (not a solver failure): loosen -ts_atol/-ts_rtol or raise -ts_max_reject", type, (double)tcur, (double)h);
     integ->failed = PETSC_TRUE;
-    if (sreason < 0) PetscCall(PetscSNPrintf(d->refused, sizeof(d->refused), "-snes_type %s: %s in the step from t = %g", stype, SNESConvergedReasons[sreason], (double)tcur));
-    if (d->refused[0]) PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s: %s)", type, TSConvergedReasons[reason], d->refused));
-    else PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s)", type, TSConvergedReasons[reason]));
+    /* the last try's solves converged: the error control, not the solver, gave up on the step
+       (the time loop then stops as for a failed solve, keeping the last finite state) */
+    PetscCall(TSGetTimeStep(d->ts, &h));
+    if (reason == TS_DIVERGED_STEP_REJECTED && d->adaptive && sreason >= 0 && !d->refused[0]) {
+      integ->failed_what = "the error control gave up";
+      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: it rejected the step from t = %g more than -ts_max_reject times, down to h = %g, where the stage solves converged: not a solver failure; loosen -ts_atol/-ts_rtol or raise -ts_max_reject)", type, (double)tcur, (double)h));
+    } else {
+      if (sreason < 0) PetscCall(PetscSNPrintf(d->refused, sizeof(d->refused), "-snes_type %s: %s in the step from t = %g", stype, SNESConvergedReasons[sreason], (double)tcur));
+      if (d->refused[0]) PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s: %s)", type, TSConvergedReasons[reason], d->refused));
+      else PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s)", type, TSConvergedReasons[reason]));
+    }
   }
   PetscCall(CopyState(d, X, V, PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
