@@ -946,12 +946,20 @@ static void CreaseContacts(MSimMeshObstacle mo, const PetscReal x[3], int32_t ta
     if (!(std::abs(hb) < mo->band) || sa * sb * (pa[0] * pb[0] + pa[1] * pb[1] + pa[2] * pb[2]) > CREASE_COS) continue;
     const PetscReal foot[3] = {x[0] - hb * pb[0], x[1] - hb * pb[1], x[2] - hb * pb[2]}, nb[3] = {sb * pb[0], sb * pb[1], sb * pb[2]}, db = std::abs(hb) - mo->thickness;
     if (EdgeExcess(pb, foot) > peps || !(sa * PlaneHeight(pa, foot) > tol)) continue;
-    bool seen = false; /* the same plane's other triangle, where the foot is on their common edge: one contact */
-    for (PetscInt j = 0; j < cr->k && !seen; j++) seen = std::abs(cr->d[j] - db) <= peps && std::abs(cr->n[j][0] - nb[0]) + std::abs(cr->n[j][1] - nb[1]) + std::abs(cr->n[j][2] - nb[2]) <= 1e-9;
-    if (seen || cr->k == MSIM_MESH_CREASE_MAX) continue;
-    cr->d[cr->k] = db;
-    for (int c = 0; c < 3; c++) cr->n[cr->k][c] = nb[c];
-    cr->k++;
+    /* one contact per wall: faces whose normals are less than 90 degrees apart (a wall's coplanar
+       triangles, the panels of a faceted cylinder's side, a thin fin's near and far faces) give the
+       nearest of them alone. Counted each, a panel's contact would switch on with b(d) > 0 where
+       the foot enters it across its obtuse edge with the next panel (a 16-panel cup: the energy
+       jumped 20% there), and a fin's far face would count through the fin only while the floor is
+       the nearest. Their least distance is continuous: where the foot enters a panel across an
+       edge, its distance is that edge's, no less than the neighbour panel's. */
+    PetscInt j = 0;
+    while (j < cr->k && cr->n[j][0] * nb[0] + cr->n[j][1] * nb[1] + cr->n[j][2] * nb[2] <= CREASE_COS) j++;
+    if (j == cr->k && cr->k == MSIM_MESH_CREASE_MAX) continue;
+    if (j == cr->k) cr->k++;
+    else if (!(db < cr->d[j])) continue;
+    cr->d[j] = db;
+    for (int c = 0; c < 3; c++) cr->n[j][c] = nb[c];
   }
 }
 

@@ -23,7 +23,9 @@
      answered beyond band;
    - a mesh far from the origin (FarFromOrigin): the cached distance is the tree path's bit for bit
      where two sheets are nearly equally near;
-   - thin triangles (Slivers): the same, where a sliver is nearer than a square by 1e-7 of the distance.
+   - thin triangles (Slivers): the same, where a sliver is nearer than a square by 1e-7 of the distance;
+   - concave creases (Creases): the barrier summed over a point's contacts has no jump along paths
+     across a faceted cup's panels and up a thin fin's side, each counting one contact per wall.
    Each rank walks its own points (the queries are local): the same checks at 1 and 2 ranks. */
 #include "harness.h"
 #include <msim/contact.h>
@@ -410,6 +412,93 @@ static PetscErrorCode Slivers(PetscMPIInt rank)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The barrier summed over a point's contacts (the nearest and its creases', MSimObstacleContacts'
+   rule) along a straight path: each step's change is within twice the larger end's gradient times
+   the step (no jump; the sum may have a kink), and the path's most contacts at one point. */
+static PetscErrorCode CreaseSweep(MSimMeshObstacle mo, double dhat, const V3 &x0, const V3 &dir, int n, double *worst, int *most)
+{
+  PetscFunctionBeginUser;
+  auto energy = [&](const V3 &x, double *gnorm, int *nc) {
+    double          nn[3], e = 0, g[3] = {0, 0, 0};
+    MSimMeshCreases cr;
+    const double    d = MSimMeshObstacleDistanceVertex(mo, -1, x.data(), nn, NULL, &cr);
+    *nc               = 0;
+    auto add = [&](double dd, const double *nv) {
+      double b, db, d2b;
+      if (dd >= dhat) return;
+      MSimBarrier(dd, dhat, &b, &db, &d2b);
+      e += b;
+      for (int c = 0; c < 3; c++) g[c] += db * nv[c];
+      (*nc)++;
+    };
+    add(d, nn);
+    for (PetscInt k = 0; k < cr.k; k++) add(cr.d[k], cr.n[k]);
+    *gnorm = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    return e;
+  };
+  double g0, e0 = 0;
+  int    nc;
+  *worst = 0, *most = 0;
+  for (int i = 0; i <= n; i++) {
+    const V3     x = {x0[0] + dir[0] * i / n, x0[1] + dir[1] * i / n, x0[2] + dir[2] * i / n};
+    double       g1;
+    const double e1 = energy(x, &g1, &nc);
+    if (i) *worst = std::max(*worst, std::abs(e1 - e0) / (2 * std::max(g0, g1) * std::sqrt(Dot(dir, dir)) / n + 1e-300));
+    *most = std::max(*most, nc);
+    e0 = e1, g0 = g1;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Concave creases (mesh_obstacle.cpp, CreaseContacts): a faceted cup (16 vertical panels on a
+   floor) and a fin thinner than dhat standing on a plate. Along a path across a panel's edge 3 mm
+   above the floor, the floor and one wall count (2 contacts: two panels counted each made the
+   energy jump 20% where the point's foot entered the second); along a path up the fin's side the
+   plate and the fin's near face (the far face through the fin counted only while the plate was
+   nearest: a jump at the bisector); in an open box's corner the floor and both walls (3). */
+static PetscErrorCode Creases(PetscMPIInt rank)
+{
+  char             path[PETSC_MAX_PATH_LEN];
+  const double     dhat = 0.01, PI = 3.14159265358979323846;
+  double           worst;
+  int              most;
+  MSimMeshObstacle mo;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(path, sizeof path, "/tmp/msim_test_mesh_crease_%d_%d.obj", (int)getpid(), (int)rank));
+  FILE *f = fopen(path, "w");
+  PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
+  fprintf(f, "v 0 0 0\n"); /* the cup: the floor's centre, 16 rim points at z 0 and 16 at z 0.3 */
+  for (int k = 0; k < 16; k++) fprintf(f, "v %.17g %.17g 0\nv %.17g %.17g 0.3\n", 0.5 * std::cos(2 * PI * k / 16), 0.5 * std::sin(2 * PI * k / 16), 0.5 * std::cos(2 * PI * k / 16), 0.5 * std::sin(2 * PI * k / 16));
+  for (int k = 0; k < 16; k++) {
+    const int a = 2 + 2 * k, b = 2 + 2 * ((k + 1) % 16);
+    fprintf(f, "f 1 %d %d\nf %d %d %d\nf %d %d %d\n", a, b, a, b, b + 1, a, b + 1, a + 1);
+  }
+  fclose(f);
+  PetscCall(MSimMeshObstacleCreate(PETSC_COMM_SELF, path, 0.0, &mo));
+  MSimMeshObstacleSetBand(mo, dhat);
+  /* 4.4 mm inside the two panels that meet at angle 0, from 1 cm on one side of their edge to 1 cm on the other */
+  PetscCall(CreaseSweep(mo, dhat, {0.4955, -0.01, 0.003}, {0, 0.02, 0}, 400, &worst, &most));
+  MSimMeshObstacleDestroy(&mo);
+  NOTE("cup: across a panel's edge 3 mm above the floor, most contacts %d, largest change %.3g of the gradient's bound\n", most, worst);
+  CHECK(most == 2 && worst <= 1, "cup: %d contacts (floor and one wall expected) and an energy change %.3g x its gradient's bound (a jump)", most, worst);
+
+  f = fopen(path, "w"); /* a plate z = 0 and a closed fin x in [0, 0.002] on it */
+  PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
+  fprintf(f, "v -0.5 -0.5 0\nv 0.5 -0.5 0\nv 0.5 0.5 0\nv -0.5 0.5 0\n");
+  fprintf(f, "v 0 -0.2 0\nv 0 0.2 0\nv 0 0.2 0.2\nv 0 -0.2 0.2\nv 0.002 -0.2 0\nv 0.002 0.2 0\nv 0.002 0.2 0.2\nv 0.002 -0.2 0.2\n");
+  fprintf(f, "f 1 2 3\nf 1 3 4\nf 5 6 7\nf 5 7 8\nf 9 11 10\nf 9 12 11\nf 8 7 11\nf 8 11 12\nf 5 8 12\nf 5 12 9\nf 6 10 11\nf 6 11 7\n");
+  fclose(f);
+  PetscCall(MSimMeshObstacleCreate(PETSC_COMM_SELF, path, 0.0, &mo));
+  MSimMeshObstacleSetBand(mo, dhat);
+  PetscCall(CreaseSweep(mo, dhat, {-0.004, 0, 0.002}, {0, 0, 0.004}, 400, &worst, &most));
+  MSimMeshObstacleDestroy(&mo);
+  NOTE("fin: up its side across the bisector, most contacts %d, largest change %.3g of the gradient's bound\n", most, worst);
+  CHECK(most == 2 && worst <= 1, "fin: %d contacts (plate and near face expected) and an energy change %.3g x its gradient's bound (a jump)", most, worst);
+  remove(path);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Body(void)
 {
   PetscMPIInt rank;
@@ -421,6 +510,7 @@ static PetscErrorCode Body(void)
   PetscCall(Walks(MSIM_SOURCE_DIR "/tests/data/meshes/sheet.obj", 0.05, 0.0, rank));
   PetscCall(FarFromOrigin(rank));
   PetscCall(Slivers(rank));
+  PetscCall(Creases(rank));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -46,7 +46,9 @@ inline PetscReal MSimObstacleContacts(const MSimObstacle &o, PetscInt v, const P
   MSimMeshCreases        cr;
   cr.k = 0;
   for (int c = 0; c < 3; c++) y[c] = xv[c] - o.v[c] * t; /* as MSimObstacleDistanceAt */
-  const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL, &cr) : MSimObstacleDistanceAt(&o, t, xv, n, hessian ? H : NULL);
+  /* the creases only for the barrier (reach dhat): a penalty (reach 0) pushes along the nearest
+     face alone, its explicit steps needing no smooth energy, and is spared their work */
+  const PetscReal d = o.kind == MSIM_OBSTACLE_MESH ? MSimMeshObstacleDistanceVertex(o.mesh, v, y, n, hessian ? H : NULL, reach > 0 ? &cr : NULL) : MSimObstacleDistanceAt(&o, t, xv, n, hessian ? H : NULL);
   if (d < reach) {
     f(d, (const PetscReal *)n, (const PetscReal *)H);
     for (PetscInt k = 0; k < cr.k; k++)

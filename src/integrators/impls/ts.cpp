@@ -379,7 +379,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
     PetscCall(TSGetTimeStep(d->ts, &h));
     if (reason == TS_DIVERGED_STEP_REJECTED && d->adaptive && sreason >= 0 && !d->refused[0]) {
       integ->failed_what = "the error control gave up";
-      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: it rejected the step from t = %g more than -ts_max_reject times, down to h = %g, where the stage solves converged: not a solver failure; loosen -ts_atol/-ts_rtol or raise -ts_max_reject)", type, (double)tcur, (double)h));
+      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: it rejected the step from t = %g more than -ts_max_reject times, down to h = %g%s: not a solver failure; loosen -ts_atol/-ts_rtol or raise -ts_max_reject)", type, (double)tcur, (double)h, d->forms ? ", where the stage solves converged" : ""));
     } else {
       if (sreason < 0) PetscCall(PetscSNPrintf(d->refused, sizeof(d->refused), "-snes_type %s: %s in the step from t = %g", stype, SNESConvergedReasons[sreason], (double)tcur));
       if (d->refused[0]) PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: %s: %s)", type, TSConvergedReasons[reason], d->refused));
