@@ -1,6 +1,3 @@
 # Sourced by the scripts: Open MPI as root, more ranks than cores, single-threaded BLAS per rank.
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMPI_MCA_rmaps_base_oversubscribe=1
 export OPENBLAS_NUM_THREADS=${OPENBLAS_NUM_THREADS:-1}
-# ranks give up their core while they wait (as the tests run them, tests/CMakeLists.txt): on a
-# machine whose cores are all busy a spinning rank takes the time its partner needs
-export OMPI_MCA_mpi_yield_when_idle=${OMPI_MCA_mpi_yield_when_idle:-1}
