@@ -8,8 +8,9 @@ share no vertex; no msim code):
   1 rank: at more, the halo check below shows the same run failing where the fold crosses ranks);
 - with it, zero intersecting pairs in every frame for Newton (PSD Hessian, CG; at several ranks
   with ICC on the Jacobi blocks), PD and L-BFGS (at 3 ranks Newton alone);
-- more ranks agree with one: Newton on the exact direct solve (MUMPS), converged each step, gives
-  the same final positions to 1e-6 m (the same minimizations; only roundoff differs);
+- 2 ranks agree with one: Newton on the exact direct solve (MUMPS), converged each step, gives
+  the same final positions to 1e-6 m (the same minimizations; only roundoff differs; 3 ranks
+  against 1: tests/self_contact_ranks.py);
 - the halo (ranks > 1): with -msim_self_contact_halo 0 (other ranks' elements left out, a switch
   for this test only) the same run has intersecting pairs where the fold crosses the partition;
   with the halo, none;
@@ -67,6 +68,7 @@ def main():
             r = mt.run(exe, FOLD + ["-msim_self_contact", "-msim_self_contact_halo", "0", "-msim_output", out, "-msim_output_every", "5"], np_)
             counts = pairs_per_frame(out) if r.returncode == 0 else []
             check(r.returncode == 0 and max(counts) > 0, f"np {np_}: without the halo the fold across ranks is missed (pairs per frame {counts}, exit {r.returncode}): the halo test can fail")
+        if np_ == 2:  # 3 ranks against 1: tests/self_contact_ranks.py (the mesh paths, the same barrier and halo)
             # np_ ranks agree with one: converged exact-direct Newton, the first 20 steps (into the fold)
             direct = ["-msim_steps", "20", "-msim_self_contact", "-snes_max_it", "200", "-ksp_type", "preonly", "-pc_type", "cholesky",
                       "-pc_factor_mat_solver_type", "mumps"]
