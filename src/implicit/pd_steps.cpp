@@ -132,10 +132,14 @@ static PetscErrorCode PDDefaultSolver(MSimImplicit imp)
   PetscFunctionBeginUser;
   /* The global step's solver, unless -pd_ksp_type / -pd_pc_type choose one (measured in
      runs/scaling/README.md):
-     - msimllt (msim's factor: one sweep for x, y and z together), for cloths, chains and surfaces
-       while the interface rows it keeps dense on every rank stay few (at most 4000: 128 MB);
-     - MUMPS's Cholesky for solids up to 10^5 free vertices: msimllt's serial factor of a 3-D mesh
-       fills in far more (9.6 s against MUMPS's 0.8 s for 30,000 vertices);
+     - msimllt (msim's factor: one sweep for x, y and z together), for cloths, chains and surfaces,
+       and for solids up to 10^4 free vertices, while the interface rows it keeps dense on every
+       rank stay few (at most 4000: 128 MB). On small solids it beats MUMPS and repeats bit for bit
+       at several ranks, which MUMPS does not (the bunny, 2,527 vertices, 20 steps of bunny_drop:
+       1.39 against 2.54 s at 1 rank, 1.10 against 2.74 s at 2; a tet box of 7,936 vertices:
+       factor 0.16 against 0.14 s, 50 solves 0.21 against 0.37 s);
+     - MUMPS's Cholesky for larger solids up to 10^5 free vertices: msimllt's serial factor of a
+       3-D mesh fills in far more (18,081 vertices: 0.93 against 0.54 s; 30,000: 9.6 against 0.8 s);
      - CG + GAMG beyond: on a 2-million-spring solid it takes 0.44 s per PD iteration against
        MUMPS's 0.52 (0.24 against 0.42 on two ranks) in a fifth of the memory and without the
        18-s factorization. */
@@ -146,7 +150,7 @@ static PetscErrorCode PDDefaultSolver(MSimImplicit imp)
   {
     PetscInt interface = sys->nghost;
     PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &interface, 1, MPIU_INT, MPI_SUM, sys->comm));
-    if (sys->cell_size != 4 && (sys->size == 1 || interface <= 4000)) {
+    if ((sys->cell_size != 4 || sys->nfree <= 10000) && (sys->size == 1 || interface <= 4000)) {
       PetscCall(KSPSetType(imp->pdksp, KSPPREONLY));
       PetscCall(PCSetType(pc, PCMSIMLLT));
     } else if (sys->nfree <= 100000) {
