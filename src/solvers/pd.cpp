@@ -216,6 +216,12 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
      (feasible sets) may wait for the next local step, which sums Phi(X) anyway; pd->finish
      completes it at the last iterate. Anderson, L-BFGS and the residual's path check at once. */
   pd->defer_check = (PetscBool)(fixed && !m && !lm && pd->finish);
+  /* A fixed count evaluates no residual: the SNES's function Vec keeps what it held before the
+     solve (the outer solver's F at its own iterate, where pd is a nonlinear preconditioner). No
+     norm schedule says so, and PETSc's solvers that run pd as their right preconditioner
+     (anderson, ngmres, newtonls) then evaluate the residual at pd's result (SNESGetNPCFunction)
+     instead of reading the stale Vec as it. */
+  PetscCall(SNESSetNormSchedule(snes, fixed ? SNES_NORM_NONE : SNES_NORM_ALWAYS));
   if (!fixed) {
     PetscCall(SNESComputeFunction(snes, X, F));
     PetscCall(VecNorm(F, NORM_2, &fnorm));

@@ -2,6 +2,8 @@
    - Newton, PD to tolerance (with its factor, and with CG global steps), Anderson-PD and L-BFGS
      reach the same x_{n+1} (1e-8 relative) on a small cloth with a step where explicit methods
      blow up;
+   - pd at a fixed count as anderson's, ngmres's and newtonls's nonlinear preconditioner gives the
+     run with pd evaluating its residual (the outer solver evaluates it at pd's result);
    - Baraff-Witkin (ksponly) equals one Newton iteration from x0 = x_n + h v_n;
    - PD, plain and with safeguarded Anderson, never increases Phi, and factors its matrix once over
      50 steps;
@@ -22,7 +24,7 @@
 /* A moving state: 5 Newton steps from rest, then one step of the method under test. */
 static const char *kScene = "-msim_cloth_n 7 -msim_stiffness 1000 -msim_damping 0.5 -msim_drag 0.01 -msim_wind 1,0,0 -msim_dt 0.0333333333333 -msim_integrator implicit_euler";
 
-static PetscErrorCode StepWith(const char *solver, Vec result)
+static PetscErrorCode StepWithIts(const char *solver, Vec result, PetscInt *its_out)
 {
   TestSim s;
   char    opts[2048];
@@ -43,10 +45,54 @@ static PetscErrorCode StepWith(const char *solver, Vec result)
     PetscCall(MSimIntegratorGetStepResult(t.integ, &failed, &its, NULL, &residual));
     CHECK(!failed, "%s: the step failed", solver);
     NOTE("%-90s its %3" PetscInt_FMT " |g| %.2e\n", solver, its, (double)residual);
+    if (its_out) *its_out = its;
     PetscCall(TestSimDestroy(&t));
   }
   PetscCall(VecCopy(s.X, result));
   PetscCall(TestSimDestroy(&s));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode StepWith(const char *solver, Vec result)
+{
+  PetscFunctionBeginUser;
+  PetscCall(StepWithIts(solver, result, NULL));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* pd at a fixed count (-npc_snes_pd_fixed) as the right nonlinear preconditioner of anderson,
+   ngmres and newtonls evaluates no residual; the outer solver must then evaluate it at pd's result
+   instead of reading the one it handed pd. Done so, the run is the one with pd evaluating its
+   residual itself: the same iterates, so the same iteration count and x_{n+1} to roundoff. (With
+   the stale residual ngmres took 4 x the iterations here and newtonls stopped at its limit.) */
+static PetscErrorCode TestNPCFixedCount(void)
+{
+  const char *outer[] = {"anderson -snes_anderson_m 5", "ngmres", "newtonls -ksp_rtol 1e-12"};
+  TestSim     ref;
+
+  PetscFunctionBeginUser;
+  PetscCall(TestSimCreate(kScene, &ref));
+  for (const char *o : outer) {
+    char      opts[1024], fixed[1100];
+    Vec       a, b;
+    PetscInt  ia = -1, ib = -1, maxit = 2000;
+    PetscReal d, n;
+    PetscCall(PetscSNPrintf(opts, sizeof(opts), "-snes_type %s -npc_snes_type pd -npc_snes_max_it 2 -snes_atol 1e-10 -snes_rtol 1e-30 -snes_stol 0 -snes_max_it %" PetscInt_FMT, o, maxit));
+    PetscCall(PetscSNPrintf(fixed, sizeof(fixed), "%s -npc_snes_pd_fixed", opts));
+    PetscCall(VecDuplicate(ref.X, &a));
+    PetscCall(VecDuplicate(ref.X, &b));
+    PetscCall(StepWithIts(opts, a, &ia));
+    PetscCall(StepWithIts(fixed, b, &ib));
+    PetscCall(VecNorm(a, NORM_2, &n));
+    PetscCall(VecAXPY(b, -1.0, a));
+    PetscCall(VecNorm(b, NORM_2, &d));
+    NOTE("%s with pd at a fixed count as its preconditioner: %" PetscInt_FMT " iterations (pd evaluating its residual: %" PetscInt_FMT "), x_{n+1} %.2e relative apart\n", o, ib, ia, (double)(d / n));
+    CHECK(ia < maxit && ib < maxit, "%s: the step did not converge (%" PetscInt_FMT " / %" PetscInt_FMT " iterations)", o, ia, ib);
+    CHECK(ib == ia, "%s: %" PetscInt_FMT " iterations with pd at a fixed count against %" PetscInt_FMT, o, ib, ia);
+    CHECK(d <= 1e-12 * n, "%s: x_{n+1} differs by %g relative", o, (double)(d / n));
+    PetscCall(MSimDestroy(&a, &b));
+  }
+  PetscCall(TestSimDestroy(&ref));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -489,6 +535,7 @@ static PetscErrorCode TestImplicit(void)
   PetscCall(TestLinearSolvers());
   PetscCall(TestJacobianFD());
   PetscCall(TestSolversAgree());
+  PetscCall(TestNPCFixedCount());
   PetscCall(TestBaraffWitkin());
   PetscCall(TestPDMonotoneAndOneFactorization(""));
   PetscCall(TestPDMonotoneAndOneFactorization("-snes_pd_anderson 5"));
