@@ -26,7 +26,9 @@
   (non-manifold) likewise with trust-region Newton;
 - bad input, one error line each: a face naming a missing vertex (the reader's error), a triangle
   of zero area (naming the file), a cloth vertex inside a closed mesh (naming the vertex and the
-  obstacle), a velocity list of the wrong length, a negative thickness.
+  obstacle), a velocity list of the wrong length, a negative thickness; an open mesh at thickness 0
+  with the penalty of an explicit integrator or ts (it acts only at negative distance, which an
+  open surface at thickness 0 never has: the cloth fell through it with no force).
 Usage: contact_mesh.py path/to/msim [--np N]"""
 import math
 import os
@@ -282,6 +284,11 @@ def main():
                      ("a vertex inside a closed mesh", ["-msim_contact_mesh", inside], ["vertex 12 starts inside obstacle 0", "-msim_contact_mesh"]),
                      ("a velocity list of the wrong length", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_velocity", "0,0,1,0"], ["-msim_contact_velocity", "one vx,vy,vz per obstacle"]),
                      ("a negative thickness", ["-msim_contact_mesh", table_obj, "-msim_contact_thickness", "-1"], ["-msim_contact_thickness", ">= 0"])), np_)
+        # the penalty (explicit integrators, ts) pushes only at negative distance, which an open
+        # surface at thickness 0 never has: the cloth fell through the sheet with no force
+        mt.refusals(check, exe, ["-msim_cloth_n", "5", "-msim_fix", "none", "-msim_steps", "300", "-msim_dt", "0.001", "-msim_contact_mesh", sheet_obj],
+                    (("an open mesh at thickness 0 under symplectic Euler's penalty", [], ["sheet.obj", "open surface", "symplectic_euler", "-msim_contact_thickness"]),
+                     ("an open mesh at thickness 0 under ts's penalty", ["-msim_integrator", "ts", "-ts_type", "beuler"], ["sheet.obj", "open surface", "ts", "-msim_contact_thickness"])), np_)
     return check.exit_code()
 
 

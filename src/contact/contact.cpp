@@ -438,7 +438,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
     char     *files[64];
     PetscInt  nfile = 64;
     PetscBool set;
-    PetscCall(PetscOptionsStringArray("-msim_contact_mesh", "Static triangle surfaces (OBJ/OFF/STL, comma-separated files): closed ones keep the cloth outside, open ones on either side, at -msim_contact_thickness", NULL, files, &nfile, &set));
+    PetscCall(PetscOptionsStringArray("-msim_contact_mesh", "Static triangle surfaces (OBJ/OFF/STL, comma-separated files): closed ones keep the cloth outside, open ones on either side (the penalty of the explicit integrators and ts: only with a thickness > 0), at -msim_contact_thickness", NULL, files, &nfile, &set));
     if (!set) nfile = 0;
     PetscCheck(ct->thickness >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_thickness must be >= 0 (got %g)", (double)ct->thickness);
     PetscErrorCode ierr = PETSC_SUCCESS;

@@ -30,6 +30,17 @@ PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
   /* the penalty has no friction: a coefficient it would ignore is refused, not dropped */
   PetscCall(MSimContactGet(sys, &ct));
   PetscCheck(barrier || !ct || ct->mu == 0, sys->comm, PETSC_ERR_SUP, "-msim_friction with -msim_integrator %s is not supported: its contact is a penalty, which has no friction; use implicit_euler or bdf2 (IPC's friction)", type);
+  /* the penalty pushes only where the distance is negative: an open surface's distance is the
+     unsigned one less the thickness, never negative at thickness 0, so the cloth would fall
+     through it with no force at all (the barrier keeps a vertex on the side it starts on) */
+  if (!barrier && ct && ct->thickness == 0)
+    for (const MSimObstacle &o : ct->obs) {
+      const char *file;
+      PetscInt    ntri;
+      PetscBool   closed = PETSC_TRUE;
+      if (o.kind == MSIM_OBSTACLE_MESH) MSimMeshObstacleInfo(o.mesh, &file, &ntri, &closed);
+      PetscCheck(closed, sys->comm, PETSC_ERR_SUP, "-msim_contact_mesh %s is an open surface, which the penalty of -msim_integrator %s cannot hold anything on at -msim_contact_thickness 0 (it pushes only inside the thickness shell); give a thickness > 0, or use implicit_euler or bdf2 (the barrier keeps either side)", file, type);
+    }
   if (barrier) {
     PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &mark));
     PetscCall(PetscObjectCompose((PetscObject)sys->X0, barrier_key, (PetscObject)mark));
