@@ -317,6 +317,14 @@ def newton(a, tmp):
                   "converged: sphere ntr -msim_psd 1 -msim_contact_pc_pd_weight": ball + ntr + ["-msim_psd", "1"] + pdw + conv,
                   "converged: sphere ntr (true Hessian)": ball + ntr + ["-msim_psd", "0"] + conv, "converged: sphere": ball + conv,
                   "converged: corners (no contact)": ["-msim_fix", "corners"] + conv, "converged: corners (no contact) ntr (true Hessian)": ["-msim_fix", "corners"] + ntr + ["-msim_psd", "0"] + conv})
+    # PD's local-global iterations as Newton's right nonlinear preconditioner (each Newton iteration
+    # starts from k fixed PD iterations): PD follows the springs' rotations, which the quadratic
+    # model of a compressed drape does not (the "why the first phase is slow" reading)
+    for k in (1, 3):
+        npc = ["-npc_snes_type", "pd", "-npc_snes_max_it", str(k), "-npc_snes_pd_fixed"]
+        cases[f"sphere -msim_contact_pc_pd_weight, {k} PD iterations as NPC"] = ball + pdw + npc
+        cases[f"corners (no contact), {k} PD iterations as NPC"] = ["-msim_fix", "corners"] + npc
+        cases[f"sphere kappa x 10 -msim_contact_pc_pd_weight, {k} PD iterations as NPC"] = ball + kappa10 + pdw + npc
     if int(a.bench_n) <= 41:
         cases["reference: sphere MUMPS |dx| < 1e-6"] = ball + mumps + ["-msim_step_atol", "1e-6", "-snes_max_it", "300"]
     pick = [c for c in cases if not a.cases or any(c == want for want in a.cases.split(";"))]
