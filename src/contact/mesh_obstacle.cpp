@@ -138,6 +138,10 @@ struct _n_MSimMeshObstacle {
      that side, cr_tri[cr_at[4 t + 2 s], cr_at[4 t + 2 s + 1]), listed at t's first answer within
      band (CreasePartners; cr_at[4 t] = ~0: not yet) */
   std::vector<uint32_t> cr_at, cr_tri;
+  /* per triangle: its vertices' indices in the file and, bit k, whether its edge k (vertex k to
+     k + 1) is a boundary edge of the surface, in no other triangle (RimCorner) */
+  std::vector<PetscInt>      tv;
+  std::vector<unsigned char> rim;
   uint64_t          nvq[5] = {0, 0, 0, 0, 0}; /* vertex queries in the band's box: answered again, skipped as far, full, by the near set; of the far ones, by the centre's ball alone */
 };
 
@@ -520,6 +524,13 @@ PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscRea
   mo->closed = PETSC_TRUE;
   for (const auto &e : edges)
     if (e.second != 2) mo->closed = PETSC_FALSE;
+  mo->tv = tri;
+  mo->rim.assign(tri.size() / 3, 0);
+  for (size_t t = 0; t < tri.size() / 3; t++)
+    for (int k = 0; k < 3; k++) {
+      PetscInt i = tri[3 * t + k], j = tri[3 * t + (k + 1) % 3];
+      if (edges[{PetscMin(i, j), PetscMax(i, j)}] == 1) mo->rim[t] |= (unsigned char)(1 << k);
+    }
   mo->plane.resize(_n_MSimMeshObstacle::PLANE_STRIDE * mo->tri.size());
   for (size_t t = 0; t < mo->tri.size(); t++) {
     PetscReal *pl = &mo->plane[_n_MSimMeshObstacle::PLANE_STRIDE * t], v[3][3];
@@ -853,9 +864,9 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
    same plane counted once; where it leaves B through an edge of the surface's boundary (the rim of
    an open box's wall) the contact leaves with b(d_B) still > 0 if d_B < dhat there: a jump in the
    energy that the full point-triangle distance would avoid, at the cost of a contact that comes and
-   goes as a vertex lying on the rim crosses the wall's plane. Only faces are added: a vertex near
-   two edges of the boundary that meet at a concave angle (above an open box's rim at a corner) keeps
-   the kinked distance of the nearest edge. Each contact adds the barrier b(|h_B| - thickness)
+   goes as a vertex lying on the rim crosses the wall's plane; except where B's edge meets one of
+   A's boundary edges at a vertex (an open box's rim corner), where the contact goes on past the rim
+   as RimCorner's. Each contact adds the barrier b(|h_B| - thickness)
    along B's unit normal towards x, as the nearest does: energy, gradient, Hessian (b'' n n^T), PD's
    weight and friction's lagged normal force sum over the contacts (IPC's point-triangle terms).
    The safe step and the anchors keep the nearest distance, the least of them. The triangles that
@@ -929,6 +940,109 @@ static void CreasePartners(MSimMeshObstacle mo, size_t a)
   }
 }
 
+/* Rim corners. Where two walls of an open surface meet in a concave crease and end at boundary
+   edges (an open box's rim), their edges eA and eB meet at a boundary vertex V. Above the rim the
+   feet of x leave both faces, so the crease's second face gave no contact and the nearest edge
+   alone was left: its distance is kinked on the bisector, where the vertices dropped on the corner
+   settle (an 11 x 11 cloth in the open box of tests/contact_mesh.py with a thickness: Newton could
+   not bring its gradient down there, took steps of 50 iterations, and diverged at step 24). With
+   both walls' point-triangle distances rA, rB the sum b(rA) + b(rB) is smooth across the bisector
+   and meets the faces' sum where the feet cross the rim, but on the corner's convex side (x beyond
+   A's plane, where B is no partner) it must fall to b(rA) alone, and there B's nearest point is V:
+   so the pair counts
+     E = b(rA) + b(rB) - (1 - w) b(rV),   w = S(alpha) S(beta),
+   rV = |x - V|, alpha = (x - V).uB / rA and beta = (x - V).uA / rB (uA, uB: the edges' directions
+   from V), S the C2 step from 0 (at or below 0) to 1 (at or above 1). In an open box's corner
+   (walls at right angles, each rim edge along the other wall's normal) alpha and beta are the
+   cosines of x's directions from the two edges with the walls' normals: 1 where the feet cross the
+   rim (w = 1: the faces' sum, unchanged), 0 where x crosses a wall's plane above the rim, where
+   B's nearest point is V (rB = rV: E = b(rA), the convex side's), and E is symmetric in A and B,
+   so the same whichever is nearest. E >= b(rA) (rB <= rV), so the barrier still stops x at the
+   nearest distance. The nearest's contact is b(rA) as before; B's contact carries the rest, E -
+   b(rA), as the distance d with b(d) equal to it and the vector n = grad(E - b(rA)) / b'(d) (not a
+   unit vector): the callers' b(d), b'(d) n and b''(d) n n^T are then its energy, its gradient and
+   a PSD Hessian (exact for a face's contact, where n is the unit normal). At other rim corners
+   (walls not at right angles, or a rim edge off the other wall's normal) the same E is taken;
+   there w need not vanish where x crosses a wall's plane above the rim, so the contact can still
+   start or end with some energy there. Sets d and n (false: none; B's nearest point is on no
+   boundary edge of B that meets one of A's at a vertex) */
+static inline void Smooth(PetscReal u, PetscReal *s, PetscReal *ds)
+{
+  if (u <= 0) *s = *ds = 0;
+  else if (u >= 1) *s = 1, *ds = 0;
+  else *s = u * u * u * (10 + u * (6 * u - 15)), *ds = 30 * u * u * (1 - u) * (1 - u);
+}
+
+static bool RimCorner(MSimMeshObstacle mo, const PetscReal x[3], size_t a, size_t b, PetscReal *d, PetscReal n[3])
+{
+  if (!mo->rim[a] || !mo->rim[b]) return false;
+  PetscReal pb[3], e[3], rb2 = 0;
+  int       region;
+  ClosestOnTriangle(x, mo->tri[b], pb, &region, e);
+  for (int c = 0; c < 3; c++) rb2 += (x[c] - pb[c]) * (x[c] - pb[c]);
+  const PetscReal tol = Roundoff(mo);
+  for (int k = 0; k < 3; k++) {
+    if (!(mo->rim[b] >> k & 1)) continue;
+    /* B's edge k, if B's nearest point is on it: its point q, x's distance rB from it */
+    PetscReal p0[3], p1[3], f[3], ff = 0, s = 0, q[3], rb = 0;
+    for (int c = 0; c < 3; c++) p0[c] = mo->tri[b][k][c], p1[c] = mo->tri[b][(k + 1) % 3][c], f[c] = p1[c] - p0[c], ff += f[c] * f[c], s += (x[c] - p0[c]) * f[c];
+    s = PetscMin(1.0, PetscMax(0.0, s / ff));
+    for (int c = 0; c < 3; c++) q[c] = p0[c] + s * f[c], rb += (x[c] - q[c]) * (x[c] - q[c]);
+    rb = std::sqrt(rb);
+    if (rb > std::sqrt(rb2) + tol) continue;
+    for (int end = 0; end < 2; end++) {
+      const PetscInt iv = mo->tv[3 * b + (k + end) % 3]; /* V: this end of B's edge */
+      for (int ka = 0; ka < 3; ka++) { /* A's boundary edge from V */
+        if (!(mo->rim[a] >> ka & 1)) continue;
+        const PetscInt j0 = mo->tv[3 * a + ka], j1 = mo->tv[3 * a + (ka + 1) % 3];
+        if (j0 != iv && j1 != iv) continue;
+        const int wa = j0 == iv ? (ka + 1) % 3 : ka; /* A's edge's other end */
+        PetscReal V[3], uA[3], uB[3], la = 0, lb = 0, pa[3], ea[3], ra = 0, rv = 0, ta = 0, tb = 0;
+        int       rega;
+        for (int c = 0; c < 3; c++) {
+          V[c]  = mo->tri[b][(k + end) % 3][c];
+          uB[c] = mo->tri[b][(k + 1 - end) % 3][c] - V[c], uA[c] = mo->tri[a][wa][c] - V[c];
+          la += uA[c] * uA[c], lb += uB[c] * uB[c];
+        }
+        la = std::sqrt(la), lb = std::sqrt(lb);
+        ClosestOnTriangle(x, mo->tri[a], pa, &rega, ea);
+        for (int c = 0; c < 3; c++) {
+          uA[c] /= la, uB[c] /= lb;
+          ra += (x[c] - pa[c]) * (x[c] - pa[c]), rv += (x[c] - V[c]) * (x[c] - V[c]);
+          ta += (x[c] - V[c]) * uA[c], tb += (x[c] - V[c]) * uB[c];
+        }
+        ra = std::sqrt(ra), rv = std::sqrt(rv);
+        const PetscReal th = mo->thickness, dh = mo->band - th, alpha = tb / ra, beta = ta / rb;
+        PetscReal       sa, dsa, sb, dsb, bb, dbb, bv, dbv, d2;
+        Smooth(alpha, &sa, &dsa);
+        Smooth(beta, &sb, &dsb);
+        MSimBarrier(rb - th, dh, &bb, &dbb, &d2);
+        MSimBarrier(rv - th, dh, &bv, &dbv, &d2);
+        const PetscReal w = sa * sb, eb = bb - (1 - w) * bv; /* E - b(rA), B's contact's */
+        if (!(eb > 0)) return false;
+        /* the distance d with b(d) = eb: Newton from rB - thickness (b(rB - thickness) >= eb), which
+           climbs to the root without passing it, b being convex and decreasing */
+        PetscReal dd = rb - th, be, dbe, d2e;
+        for (int it = 0; it < 200; it++) {
+          MSimBarrier(dd, dh, &be, &dbe, &d2e);
+          const PetscReal step = dbe < 0 ? (be - eb) / -dbe : 0;
+          if (!(step > 1e-15 * dd)) break;
+          dd += step;
+        }
+        if (!(dbe < 0)) return false;
+        for (int c = 0; c < 3; c++) {
+          const PetscReal nb = (x[c] - q[c]) / rb, nv = (x[c] - V[c]) / rv, na = (x[c] - pa[c]) / ra;
+          const PetscReal gw = dsa * sb * (uB[c] - alpha * na) / ra + sa * dsb * (uA[c] - beta * nb) / rb;
+          n[c]               = (dbb * nb - (1 - w) * dbv * nv + bv * gw) / dbe;
+        }
+        *d = dd;
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
 /* the creases' contacts of the answer d at x whose nearest triangle is ta (-1: none within band) */
 static void CreaseContacts(MSimMeshObstacle mo, const PetscReal x[3], int32_t ta, PetscReal d, MSimMeshCreases *cr)
 {
@@ -941,11 +1055,15 @@ static void CreaseContacts(MSimMeshObstacle mo, const PetscReal x[3], int32_t ta
   const size_t     k0 = at[ha > 0 ? 0 : 2], k1 = at[ha > 0 ? 1 : 3];
   const PetscReal  tol = 1e-9 * (mo->diam + mo->band), peps = Roundoff(mo);
   if (k0 == k1 || !(sa * ha > tol)) return;
+  PetscReal gn[MSIM_MESH_CREASE_MAX][3]; /* the contacts' walls' normals (cr->n: a rim corner's is not) */
   for (size_t k = k0; k < k1; k++) {
     const PetscReal *pb = &mo->plane[_n_MSimMeshObstacle::PLANE_STRIDE * (size_t)mo->cr_tri[k]], hb = PlaneHeight(pb, x), sb = hb > 0 ? 1.0 : -1.0;
     if (!(std::abs(hb) < mo->band) || sa * sb * (pa[0] * pb[0] + pa[1] * pb[1] + pa[2] * pb[2]) > CREASE_COS) continue;
-    const PetscReal foot[3] = {x[0] - hb * pb[0], x[1] - hb * pb[1], x[2] - hb * pb[2]}, nb[3] = {sb * pb[0], sb * pb[1], sb * pb[2]}, db = std::abs(hb) - mo->thickness;
-    if (EdgeExcess(pb, foot) > peps || !(sa * PlaneHeight(pa, foot) > tol)) continue;
+    const PetscReal foot[3] = {x[0] - hb * pb[0], x[1] - hb * pb[1], x[2] - hb * pb[2]}, nb[3] = {sb * pb[0], sb * pb[1], sb * pb[2]};
+    PetscReal       db = std::abs(hb) - mo->thickness, nc[3] = {nb[0], nb[1], nb[2]};
+    if (EdgeExcess(pb, foot) > peps) { /* the foot off B: only at a rim corner */
+      if (!RimCorner(mo, x, (size_t)ta, (size_t)mo->cr_tri[k], &db, nc)) continue;
+    } else if (!(sa * PlaneHeight(pa, foot) > tol)) continue;
     /* one contact per wall: faces whose normals are less than 90 degrees apart (a wall's coplanar
        triangles, the panels of a faceted cylinder's side, a thin fin's near and far faces) give the
        nearest of them alone. Counted each, a panel's contact would switch on with b(d) > 0 where
@@ -954,12 +1072,12 @@ static void CreaseContacts(MSimMeshObstacle mo, const PetscReal x[3], int32_t ta
        the nearest. Their least distance is continuous: where the foot enters a panel across an
        edge, its distance is that edge's, no less than the neighbour panel's. */
     PetscInt j = 0;
-    while (j < cr->k && cr->n[j][0] * nb[0] + cr->n[j][1] * nb[1] + cr->n[j][2] * nb[2] <= CREASE_COS) j++;
+    while (j < cr->k && gn[j][0] * nb[0] + gn[j][1] * nb[1] + gn[j][2] * nb[2] <= CREASE_COS) j++;
     if (j == cr->k && cr->k == MSIM_MESH_CREASE_MAX) continue;
     if (j == cr->k) cr->k++;
     else if (!(db < cr->d[j])) continue;
     cr->d[j] = db;
-    for (int c = 0; c < 3; c++) cr->n[j][c] = nb[c];
+    for (int c = 0; c < 3; c++) cr->n[j][c] = nc[c], gn[j][c] = nb[c];
   }
 }
 

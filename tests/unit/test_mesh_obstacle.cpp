@@ -25,7 +25,8 @@
      where two sheets are nearly equally near;
    - thin triangles (Slivers): the same, where a sliver is nearer than a square by 1e-7 of the distance;
    - concave creases (Creases): the barrier summed over a point's contacts has no jump along paths
-     across a faceted cup's panels and up a thin fin's side, each counting one contact per wall.
+     across a faceted cup's panels and up a thin fin's side, each counting one contact per wall;
+   - rim corners (RimCorners): no jump and no kink where an open box's walls end at its rim.
    Each rank walks its own points (the queries are local): the same checks at 1 and 2 ranks. */
 #include "harness.h"
 #include <msim/contact.h>
@@ -414,15 +415,18 @@ static PetscErrorCode Slivers(PetscMPIInt rank)
 
 /* The barrier summed over a point's contacts (the nearest and its creases', MSimObstacleContacts'
    rule) along a straight path: each step's change is within twice the larger end's gradient times
-   the step (no jump; the sum may have a kink), and the path's most contacts at one point. */
-static PetscErrorCode CreaseSweep(MSimMeshObstacle mo, double dhat, const V3 &x0, const V3 &dir, int n, double *worst, int *most)
+   the step (no jump; the sum may have a kink), the path's most contacts at one point, and (kink)
+   the largest change of the gradient between neighbouring points, which halves with the step where
+   the gradient is continuous and stays where it jumps */
+static PetscErrorCode CreaseSweep(MSimMeshObstacle mo, double dhat, const V3 &x0, const V3 &dir, int n, double *worst, int *most, double *kink = NULL)
 {
   PetscFunctionBeginUser;
-  auto energy = [&](const V3 &x, double *gnorm, int *nc) {
-    double          nn[3], e = 0, g[3] = {0, 0, 0};
+  auto energy = [&](const V3 &x, V3 &g, int *nc) {
+    double          nn[3], e = 0;
     MSimMeshCreases cr;
     const double    d = MSimMeshObstacleDistanceVertex(mo, -1, x.data(), nn, NULL, &cr);
     *nc               = 0;
+    g                 = {0, 0, 0};
     auto add = [&](double dd, const double *nv) {
       double b, db, d2b;
       if (dd >= dhat) return;
@@ -433,17 +437,21 @@ static PetscErrorCode CreaseSweep(MSimMeshObstacle mo, double dhat, const V3 &x0
     };
     add(d, nn);
     for (PetscInt k = 0; k < cr.k; k++) add(cr.d[k], cr.n[k]);
-    *gnorm = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     return e;
   };
-  double g0, e0 = 0;
+  V3     g0, g1;
+  double e0 = 0;
   int    nc;
   *worst = 0, *most = 0;
+  if (kink) *kink = 0;
   for (int i = 0; i <= n; i++) {
-    const V3     x = {x0[0] + dir[0] * i / n, x0[1] + dir[1] * i / n, x0[2] + dir[2] * i / n};
-    double       g1;
-    const double e1 = energy(x, &g1, &nc);
-    if (i) *worst = std::max(*worst, std::abs(e1 - e0) / (2 * std::max(g0, g1) * std::sqrt(Dot(dir, dir)) / n + 1e-300));
+    const V3     x  = {x0[0] + dir[0] * i / n, x0[1] + dir[1] * i / n, x0[2] + dir[2] * i / n};
+    const double e1 = energy(x, g1, &nc);
+    if (i) {
+      const V3 dg = Sub(g1, g0);
+      *worst      = std::max(*worst, std::abs(e1 - e0) / (2 * std::max(std::sqrt(Dot(g0, g0)), std::sqrt(Dot(g1, g1))) * std::sqrt(Dot(dir, dir)) / n + 1e-300));
+      if (kink) *kink = std::max(*kink, std::sqrt(Dot(dg, dg)));
+    }
     *most = std::max(*most, nc);
     e0 = e1, g0 = g1;
   }
@@ -499,6 +507,59 @@ static PetscErrorCode Creases(PetscMPIInt rank)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Rim corners (mesh_obstacle.cpp, RimCorner): the open box of tests/contact_mesh.py (floor z = -0.5,
+   walls up to the rim z = -0.1 around x, y in [0.2, 0.8]) with a thickness of 1 cm and dhat 1 cm,
+   near its rim corner V = (0.2, 0.2, -0.1), where the walls' rim edges meet. Along four paths, each
+   point farther than the thickness from the box: above the rim across the bisector (where the
+   nearest edge alone flipped between the walls' normals), across a wall's plane above the rim
+   (where the other wall's contact starts), down the bisector through the rim's plane (where the
+   feet enter the walls: the faces' two contacts, while above it the nearest edge's alone gave
+   half that energy) and through the corner's vertical line (where a cloth dropped on the corner
+   lands). On each the barrier's sum has no jump, and its gradient no kink: the gradient's largest
+   change between neighbouring points at least a third smaller with 800 points than with 400 (half,
+   where it is continuous; the same, where it jumps); above the rim's corner both walls count. */
+static PetscErrorCode RimCorners(PetscMPIInt rank)
+{
+  char             path[PETSC_MAX_PATH_LEN];
+  const double     dhat = 0.01, th = 0.01;
+  MSimMeshObstacle mo;
+  struct {
+    const char *what;
+    V3          x0, dir;
+    int         contacts; /* the most at one point (0: not checked) */
+  } paths[] = {
+    {"above the rim across the bisector", {0.204, 0.212, -0.088}, {0.008, -0.008, 0}, 2},
+    {"across a wall's plane above the rim", {0.194, 0.204, -0.088}, {0.012, 0, 0}, 0},
+    {"down the bisector through the rim's plane", {0.213, 0.213, -0.094}, {0, 0, -0.012}, 2},
+    {"through the corner's vertical line", {0.195, 0.195, -0.0885}, {0.01, 0.01, 0}, 0},
+  };
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(path, sizeof path, "/tmp/msim_test_mesh_rim_%d_%d.obj", (int)getpid(), (int)rank));
+  FILE *f = fopen(path, "w");
+  PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
+  for (double x : {0.2, 0.8})
+    for (double y : {0.2, 0.8})
+      for (double z : {-0.5, -0.1}) fprintf(f, "v %.17g %.17g %.17g\n", x, y, z);
+  fprintf(f, "f 1 3 4\nf 1 4 2\nf 5 6 8\nf 5 8 7\nf 1 2 6\nf 1 6 5\nf 3 7 8\nf 3 8 4\nf 1 5 7\nf 1 7 3\n");
+  fclose(f);
+  PetscCall(MSimMeshObstacleCreate(PETSC_COMM_SELF, path, th, &mo));
+  MSimMeshObstacleSetBand(mo, th + dhat);
+  for (const auto &p : paths) {
+    double worst, kink[2], w2;
+    int    most, m2;
+    PetscCall(CreaseSweep(mo, dhat, p.x0, p.dir, 400, &worst, &most, &kink[0]));
+    PetscCall(CreaseSweep(mo, dhat, p.x0, p.dir, 800, &w2, &m2, &kink[1]));
+    NOTE("rim corner, %s: most contacts %d, largest change %.3g of the gradient's bound, the gradient's largest step %.3g at 400 points, %.3g at 800\n", p.what, most, PetscMax(worst, w2), kink[0], kink[1]);
+    CHECK(worst <= 1 && w2 <= 1, "rim corner, %s: an energy change %.3g x its gradient's bound (a jump)", p.what, PetscMax(worst, w2));
+    CHECK(kink[1] <= 2.0 / 3.0 * kink[0], "rim corner, %s: the gradient's largest step %.3g at 800 points against %.3g at 400 (a kink)", p.what, kink[1], kink[0]);
+    CHECK(!p.contacts || most == p.contacts, "rim corner, %s: %d contacts (both walls expected)", p.what, most);
+  }
+  MSimMeshObstacleDestroy(&mo);
+  remove(path);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Body(void)
 {
   PetscMPIInt rank;
@@ -511,6 +572,7 @@ static PetscErrorCode Body(void)
   PetscCall(FarFromOrigin(rank));
   PetscCall(Slivers(rank));
   PetscCall(Creases(rank));
+  PetscCall(RimCorners(rank));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

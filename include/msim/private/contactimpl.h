@@ -37,7 +37,9 @@ PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *
 /* obstacle o's contacts with the rank's vertex v at xv (o where it is at time t): f(d, n, H) for
    each with d < reach, its distance, unit gradient and (when hessian) Hessian: the nearest point's,
    then, on a mesh, those of the concave creases v sits in (msim/contact.h's MSimMeshCreases,
-   Hessian 0). Returns the nearest distance, the least of them. */
+   Hessian 0; at an open surface's rim corner n is grad E / b'(d) for the pair's energy E = b(d),
+   not a unit vector: mesh_obstacle.cpp's RimCorner). Returns the nearest distance, the least of
+   them. */
 template <class F>
 inline PetscReal MSimObstacleContacts(const MSimObstacle &o, PetscInt v, const PetscScalar *xv, PetscReal t, PetscReal reach, PetscBool hessian, F &&f)
 {
