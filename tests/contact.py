@@ -217,6 +217,9 @@ def main():
                      ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["vertex 12 starts inside obstacle 0", "-msim_contact_sphere"]),
                      ("implicit_midpoint with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-msim_integrator", "implicit_midpoint"], ["implicit_midpoint", "not supported"]),
                      ("Baraff-Witkin (ksponly) with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "ksponly"], ["-snes_type ksponly", "not supported"]),
+                     # a nonlinear preconditioner's steps get no feasible search: only pd's stay feasible
+                     ("newtonls with qn as its nonlinear preconditioner, with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-npc_snes_type", "qn"], ["-npc_snes_type qn", "obstacles", "not supported"]),
+                     ("anderson with self-contact", ["-msim_self_contact", "-snes_type", "anderson"], ["-snes_type anderson", "self-contact", "not supported"]),
                      ("friction with the explicit penalty", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_integrator", "symplectic_euler"], ["-msim_friction", "symplectic_euler", "not supported"]),
                      ("friction with TS's penalty", ["-msim_contact_plane", "0,0,1,-1", "-msim_friction", "0.3", "-msim_integrator", "ts"], ["-msim_friction", "-msim_integrator ts", "not supported"]),
                      ("a named -snes_type that is not a VI with obstacles as bounds", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_bounds", "-snes_type", "pd"], ["-msim_contact_bounds", "not -snes_type pd"]),
@@ -247,6 +250,12 @@ def main():
                 d, fixed = box_distance(p, table), p[:, 0] == 0
                 check(fixed.sum() == 5 and (d[fixed] < 0).all() and (outside is None or d[~fixed].min() >= outside),
                       f"np {np_}: pinned inside a box, {label}: the 5 fixed vertices inside (distance {d[fixed].max():.3g}), the free ones outside (least {d[~fixed].min():.3g})")
+        # pd as newtonls's nonlinear preconditioner is the one composition allowed with a barrier
+        # (its steps stay feasible): the cloth lands on a plane and stays out of it
+        p, r = mt.final_positions(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "20",
+                                        "-msim_contact_plane", "0,0,1,-0.1", "-npc_snes_type", "pd", "-npc_snes_max_it", "2", "-npc_snes_pd_fixed"], np_, tmp, name="npc_pd")
+        if check(p is not None, f"np {np_}: newtonls with pd as its nonlinear preconditioner, on a plane: runs"):
+            check(-0.1 < p[:, 2].min() < -0.09, f"np {np_}: newtonls with pd as its preconditioner: the cloth rests on the plane z = -0.1, outside it (least z {p[:, 2].min():.6g})")
         # a restart checks its state against the obstacles as a start does (they are options, not
         # part of the checkpoint): a plane added across the checkpoint's cloth is refused in one
         # line, before any output

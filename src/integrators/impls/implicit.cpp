@@ -428,6 +428,14 @@ static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* what a term with a feasible set (a barrier) is, as the user set it up, for refusals */
+static const char *BarrierName(MSimImplicitTerm term)
+{
+  if (!strcmp(term->type, "self_contact")) return "self-contact (-msim_self_contact)";
+  if (!strcmp(term->type, "volume")) return "the tets' volume barrier (-msim_volume)";
+  return "obstacles (-msim_contact_*)";
+}
+
 /* A scheme with no objective (discrete_gradient: its residual is no function's gradient): the
    solvers that minimize Phi are refused in one line naming the option, the SNES's own type and a
    nonlinear preconditioner's alike. */
@@ -569,7 +577,22 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
          feasible line search: a vertex went inside a sphere a cloth fell on */
       PetscCall(PetscObjectTypeCompareAny((PetscObject)ie->snes, &unguarded, SNESKSPONLY, SNESANDERSON, SNESNGMRES, ""));
       PetscCall(SNESGetType(ie->snes, &type));
-      PetscCheck(!unguarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with obstacles (-msim_contact_*) is not supported: its steps have no feasible line search; use newtonls (to convergence: one Newton step, Baraff-Witkin's, stops wherever its line search meets the barrier), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type);
+      PetscCheck(!unguarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with %s is not supported: its steps have no feasible line search; use newtonls (to convergence: one Newton step, Baraff-Witkin's, stops wherever its line search meets the barrier), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type, BarrierName(ie->imp->terms[k]));
+      /* a nonlinear preconditioner's own steps: only pd keeps its iterates feasible (its step
+         halving on Phi); any other type moves past the barrier before the outer search sees the
+         point (newtonls, qn, ksponly as newtonls's preconditioner ended in a failed line search,
+         DIVERGED_INNER or a diverged step on a cloth dropped on a ball) */
+      {
+        PetscBool has_npc, pd;
+        SNES      npc;
+        PetscCall(SNESHasNPC(ie->snes, &has_npc));
+        if (has_npc) {
+          PetscCall(SNESGetNPC(ie->snes, &npc));
+          PetscCall(PetscObjectTypeCompare((PetscObject)npc, SNESPD, &pd));
+          PetscCall(SNESGetType(npc, &type));
+          PetscCheck(pd, integ->comm, PETSC_ERR_SUP, "-npc_snes_type %s with %s is not supported: a nonlinear preconditioner's steps have no feasible line search; use -npc_snes_type pd (its steps stay feasible) or none", type, BarrierName(ie->imp->terms[k]));
+        }
+      }
       PetscCall(SNESGetLineSearch(ie->snes, &ls));
       PetscCall(SNESLineSearchSetPreCheck(ls, LineSearchPreCheckMaxStep, ie));
       /* L-BFGS's default cp search extrapolates past the shortened step on gradients alone (it
