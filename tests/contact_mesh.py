@@ -27,7 +27,9 @@
   as on the closed box; a fin standing on a box (non-manifold) likewise with trust-region Newton;
 - bad input, one error line each: a face naming a missing vertex (the reader's error), a triangle
   of zero area (naming the file), a cloth vertex inside a closed mesh (naming the vertex and the
-  obstacle), a velocity list of the wrong length, a negative thickness; an open mesh at thickness 0
+  obstacle), a velocity list of the wrong length (one value too many too), a negative thickness,
+  more than 64 mesh files or none after -msim_contact_mesh (PETSc dropped the rest, or the option,
+  silently), and 70 obstacles take their 70 velocities (the list held 64); an open mesh at thickness 0
   with the penalty of an explicit integrator or ts (it acts only at negative distance, which an
   open surface at thickness 0 never has: the cloth fell through it with no force).
 Usage: contact_mesh.py path/to/msim [--np N]"""
@@ -303,7 +305,15 @@ def main():
                      ("a zero-area triangle", ["-msim_contact_mesh", flat], ["flat.obj", "zero area"]),
                      ("a vertex inside a closed mesh", ["-msim_contact_mesh", inside], ["vertex 12 starts inside obstacle 0", "-msim_contact_mesh"]),
                      ("a velocity list of the wrong length", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_velocity", "0,0,1,0"], ["-msim_contact_velocity", "one vx,vy,vz per obstacle"]),
-                     ("a negative thickness", ["-msim_contact_mesh", table_obj, "-msim_contact_thickness", "-1"], ["-msim_contact_thickness", ">= 0"])), np_)
+                     ("a negative thickness", ["-msim_contact_mesh", table_obj, "-msim_contact_thickness", "-1"], ["-msim_contact_thickness", ">= 0"]),
+                     # PETSc drops what does not fit its array, and a string option without a value, silently
+                     ("65 mesh files", ["-msim_contact_mesh", ",".join([sheet_obj] * 65)], ["-msim_contact_mesh", "at most 64 files"]),
+                     ("a mesh option without a file", ["-msim_contact_mesh"], ["-msim_contact_mesh", "needs a value"]),
+                     ("a velocity list one too long", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_velocity", "0,0,1,0"], ["-msim_contact_velocity", "got more than 3 values"])), np_)
+        # a velocity per obstacle for more obstacles than the old fixed list held (64)
+        planes = ",".join(["0,0,1,-5"] * 70)
+        r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1", "-msim_contact_plane", planes, "-msim_contact_velocity", ",".join(["0,0,-1"] * 70)], np_)
+        check(r.returncode == 0, f"np {np_}: 70 obstacles take 70 velocities ({r.stderr.strip()[-300:]})")
         # the penalty (explicit integrators, ts) pushes only at negative distance, which an open
         # surface at thickness 0 never has: the cloth fell through the sheet with no force
         mt.refusals(check, exe, ["-msim_cloth_n", "5", "-msim_fix", "none", "-msim_steps", "300", "-msim_dt", "0.001", "-msim_contact_mesh", sheet_obj],

@@ -435,29 +435,39 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(ReadObstacles(PetscOptionsObject, sys, ct, MSIM_OBSTACLE_BOX, "Solid axis-aligned boxes, 6 values each: x0,x1,y0,y1,z0,z1"));
   PetscCall(MSimOptionsReal("-msim_contact_thickness", "Mesh obstacles: the cloth keeps this far from the surface (outside a closed one, either side of an open one)", NULL, ct->thickness, &ct->thickness, NULL));
   {
-    char     *files[64];
-    PetscInt  nfile = 64;
+    /* one slot more than the files taken: PETSc drops the values beyond the array silently, so a
+       full array means that some file was left out */
+    char     *files[65];
+    PetscInt  nfile = 65;
     PetscBool set;
     PetscCall(PetscOptionsStringArray("-msim_contact_mesh", "Static triangle surfaces (OBJ/OFF/STL, comma-separated files): closed ones keep the cloth outside, open ones on either side (the penalty of the explicit integrators and ts: only with a thickness > 0), at -msim_contact_thickness", NULL, files, &nfile, &set));
+    /* PETSc leaves the option unset, silently, when it is given without a value */
+    PetscBool named;
+    PetscCall(PetscOptionsHasName(PetscOptionsObject->options, PetscOptionsObject->prefix, "-msim_contact_mesh", &named));
+    PetscCheck(set || !named, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_mesh needs a value (comma-separated files)");
     if (!set) nfile = 0;
-    PetscCheck(ct->thickness >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_thickness must be >= 0 (got %g)", (double)ct->thickness);
-    PetscErrorCode ierr = PETSC_SUCCESS;
+    const PetscBool too_many = (PetscBool)(nfile == 65);
+    PetscErrorCode  ierr     = PETSC_SUCCESS;
     for (PetscInt k = 0; k < nfile; k++) {
       MSimObstacle o = {};
       o.kind         = MSIM_OBSTACLE_MESH;
-      if (!ierr) ierr = MSimMeshObstacleCreate(sys->comm, files[k], ct->thickness, &o.mesh);
-      if (!ierr) ct->obs.push_back(o);
+      if (!ierr && !too_many && ct->thickness >= 0) ierr = MSimMeshObstacleCreate(sys->comm, files[k], ct->thickness, &o.mesh);
+      if (!ierr && o.mesh) ct->obs.push_back(o);
       PetscCall(PetscFree(files[k]));
     }
+    PetscCheck(ct->thickness >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_thickness must be >= 0 (got %g)", (double)ct->thickness);
+    PetscCheck(!too_many, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_mesh: at most 64 files");
     PetscCall(ierr);
   }
   {
-    PetscReal v[3 * 64];
-    PetscInt  nv = 3 * 64;
-    PetscBool set;
-    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static", NULL, v, &nv, &set));
+    /* one value more than the obstacles take (PETSc drops the rest silently): a full array is too
+       long a list, whatever the number of obstacles */
+    std::vector<PetscReal> v(3 * ct->obs.size() + 1, 0.0);
+    PetscInt               nv = (PetscInt)v.size();
+    PetscBool              set;
+    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static", NULL, v.data(), &nv, &set));
     if (set) {
-      PetscCheck(nv == 3 * (PetscInt)ct->obs.size(), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_velocity takes one vx,vy,vz per obstacle (%d obstacles: %d values); got %d values", (int)ct->obs.size(), 3 * (int)ct->obs.size(), (int)nv);
+      PetscCheck(nv == 3 * (PetscInt)ct->obs.size(), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_velocity takes one vx,vy,vz per obstacle (%d obstacles: %d values); got %s%d values", (int)ct->obs.size(), 3 * (int)ct->obs.size(), nv == (PetscInt)v.size() ? "more than " : "", (int)(nv == (PetscInt)v.size() ? nv - 1 : nv));
       for (size_t k = 0; k < ct->obs.size(); k++)
         for (int c = 0; c < 3; c++) {
           ct->obs[k].v[c] = v[3 * k + c];
