@@ -26,7 +26,9 @@
    still exact there, only its Hessian jumps, which the line search tolerates.
    max_step: additive CCD over the pairs whose boxes swept along the step overlap, reduced over
    ranks, so no step (nor PD's global step, nor the first iterate: MSimImplicitGuess) can carry an
-   element through another. PD: the barrier's force in the right-hand side, as the obstacles'.
+   element through another; with moving handles the step's start carries the free vertices with
+   them as far as they must (FeasibleStart_Self). PD: the barrier's force in the right-hand side,
+   as the obstacles'.
    The Hessian's blocks join vertices the springs do not: the system's matrix takes new entries
    when self-contact is on (MSimSystemCreateMatrix), and its assembly map follows the pattern.
    The surface: a cloth's grid triangles, a surface mesh's triangles, a tet mesh's boundary faces
@@ -36,7 +38,10 @@
 #include <msim/private/selfcontactimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <msim/private/contactimpl.h>
+#include <msim/errors.h>
 #include <algorithm>
+#include <string>
 #include <cmath>
 
 /* One term of the energy within dhat (Collect): a pair's kind (PT, EE, or the point-edge PE and
@@ -711,6 +716,55 @@ static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscRea
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Moving handles (-msim_fix_velocity w, the same for every fixed vertex): a step moves the fixed
+   vertices by w h at once, the free ones not at all (A holds x_n, or what the obstacles' feasible
+   start made of it), and MSimImplicitGuess pulls the first iterate back towards A with the
+   handles already at b(tx). A handle that came w h towards a free element passed it unseen when w
+   h exceeded their gap: a sheet raised 8 cm a step through a patch 6 cm above it left the patch
+   under it, with no contact force ever. In the handles' frame that start is the free vertices'
+   motion from x_n + w h to A, the handles still, whose beginning is the configuration of (x_n,
+   b(t)) moved rigidly, so apart; CCD along it gives the fraction t that is safe, and A becomes
+   the point there: the free vertices are carried (1 - t) w h with the handles, none of them when
+   nothing comes near (t = 1, A unchanged). A vertex so carried into an obstacle has no feasible
+   start: that is refused. */
+static PetscErrorCode FeasibleStart_Self(MSimImplicitTerm term, Vec A)
+{
+  MSimImplicit    imp = term->imp;
+  MSimSystem      sys = imp->sys;
+  const PetscReal h = imp->step.tx - imp->step.t, *w = sys->fix_velocity;
+  PetscReal       t = 1;
+  PetscScalar    *z;
+  Vec             Z, D;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecDuplicate(A, &Z));
+  PetscCall(VecDuplicate(A, &D));
+  PetscCall(VecCopy(imp->Xn, Z));
+  PetscCall(VecGetArray(Z, &z));
+  for (PetscInt k = 0; k < 3 * sys->nown; k++) z[k] += w[k % 3] * h;
+  PetscCall(VecRestoreArray(Z, &z));
+  PetscCall(VecWAXPY(D, -1.0, A, Z)); /* the motion Z - a D, A at a = 1 */
+  PetscCall(MaxStep_Self(term, Z, D, &t));
+  if (t < 1) {
+    MSimContact        ct;
+    const PetscScalar *a;
+    PetscInt           inside = 0;
+    PetscCall(VecWAXPY(A, -t, D, Z));
+    PetscCall(MSimContactGet(sys, &ct));
+    PetscCall(VecGetArrayRead(A, &a));
+    for (PetscInt v = 0; ct && v < sys->nown && !inside; v++)
+      for (const MSimObstacle &o : ct->obs) {
+        PetscReal n[3];
+        if (MSimObstacleDistanceAt(&o, imp->step.tx, a + 3 * v, n, NULL) <= 0) inside = 1;
+      }
+    PetscCall(VecRestoreArrayRead(A, &a));
+    PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)!inside, "the moving handles (-msim_fix_velocity) carry the surface into an obstacle at t = " + std::to_string((double)imp->step.tx) + ": no position outside it (a smaller -msim_dt)"));
+  }
+  PetscCall(VecDestroy(&Z));
+  PetscCall(VecDestroy(&D));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode View_Self(MSimImplicitTerm term, PetscViewer viewer)
 {
   SelfData *sd = (SelfData *)term->data;
@@ -763,6 +817,13 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
   sd->eplan   = -1;
   sd->cplan   = -1;
   term->ops   = SelfOps;
+  {
+    /* moving handles on the surface (on any rank): their step needs a feasible start */
+    PetscInt        nfixed = (PetscInt)sd->surf->fixed.size();
+    const PetscReal *w     = sys->fix_velocity;
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &nfixed, 1, MPIU_INT, MPI_SUM, sys->comm));
+    if (nfixed && (w[0] != 0 || w[1] != 0 || w[2] != 0)) term->ops.feasible_start = FeasibleStart_Self;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
