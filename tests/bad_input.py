@@ -68,6 +68,9 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-ksp_type", "cgg"], "-ksp_type: 'cgg' is not a KSP type"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_ksp_type", "cgg"], "-pd_ksp_type: 'cgg' is not a KSP type"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd", "-pd_pc_type", "lu2"], "-pd_pc_type: 'lu2' is not a PC type"),
+    # PETSc makes a nonlinear preconditioner for any type; pd, ntr and ksponly would ignore it
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-npc_snes_type", "newtonls"], "-npc_snes_type newtonls with -snes_type pd is not supported: pd runs no nonlinear preconditioner"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "ntr", "-npc_snes_type", "pd"], "-npc_snes_type pd with -snes_type ntr is not supported: ntr runs no nonlinear preconditioner"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_msimllt_relax", "-1"], "-pd_pc_msimllt_relax must be >= 0"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_msimllt_relax", "abc"], "-pd_pc_msimllt_relax: 'abc' is not a number"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-pd_pc_msimllt_max_width", "0"], "-pd_pc_msimllt_max_width must be >= 1"),

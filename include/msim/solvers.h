@@ -109,6 +109,9 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes);
    -snes_qn_scale_type jacobian, ...; not pd, anderson, ngmres, ncg, nrichardson, plain qn): PETSc's
    own flag for it, read after SNESSetFromOptions. */
 PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses);
+/* Whether snes's type runs a nonlinear preconditioner it has (newtonls, qn, ncg, nrichardson,
+   anderson, ngmres, ...; not pd, ntr, ksponly): PETSc's own flag, read after SNESSetFromOptions. */
+PetscErrorCode MSimSNESUsesNPC(SNES snes, PetscBool *uses);
 
 /* What a solver carries from one SNESSolve to the next, beyond the problem's own state: SNES pd's
    L-BFGS pairs (-snes_pd_lbfgs) and ntr's trust radius. The next time step starts from it, so a

@@ -10,3 +10,12 @@ PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses)
   *uses = snes->usesksp;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+/* PETSc makes the nonlinear preconditioner of -npc_snes_type for any type, and each type decides
+   by usesnpc whether its solve calls it (pd and ntr do not). No public accessor in 3.18. */
+PetscErrorCode MSimSNESUsesNPC(SNES snes, PetscBool *uses)
+{
+  PetscFunctionBeginUser;
+  *uses = snes->usesnpc;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

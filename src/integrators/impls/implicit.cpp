@@ -545,6 +545,21 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
      relative tolerance's base, which StepStalled reads */
   PetscCall(SNESSetConvergenceHistory(ie->snes, NULL, NULL, PETSC_DECIDE, PETSC_TRUE));
   PetscCall(SNESSetFromOptions(ie->snes));
+  {
+    /* PETSc makes -npc_snes_type's solver for any type, and those that do not run one would
+       ignore it without a word */
+    PetscBool has_npc, uses;
+    SNESType  type, npc_type;
+    SNES      npc;
+    PetscCall(SNESHasNPC(ie->snes, &has_npc));
+    PetscCall(MSimSNESUsesNPC(ie->snes, &uses));
+    if (has_npc && !uses) {
+      PetscCall(SNESGetType(ie->snes, &type));
+      PetscCall(SNESGetNPC(ie->snes, &npc));
+      PetscCall(SNESGetType(npc, &npc_type));
+      SETERRQ(integ->comm, PETSC_ERR_SUP, "-npc_snes_type %s with -snes_type %s is not supported: %s runs no nonlinear preconditioner (newtonls, qn, ncg, nrichardson, anderson and ngmres do)", npc_type, type, type);
+    }
+  }
   PetscCall(SetUpSemismooth(ie, sys->size, *ksp));
   if (!discrete && !ie->semismooth) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
 #if defined(PETSC_HAVE_MUMPS)
