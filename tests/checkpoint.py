@@ -9,7 +9,10 @@
 - SIGTERM stops a run after a whole step with one line and a checkpoint of that step (1 and 2
   ranks), from which it goes on to the same end;
 - a checkpoint of another scene, a damaged or foreign file, a missing one and one with nothing
-  left to run are refused with one line, and no output directory is made."""
+  left to run are refused with one line, and no output directory is made;
+- BDF2 restarted at another -msim_dt starts up again, saying so once;
+- the clock through a restart at another -msim_dt and a second restart from that run's
+  checkpoint: the monitor's t runs on, and moving handles end at x0 + v T."""
 import os
 import random
 import shutil
@@ -194,6 +197,25 @@ def main():
             total = [float(row["total"]) for row in mt.read_csv(mon) if int(row["step"]) > 10] if r.returncode == 0 else []
             check(r.returncode == 0 and len(lines) == 1 and "starts up again" in lines[0] and total and max(total) <= e_ck + 1e-9,
                   f"np={np}: bdf2 restarted at half the step: one warning ({lines[:2]}), energy {e_ck:.6g} J at the checkpoint, at most {max(total) if total else float('nan'):.6g} J after")
+        # the clock through two restarts, the first with another -msim_dt: 10 steps of 0.01 s, 10 of
+        # 0.005 s to t = 0.15, then 10 more of 0.005 s from that run's checkpoint to t = 0.2 (were
+        # restarted at 20 x 0.005 = 0.1 s: the monitor's t went back and the handles jumped back
+        # along their path). The handles (the chain's ends, at x = 0 and 1 m) move at v = (0.5, 0,
+        # 1) m/s: at T = 0.2 s they are v T from there, whatever the solver did
+        chain = ["-msim_scene", "chain", "-msim_chain_n", "6", "-msim_fix", "corners", "-msim_integrator", "implicit_euler", "-msim_fix_velocity", "0.5,0,1"]
+        for np in (1, 2):
+            ck, mon, xf = (os.path.join(tmp, f"clock_{np}.{e}") for e in ("ck", "csv", "txt"))
+            rs = [run(np, chain + ["-msim_dt", dt, "-msim_steps", n, "-msim_checkpoint", ck, "-msim_monitor_csv", mon] + extra, tmp)
+                  for dt, n, extra in (("0.01", "10", []), ("0.005", "20", ["-msim_restart", ck]), ("0.005", "30", ["-msim_restart", ck, "-msim_view_final", mt.view_ascii(xf)]))]
+            ok = all(r.returncode == 0 for r in rs)
+            t = [float(row["t"]) for row in mt.read_csv(mon)] if ok else []
+            want = [0.01 * k for k in range(11)] + [0.1 + 0.005 * k for k in range(1, 21)]
+            check(ok and len(t) == len(want) and max(abs(a - b) for a, b in zip(t, want)) < 1e-12,
+                  f"np={np}: restarted with -msim_dt 0.005 after 10 steps of 0.01, then again: the monitor's t runs on to 0.2 s ({t[19:23] if t else [r.stderr.strip()[:200] for r in rs]})")
+            x = mt.positions(xf) if ok else None
+            ends = [[0.1, 0, 0.2], [1.1, 0, 0.2]]
+            err = max(abs(x[i][j] - ends[k][j]) for k, i in enumerate((0, 5)) for j in range(3)) if ok else float("nan")
+            check(err < 1e-12, f"np={np}: the handles end at x0 + v T, T = 0.2 s (off by {err:.2e} m)")
     return check.exit_code()
 
 

@@ -120,9 +120,14 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(merr);
     }
   }
-  /* the time at step k: k h, or after a restart with another step size, from the checkpoint's */
-  const PetscBool same_dt = (PetscBool)(!restarted || dt_ck == integ->dt);
-  auto            time_at = [&](PetscInt k) { return same_dt ? k * integ->dt : t_ck + (k - step0) * integ->dt; };
+  /* the time at step k: k h while the checkpoint's time is the step's k h (bit for bit the
+     uninterrupted run's clock), else from the checkpoint's time. The step size alone does not
+     tell: a run restarted with another step size writes checkpoints at t_ck + (k - step0) h with
+     that h, and a restart from one of those with the same h, taken for k h, went back in time
+     (dt 0.01 to step 10, 0.005 to step 20 at t = 0.15, then step 21 at t = 0.105: the monitor's
+     t, the frames' and the moving handles, which jumped back by 0.05 s of their path) */
+  const PetscBool same_clock = (PetscBool)(!restarted || t_ck == step0 * integ->dt);
+  auto            time_at    = [&](PetscInt k) { return same_clock ? k * integ->dt : t_ck + (k - step0) * integ->dt; };
 
   /* Energy scale: the initial energy, what gravity can release over the scene's size, the kinetic
      energy of the whole mass moving with the handles, the wind or the fastest obstacle. Divergence
