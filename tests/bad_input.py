@@ -68,6 +68,11 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-ksp_type", "cgg"], "-ksp_type: 'cgg' is not a KSP type"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_ksp_type", "cgg"], "-pd_ksp_type: 'cgg' is not a KSP type"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd", "-pd_pc_type", "lu2"], "-pd_pc_type: 'lu2' is not a PC type"),
+    # SNES types that need what msim's problem does not give are named before any output (PETSc
+    # stopped at the first solve with its own words)
+    (["-msim_integrator", "implicit_euler", "-snes_type", "ngs"], "-snes_type ngs is not supported: it needs a coloring of an AIJ Jacobian"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "aspin"], "the nonlinear preconditioner's type (-npc_snes_type, or -snes_type aspin's) nasm is not supported"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "composite"], "-snes_type composite needs its solvers: -snes_composite_sneses"),
     # PETSc makes a nonlinear preconditioner for any type; pd, ntr and ksponly would ignore it
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-npc_snes_type", "newtonls"], "-npc_snes_type newtonls with -snes_type pd is not supported: pd runs no nonlinear preconditioner"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "ntr", "-npc_snes_type", "pd"], "-npc_snes_type pd with -snes_type ntr is not supported: ntr runs no nonlinear preconditioner"),

@@ -217,6 +217,8 @@ def main():
                      ("a cloth starting inside a sphere", ["-msim_contact_sphere", "0.5,0.5,0,0.2"], ["vertex 12 starts inside obstacle 0", "-msim_contact_sphere"]),
                      ("implicit_midpoint with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-msim_integrator", "implicit_midpoint"], ["implicit_midpoint", "not supported"]),
                      ("Baraff-Witkin (ksponly) with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "ksponly"], ["-snes_type ksponly", "not supported"]),
+                     ("ncg with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "ncg"], ["-snes_type ncg", "not supported"]),
+                     ("PETSc's trust region (newtontr) with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-snes_type", "newtontr"], ["-snes_type newtontr", "not supported", "ntr"]),
                      # a nonlinear preconditioner's steps get no feasible search: only pd's stay feasible
                      ("newtonls with qn as its nonlinear preconditioner, with an obstacle", ["-msim_contact_plane", "0,0,1,-1", "-npc_snes_type", "qn"], ["-npc_snes_type qn", "obstacles", "not supported"]),
                      ("anderson with self-contact", ["-msim_self_contact", "-snes_type", "anderson"], ["-snes_type anderson", "self-contact", "not supported"]),

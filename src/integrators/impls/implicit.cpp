@@ -546,6 +546,31 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   PetscCall(SNESSetConvergenceHistory(ie->snes, NULL, NULL, PETSC_DECIDE, PETSC_TRUE));
   PetscCall(SNESSetFromOptions(ie->snes));
   {
+    /* the types that need what msim's problem (a DMShell, one Jacobian) does not give: PETSc
+       would stop at the first solve with its own words (a greedy coloring of an AIJ matrix,
+       subdomains, a DMPlex, a user's solve), after the output had begun */
+    PetscBool   unserved, composite, has_npc;
+    SNESType    type;
+    PetscInt    nsub;
+    SNES        snes = ie->snes;
+    PetscCall(SNESHasNPC(ie->snes, &has_npc));
+    for (int level = 0; level < 2; level++) { /* aspin makes itself newtonls with nasm as its preconditioner */
+      if (level) {
+        if (!has_npc) break;
+        PetscCall(SNESGetNPC(ie->snes, &snes));
+      }
+      PetscCall(PetscObjectTypeCompareAny((PetscObject)snes, &unserved, SNESNGS, SNESNASM, SNESASPIN, SNESPATCH, SNESSHELL, ""));
+      PetscCall(SNESGetType(snes, &type));
+      PetscCheck(!unserved, integ->comm, PETSC_ERR_SUP, "%s %s is not supported: it needs %s, which msim's problem does not provide; -help lists the solvers msim serves", level ? "the nonlinear preconditioner's type (-npc_snes_type, or -snes_type aspin's)" : "-snes_type", type,
+                 !strcmp(type, SNESNGS) ? "a coloring of an AIJ Jacobian" : !strcmp(type, SNESPATCH) ? "a DMPlex" : !strcmp(type, SNESSHELL) ? "a solve set by code" : "subdomains of a DM");
+    }
+    PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESCOMPOSITE, &composite));
+    if (composite) {
+      PetscCall(SNESCompositeGetNumber(ie->snes, &nsub));
+      PetscCheck(nsub > 0, integ->comm, PETSC_ERR_ARG_WRONG, "-snes_type composite needs its solvers: -snes_composite_sneses pd,newtonls (for example)");
+    }
+  }
+  {
     /* PETSc makes -npc_snes_type's solver for any type, and those that do not run one would
        ignore it without a word */
     PetscBool has_npc, uses;
@@ -586,13 +611,18 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   for (PetscInt k = 0; k < ie->imp->nterms; k++)
     if (ie->imp->terms[k]->ops.max_step) {
       SNESLineSearch ls;
-      PetscBool qn, unguarded;
+      PetscBool qn, guarded;
       SNESType  type;
-      /* one linear step (ksponly) or PETSc's mixing of iterates (anderson, ngmres) with no
-         feasible line search: a vertex went inside a sphere a cloth fell on */
-      PetscCall(PetscObjectTypeCompareAny((PetscObject)ie->snes, &unguarded, SNESKSPONLY, SNESANDERSON, SNESNGMRES, ""));
+      /* the types whose every step goes through the line search msim cuts to the feasible set
+         (pd keeps its own iterates feasible; the VI types serve obstacles as bounds, and their
+         search takes the other barriers'). The others step without it: one linear step
+         (ksponly), PETSc's mixing of iterates (anderson, ngmres), ncg's and ms's updates, PETSc's
+         own trust region (newtontr) or sub-solvers (fas, composite): a vertex went inside a
+         sphere a cloth fell on, or the run diverged (ncg, ms at step 10, newtontr's region shrank
+         to nothing at step 11, 21 x 21 cloth on the ball) */
+      PetscCall(PetscObjectTypeCompareAny((PetscObject)ie->snes, &guarded, SNESNEWTONLS, SNESNTR, SNESPD, SNESQN, SNESNRICHARDSON, SNESVINEWTONRSLS, SNESVINEWTONSSLS, ""));
       PetscCall(SNESGetType(ie->snes, &type));
-      PetscCheck(!unguarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with %s is not supported: its steps have no feasible line search; use newtonls (to convergence: one Newton step, Baraff-Witkin's, stops wherever its line search meets the barrier), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type, BarrierName(ie->imp->terms[k]));
+      PetscCheck(guarded, integ->comm, PETSC_ERR_SUP, "-snes_type %s with %s is not supported: its steps have no feasible line search; use newtonls (to convergence: one Newton step, Baraff-Witkin's, stops wherever its line search meets the barrier), pd (-snes_pd_anderson m to accelerate it), qn or ntr", type, BarrierName(ie->imp->terms[k]));
       /* a nonlinear preconditioner's own steps: only pd keeps its iterates feasible (its step
          halving on Phi); any other type moves past the barrier before the outer search sees the
          point (newtonls, qn, ksponly as newtonls's preconditioner ended in a failed line search,
