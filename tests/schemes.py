@@ -23,7 +23,10 @@
   the springs are far from linear, the two within 1e-8 m (each solved to |g| < 1e-13);
 - implicit midpoint on the undamped chain keeps its energy over 2000 steps of 5 ms: |E - E0| below
   0.5% of the largest kinetic energy, and no larger in the second half than 1.5 x the first half's,
-  where implicit Euler loses more than half of it."""
+  where implicit Euler loses more than half of it;
+- -msim_step_atol with -snes_type pd (plain, Anderson, fixed count) or ksponly, which never test
+  their step length, is refused in one line naming the option (it changed nothing there, and the
+  unconverged-steps warning named the rule as if it had run)."""
 import math
 import os
 import sys
@@ -135,6 +138,13 @@ def energy(np_, tmp):
     check(e[0] - e[-1] > 0.5 * k.max(), f"np={np_}: implicit Euler loses energy on the same chain: E0 - E = {e[0] - e[-1]:.3f} J (largest kinetic energy {k.max():.3f} J)")
 
 
+def step_rule_refused(np_):
+    base = CLOTH + ["-msim_dt", "0.01", "-msim_steps", "2", "-msim_step_atol", "1e-3"]
+    cases = [(f"{s} {' '.join(solver)} -msim_step_atol", ["-msim_integrator", s, "-snes_type"] + solver, ["-msim_step_atol", f"-snes_type {solver[0]}", "not supported"])
+             for s, solver in (("implicit_euler", ["pd"]), ("bdf2", ["pd", "-snes_pd_anderson", "3"]), ("implicit_midpoint", ["pd", "-snes_pd_fixed"]), ("newmark", ["ksponly"]))]
+    mt.refusals(check, MSIM, base, cases, np_)
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in mt.ranks():
@@ -144,6 +154,7 @@ def main():
             bdf2_startup(np_, tmp)
             midpoint_vs_ts(np_, tmp)
             energy(np_, tmp)
+            step_rule_refused(np_)
     return check.exit_code()
 
 

@@ -585,6 +585,18 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
       SETERRQ(integ->comm, PETSC_ERR_SUP, "-npc_snes_type %s with -snes_type %s is not supported: %s runs no nonlinear preconditioner (newtonls, qn, ncg, nrichardson, anderson and ngmres do)", npc_type, type, type);
     }
   }
+  if (ie->step_atol > 0) {
+    /* pd stops on |g| or after a fixed count and ksponly after its one linear solve: neither calls
+       the SNES's convergence test, where the rule is (ConvergedStep). It changed nothing there,
+       and the unconverged-steps warning named it as if it had run */
+    PetscBool pd, ksponly;
+    SNESType  type;
+    PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESPD, &pd));
+    PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESKSPONLY, &ksponly));
+    PetscCall(SNESGetType(ie->snes, &type));
+    PetscCheck(!pd && !ksponly, integ->comm, PETSC_ERR_SUP, "-msim_step_atol with -snes_type %s is not supported: it never tests its step length (%s); newtonls, ntr and qn read it", type,
+               pd ? "it stops at -snes_atol/-snes_rtol, or after -snes_max_it with -snes_pd_fixed" : "it stops after its one linear solve");
+  }
   PetscCall(SetUpSemismooth(ie, sys->size, *ksp));
   if (!discrete && !ie->semismooth) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
 #if defined(PETSC_HAVE_MUMPS)
