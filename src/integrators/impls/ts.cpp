@@ -9,7 +9,8 @@
    checkpoint carries (as the one vector of the integrator's history, every entry that step), so
    a restart of a one-step type with an embedded error estimate (rosw, arkimex) repeats the
    uninterrupted run bit for bit with -ts_adapt_type basic (dsp's controller filters the last
-   steps' error estimates, private too: a warning). Types whose TS keeps a history of its own (theta, cn and beuler's
+   steps' error estimates, private too: a warning; so does an rk tableau that reuses its last
+   stage's derivative as the next step's first, FSAL, as 5dp). Types whose TS keeps a history of its own (theta, cn and beuler's
    adaptive error estimate from the previous step's state, bdf's past states, alpha2's
    acceleration) hold it in PETSc's private structs, which no public call reads or sets: a restart
    starts it afresh and says so in a warning (alpha2 at radius 0.5: 20 steps restarted at step 10
@@ -404,23 +405,30 @@ static PetscErrorCode GetHistory_TS(MSimIntegrator integ, PetscInt *n, Vec **his
 }
 
 /* The types that keep a history inside PETSc's TS: a fixed-step bdf or alpha2, an adaptive
-   theta/cn/beuler (their error estimate), or any adaptive multistep or alpha type; and the dsp
-   step controller, which filters the last steps' error estimates (its own private history) */
+   theta/cn/beuler (their error estimate), or any adaptive multistep or alpha type; an rk tableau
+   whose first stage is the step before's last (FSAL: 3bs, 5dp, 5bs, 6vr, 7vr, 8vr), whose
+   derivative PETSc keeps for the next step; and the dsp step controller, which filters the last
+   steps' error estimates (its own private history) */
 static PetscErrorCode HistoryLoaded_TS(MSimIntegrator integ)
 {
   TSInteg  *d = (TSInteg *)integ->data;
   TSType    type;
   TSAdapt   adapt;
-  PetscBool own, onestep, dsp;
+  PetscBool own, onestep, dsp, fsal = PETSC_FALSE;
 
   PetscFunctionBeginUser;
   PetscCall(VecMax(d->H, NULL, &d->h_next));
   PetscCall(TSGetType(d->ts, &type));
   own     = TypeIn(type, {TSBDF, TSALPHA, TSALPHA2});
   onestep = TypeIn(type, {TSROSW, TSARKIMEX, TSEULER, TSRK, TSSSP, TSBASICSYMPLECTIC});
+  if (!strcmp(type, TSRK)) PetscCall(TSRKGetTableau(d->ts, NULL, NULL, NULL, NULL, NULL, NULL, NULL, &fsal));
   PetscCall(TSGetAdapt(d->ts, &adapt));
   PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTDSP, &dsp));
-  if (own || (d->adaptive && !onestep))
+  if (fsal) { /* rk 5dp, fixed step, on the damped cloth: 1.1e-16 m apart 10 steps after the restart */
+    TSRKType rktype;
+    PetscCall(TSRKGetType(d->ts, &rktype));
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart with -ts_type rk -ts_rk_type %s: its first stage reuses the derivative of the step before's last stage (first same as last), which PETSc holds privately, so it is evaluated afresh here and the run can differ from the uninterrupted one in the last bits\n", rktype));
+  } else if (own || (d->adaptive && !onestep))
     PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart with -ts_type %s%s: its TS keeps a history of its own (%s) that PETSc holds privately, so it starts afresh here and the run need not repeat the uninterrupted one bit for bit\n", type, d->adaptive ? " and an adaptive step" : "", own ? "past states or the acceleration" : "the previous step's state for its error estimate"));
   else if (dsp) /* arkimex at atol 1e-6 on the chain: 8.5e-9 m apart 10 intervals after the restart */
     PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart with -ts_adapt_type dsp: its controller's history (the last steps' error estimates) is PETSc's private state, so it starts afresh here: the TS's internal steps after the restart, and so the states, can differ from the uninterrupted run's within -ts_atol/-ts_rtol (-ts_adapt_type basic repeats it bit for bit)\n"));
