@@ -13,8 +13,9 @@
   in N steps, checked within 5%;
 - explicit symplectic Euler with the penalty kc: at rest each vertex of a flat cloth carries its own
   weight, so it sinks m_v g / kc below the plane (within 1%); both stability guards count kc
-  (Gershgorin: 2 / sqrt((2 sum k + kc) / m); SLEPc: 2 / sqrt(kc / m) for a flat cloth, whose springs
-  are not stiff across its plane);
+  (Gershgorin: 2 / sqrt((2 sum k + kc) / m), 2 / sqrt((2 sum k + 2 kc) / m) with two obstacles a
+  vertex can press into at once; SLEPc: 2 / sqrt(kc / m) for a flat cloth, whose springs are not
+  stiff across its plane);
 - PETSc's implicit TS (beuler, bdf, theta, alpha2) takes the same penalty with its stiffness in the
   Jacobian: at rest the cloth carries m g (1e-3) and sinks m_v g / kc (1%);
 - bad input: a sphere given with 3 values, a cloth starting inside a sphere, implicit_midpoint
@@ -196,6 +197,15 @@ def main():
         said = [l for l in mt.lines(r.stderr) if "exceeds the stability limit" in l]
         got = float(said[0].split("h <= ")[1].split()[0]) if said else float("nan")
         check(abs(got - hcrit) <= 1e-4 * hcrit, f"np {np_}: the guard's limit with kc = {kc:g}: {got:.6g} s = 2 / sqrt((2 * 12000 + kc) / m_v) = {hcrit:.6g} s")
+        # a vertex pressed into two obstacles at once (a plane and a box's top face at the same
+        # height) feels 2 kc: the guard counts kc per obstacle (with one kc it let this drop run at
+        # 0.001 s, above the limit, where the cloth bounced off with 24 J from a 2 cm drop)
+        r = mt.run(exe, ["-msim_integrator", "symplectic_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_contact_plane", "0,0,1,-0.05",
+                         "-msim_contact_box", "-1,2,-1,2,-1,-0.05", "-msim_contact_stiffness", str(kc), "-msim_dt", "0.001", "-msim_steps", "1"], np_)
+        hcrit = 2 / math.sqrt((2 * 12 * 1000 + 2 * kc) * 25)
+        said = [l for l in mt.lines(r.stderr) if "exceeds the stability limit" in l]
+        got = float(said[0].split("h <= ")[1].split()[0]) if said else float("nan")
+        check(abs(got - hcrit) <= 1e-4 * hcrit, f"np {np_}: the guard's limit with two obstacles, kc = {kc:g}: {got:.6g} s = 2 / sqrt((2 * 12000 + 2 kc) / m_v) = {hcrit:.6g} s")
         # the SLEPc guard counts it too: (K + kc n n^T per vertex, M); the flat cloth's springs have
         # no stiffness across the plane (at rest length), so over a plane (n = z everywhere)
         # omega_max^2 = max(kc / m_v, the in-plane spring modes <= 24000 / m_v) = kc / m_v exactly;

@@ -9,12 +9,13 @@
      in Phi equals the mass's at half the contact distance, IPC's rule of balancing the barrier
      against the mass/h^2 scale (Li et al. 2020, sec. 4.3), set at the first step;
    - kc (explicit penalty, N/m) = the largest rest row sum of spring stiffnesses over free
-     vertices: a vertex in contact is at most half again as stiff as the stiffest vertex in the
-     Gershgorin bound, so the stability guard's limit drops by at most sqrt(3/2) (it counts kc).
+     vertices: a vertex in contact with one obstacle is at most half again as stiff as the
+     stiffest vertex in the Gershgorin bound, so the stability guard's limit drops by at most
+     sqrt(3/2) with one obstacle (it counts kc per obstacle: a vertex may press into several).
    Explicit integrators get a penalty, kc max(0, -d) n per vertex and obstacle, rather than a
    projection with a velocity response: it is one more force in MSimSystemComputeForce, so every
    explicit method and PETSc's TS take it without a change to their updates, and its stiffness is
-   a diagonal term the Gershgorin guard bounds exactly (max_i (2 sum_j k_ij + kc) / m_i). The
+   a diagonal term the Gershgorin guard bounds (max_i (2 sum_j k_ij + n_obstacles kc) / m_i). The
    penalty lets a vertex sink m g / kc at rest, and has no friction: -msim_friction acts in the
    implicit integrators only (the others refuse it, contact_force.cpp). PETSc's implicit TS types
    take the penalty's stiffness in their Jacobian (MSimContactAddPenaltyJacobian). The SLEPc guard (-msim_spectrum_guard slepc) takes the largest
