@@ -40,6 +40,7 @@
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
 #include <msim/errors.h>
+#include <msim/destroy.h>
 #include <algorithm>
 #include <string>
 #include <cmath>
@@ -108,6 +109,7 @@ typedef struct {
   std::vector<std::array<PetscInt, 6>> keys;  /* the PSD Hessian's groups (Hessian_Self) */
   std::vector<PetscInt>                order;
   PetscBool                            once; /* -msim_self_contact_once */
+  Vec                                  hz, hd; /* moving handles: the carried start and the motion from it (FeasibleStart_Self), made at the first step */
 } SelfData;
 
 /* f(ee, v[4]) for each pair this rank computes whose boxes overlap: within dhat of each other at
@@ -729,16 +731,19 @@ static PetscErrorCode MaxStep_Self(MSimImplicitTerm term, Vec X, Vec Y, PetscRea
    start: that is refused. */
 static PetscErrorCode FeasibleStart_Self(MSimImplicitTerm term, Vec A)
 {
+  SelfData       *sd  = (SelfData *)term->data;
   MSimImplicit    imp = term->imp;
   MSimSystem      sys = imp->sys;
   const PetscReal h = imp->step.tx - imp->step.t, *w = sys->fix_velocity;
   PetscReal       t = 1;
   PetscScalar    *z;
-  Vec             Z, D;
 
   PetscFunctionBeginUser;
-  PetscCall(VecDuplicate(A, &Z));
-  PetscCall(VecDuplicate(A, &D));
+  if (!sd->hz) {
+    PetscCall(VecDuplicate(A, &sd->hz));
+    PetscCall(VecDuplicate(A, &sd->hd));
+  }
+  Vec Z = sd->hz, D = sd->hd;
   PetscCall(VecCopy(imp->Xn, Z));
   PetscCall(VecGetArray(Z, &z));
   for (PetscInt k = 0; k < 3 * sys->nown; k++) z[k] += w[k % 3] * h;
@@ -760,8 +765,6 @@ static PetscErrorCode FeasibleStart_Self(MSimImplicitTerm term, Vec A)
     PetscCall(VecRestoreArrayRead(A, &a));
     PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)!inside, "the moving handles (-msim_fix_velocity) carry the surface into an obstacle at t = " + std::to_string((double)imp->step.tx) + ": no position outside it (a smaller -msim_dt)"));
   }
-  PetscCall(VecDestroy(&Z));
-  PetscCall(VecDestroy(&D));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -784,6 +787,7 @@ static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
 
   PetscFunctionBeginUser;
   PetscCall(MSimSelfSurfaceDestroy(&sd->surf));
+  PetscCall(MSimDestroy(&sd->hz, &sd->hd));
   delete sd;
   term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
