@@ -109,9 +109,10 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes);
    -snes_qn_scale_type jacobian, ...; not pd, anderson, ngmres, ncg, nrichardson, plain qn): PETSc's
    own flag for it, read after SNESSetFromOptions. */
 PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses);
-/* Whether snes's type runs a nonlinear preconditioner it has (newtonls, qn, ncg, nrichardson,
-   anderson, ngmres, ...; not pd, ntr, ksponly): PETSc's own flag, read after SNESSetFromOptions. */
-PetscErrorCode MSimSNESUsesNPC(SNES snes, PetscBool *uses);
+/* Refuses, in one line naming the option, the SNES types msim's problems cannot serve (ngs, nasm,
+   aspin, patch, shell; composite without its solvers) and a nonlinear preconditioner the type would
+   not run (pd, ntr, ksponly, the VI types). Call after SNESSetFromOptions, before any output. */
+PetscErrorCode MSimSNESCheckServed(SNES snes);
 
 /* What a solver carries from one SNESSolve to the next, beyond the problem's own state: SNES pd's
    L-BFGS pairs (-snes_pd_lbfgs) and ntr's trust radius. The next time step starts from it, so a

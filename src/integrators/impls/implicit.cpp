@@ -545,46 +545,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
      relative tolerance's base, which StepStalled reads */
   PetscCall(SNESSetConvergenceHistory(ie->snes, NULL, NULL, PETSC_DECIDE, PETSC_TRUE));
   PetscCall(SNESSetFromOptions(ie->snes));
-  {
-    /* the types that need what msim's problem (a DMShell, one Jacobian) does not give: PETSc
-       would stop at the first solve with its own words (a greedy coloring of an AIJ matrix,
-       subdomains, a DMPlex, a user's solve), after the output had begun */
-    PetscBool   unserved, composite, has_npc;
-    SNESType    type;
-    PetscInt    nsub;
-    SNES        snes = ie->snes;
-    PetscCall(SNESHasNPC(ie->snes, &has_npc));
-    for (int level = 0; level < 2; level++) { /* aspin makes itself newtonls with nasm as its preconditioner */
-      if (level) {
-        if (!has_npc) break;
-        PetscCall(SNESGetNPC(ie->snes, &snes));
-      }
-      PetscCall(PetscObjectTypeCompareAny((PetscObject)snes, &unserved, SNESNGS, SNESNASM, SNESASPIN, SNESPATCH, SNESSHELL, ""));
-      PetscCall(SNESGetType(snes, &type));
-      PetscCheck(!unserved, integ->comm, PETSC_ERR_SUP, "%s %s is not supported: it needs %s, which msim's problem does not provide; -help lists the solvers msim serves", level ? "the nonlinear preconditioner's type (-npc_snes_type, or -snes_type aspin's)" : "-snes_type", type,
-                 !strcmp(type, SNESNGS) ? "a coloring of an AIJ Jacobian" : !strcmp(type, SNESPATCH) ? "a DMPlex" : !strcmp(type, SNESSHELL) ? "a solve set by code" : "subdomains of a DM");
-    }
-    PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESCOMPOSITE, &composite));
-    if (composite) {
-      PetscCall(SNESCompositeGetNumber(ie->snes, &nsub));
-      PetscCheck(nsub > 0, integ->comm, PETSC_ERR_ARG_WRONG, "-snes_type composite needs its solvers: -snes_composite_sneses pd,newtonls (for example)");
-    }
-  }
-  {
-    /* PETSc makes -npc_snes_type's solver for any type, and those that do not run one would
-       ignore it without a word */
-    PetscBool has_npc, uses;
-    SNESType  type, npc_type;
-    SNES      npc;
-    PetscCall(SNESHasNPC(ie->snes, &has_npc));
-    PetscCall(MSimSNESUsesNPC(ie->snes, &uses));
-    if (has_npc && !uses) {
-      PetscCall(SNESGetType(ie->snes, &type));
-      PetscCall(SNESGetNPC(ie->snes, &npc));
-      PetscCall(SNESGetType(npc, &npc_type));
-      SETERRQ(integ->comm, PETSC_ERR_SUP, "-npc_snes_type %s with -snes_type %s is not supported: %s runs no nonlinear preconditioner (newtonls, qn, ncg, nrichardson, anderson and ngmres do)", npc_type, type, type);
-    }
-  }
+  PetscCall(MSimSNESCheckServed(ie->snes));
   if (ie->step_atol > 0) {
     /* pd stops on |g| or after a fixed count and ksponly after its one linear solve: neither calls
        the SNES's convergence test, where the rule is (ConvergedStep). It changed nothing there,

@@ -18,6 +18,7 @@
 #include <msim/integrator.h>
 #include <initializer_list>
 #include "ts_forms.h"
+#include <msim/solvers.h>
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/destroy.h>
@@ -269,7 +270,13 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     PetscCall(TS2SetSolution(d->ts, d->X2, d->V2));
     break;
   }
-  if (d->forms) PetscCall(MSimTSFormsSetFromOptions(d->forms, d->ts));
+  if (d->forms) {
+    SNES snes;
+    PetscCall(TSGetSNES(d->ts, &snes));
+    PetscCall(MSimSNESCheckServed(snes));
+    PetscCall(MSimSNESSetUpPD(snes)); /* pd (or pd as the preconditioner) is refused here, not at the first stage */
+    PetscCall(MSimTSFormsSetFromOptions(d->forms, d->ts));
+  }
   PetscCall(TSSetUp(d->ts));
   {
     TSAdapt adapt;
