@@ -81,6 +81,8 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_msimllt_relax", "-1"], "-pd_pc_msimllt_relax must be >= 0"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_msimllt_relax", "abc"], "-pd_pc_msimllt_relax: 'abc' is not a number"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-pd_pc_msimllt_max_width", "0"], "-pd_pc_msimllt_max_width must be >= 1"),
+    # a friction coefficient with nothing to act on was dropped silently
+    (["-msim_integrator", "implicit_euler", "-msim_friction", "0.5"], "-msim_friction 0.5 acts on nothing"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
