@@ -12,7 +12,9 @@
   per step for these 28 g vertices: the bound leaves a factor 50 for 20 steps' growth);
 - BDF2 and Newmark (and midpoint and discrete_gradient) restarted from a checkpoint at step 10 end bit for bit where 20
   uninterrupted steps do, and the checkpoint carries the scheme's history (2 vectors for BDF2, 1 for
-  Newmark: its size grows by that many vectors of 3 n doubles over implicit Euler's);
+  Newmark: its size grows by that many vectors of 3 n doubles over implicit Euler's); restarted
+  from a checkpoint that holds no history they can take (written with another
+  -msim_implicit_guess, or by implicit_euler) they start as at step 1 and say so in one warning;
 - BDF2's start-up step is stable far beyond the explicit limit: the undamped chain with its vertices
   displaced by up to 1 cm (every mode excited) at h = 0.1 s (h omega_max = 17) ends step 1 with at
   most 25/16 of its energy (the square of the start-up's amplification bound 5/4 on a linear mode,
@@ -101,6 +103,13 @@ def restarts(np_, tmp):
         msim(np_, args + ["-msim_steps", "20", "-msim_restart", ck, "-msim_view_final", f"binary:{part}"])
         if s != "implicit_euler":
             check(open(full, "rb").read() == open(part, "rb").read(), f"np={np_}: {s}: restarted at step 10, step 20 is bit for bit the uninterrupted run's")
+    # the checkpoint of another guess (extrapolate adds v_(n-1) to what it carries) or of another
+    # integrator holds no history this run can take: the scheme starts as at step 1, and says so
+    for s, writer, guess in (("bdf2", "bdf2", "extrapolate"), ("newmark", "newmark", "filtered"), ("bdf2", "implicit_euler", "constant_velocity")):
+        r = mt.run(MSIM, base + pd + ["-msim_integrator", s, "-msim_implicit_guess", guess, "-msim_steps", "12", "-msim_restart", os.path.join(tmp, f"{writer}_ck")], np_)
+        lines = mt.lines(r.stderr)
+        check(r.returncode == 0 and len(lines) == 1 and "starts as at step 1" in lines[0],
+              f"np={np_}: {s} with -msim_implicit_guess {guess} restarted from {writer}'s constant_velocity checkpoint, which holds no history it can take: one warning ({lines[:2]})")
     nv = 36
     vec = 8 + 3 * nv * 8  # a PETSc binary Vec: class id, size, 3 nv doubles
     for s, n in (("bdf2", 2), ("newmark", 1), ("implicit_midpoint", 0), ("discrete_gradient", 0)):

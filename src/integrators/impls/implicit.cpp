@@ -42,6 +42,7 @@ typedef struct {
   PetscInt               icntl13;        /* MUMPS's ICNTL(13) (-mat_mumps_icntl_13; 1 unless set) */
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
   PetscBool              semismooth;     /* -snes_type vinewtonssls: no objective, a nonsymmetric Jacobian */
+  PetscBool              history_loaded; /* a restart gave the scheme its history (HistoryLoaded_Implicit) */
   Vec                    history[MSIM_SCHEME_MAX_WORK + 1 + MSIM_MAX_TERM_HISTORY]; /* what a checkpoint carries (GetHistory_Implicit) */
 } ImplicitData;
 
@@ -763,6 +764,12 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   Vec                 F;
 
   PetscFunctionBeginUser;
+  if (integ->step == integ->first_step && integ->first_step > 1 && ie->imp->scheme->nhistory > 0 && !ie->history_loaded)
+    /* the checkpoint's history is another integrator's, or has another count: GetHistory_Implicit
+       adds v_{n-1} with some guesses. bdf2 restarted from a constant_velocity checkpoint with
+       -msim_implicit_guess extrapolate took its start-up step again without a word and ended
+       3e-4 m off the uninterrupted run 10 steps later (solved to |g| < 1e-12) */
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: -msim_restart: the checkpoint holds no %s history this run can take (another integrator wrote it, or another -msim_implicit_guess, which changes what a checkpoint carries), so %s starts as at step 1 (BDF2's start-up step, Newmark's acceleration from the force) and the run does not repeat the uninterrupted one\n", integ->type, integ->type));
   PetscCall(MSimImplicitBeginStep(ie->imp, t, integ->dt, X, V));
   if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv, integ->step, integ->first_step));
   if (ie->bounds) PetscCall(MSimContactBoundsBeginStep(ie->bounds, X)); /* from x_n */
@@ -901,6 +908,7 @@ static PetscErrorCode HistoryLoaded_Implicit(MSimIntegrator integ)
   ImplicitData *ie = (ImplicitData *)integ->data;
 
   PetscFunctionBeginUser;
+  ie->history_loaded             = PETSC_TRUE;
   ie->imp->scheme->history_valid = PETSC_TRUE;
   if (ie->imp->scheme->history_at_h && integ->restart_dt != integ->dt) { /* BDF2's x_{n-1}, v_{n-1} are one old step back */
     ie->imp->scheme->history_valid = PETSC_FALSE;
