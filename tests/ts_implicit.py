@@ -4,8 +4,9 @@
 The scene is tests/order.py's: a chain of 8 vertices held at both ends, released at rest length
 under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each rank count:
 - observed order of convergence p = log2(e(h) / e(h/2)) for h, h/2, h/4 (within 0.15 of the
-  method's order): beuler 1; cn, bdf (order 2), alpha2 at its default spectral radius 1 (Newmark's
-  average acceleration) and at radius 0.5, the first-order alpha at radius 0.5 (PETSc's start-up
+  method's order): beuler 1; cn, bdf (order 2), alpha2 at its default spectral radius 1 (the
+  implicit midpoint rule, alpha_m = alpha_f = 1/2; on linear motion also Newmark's average
+  acceleration) and at radius 0.5, the first-order alpha at radius 0.5 (PETSc's start-up
   estimates U'_0 twice too large, as alpha2's a_0: first order, observed 0.73 and 0.88, before msim
   corrected it); rosw and arkimex's defaults at least 2;
 - alpha2 at radius 0.5 is exact on free fall (the chain unfixed, springs at rest length:
@@ -36,7 +37,9 @@ under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each r
 - -snes_type ntr (it needs an objective), a factorization -pc_type on the first-order forms' nest
   Jacobian, and an error control that rejects a step -ts_max_reject times are each one msim line
   naming the options (were PETSc's "Must call SNESSetObjective()", "MatSolverType mumps does
-  not support matrix type nest", and "the nonlinear solver failed")."""
+  not support matrix type nest", and "the nonlinear solver failed"); the error control's give-up
+  and an adaptive TS that runs out of -msim_ts_max_substeps within one -msim_dt end the run as a
+  failed step does, its last finite state kept (the latter was an error from inside the step)."""
 import math
 import os
 import sys
@@ -169,6 +172,15 @@ def main():
                                       "-ts_max_reject", "1", "-msim_output", out, "-msim_output_every", "1"], np_)
             check(r.returncode != 0 and "the error control gave up" in r.stderr and os.path.exists(os.path.join(out, "last_finite.vtu")),
                   f"np={np_}: an error-control give-up keeps the last finite state (exit {r.returncode}, {r.stderr.strip()[-160:]})")
+            # so does running out of -msim_ts_max_substeps (was an error from inside the step: no
+            # last finite state, no frame of it)
+            out = os.path.join(tmp, f"substeps_{np_}")
+            r = mt.run(MSIM, cloth + ["-msim_steps", "3", "-ts_type", "cn", "-ts_adapt_type", "basic", "-ts_atol", "1e-8", "-ts_rtol", "1e-8",
+                                      "-msim_ts_max_substeps", "5", "-msim_output", out, "-msim_output_every", "1"], np_)
+            lines = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(lines) == 1 and "-msim_ts_max_substeps 5" in lines[0] and "last finite state is step 0" in lines[0]
+                  and os.path.exists(os.path.join(out, "last_finite.vtu")),
+                  f"np={np_}: 5 internal steps (-msim_ts_max_substeps) short of -msim_dt end the run in one line, the last finite state kept (exit {r.returncode}, {lines[-1:]})")
             for snes_type, lo, hi in (("newtonls", 0, 1e-6), ("ksponly", 1e-3, 1e3)):
                 mon = os.path.join(tmp, f"residual_{snes_type}.csv")
                 r = mt.run(MSIM, cloth + ["-ts_type", "beuler", "-snes_type", snes_type, "-msim_steps", "3", "-msim_monitor_csv", mon], np_)

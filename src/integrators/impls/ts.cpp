@@ -349,7 +349,14 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   PetscCall(TSGetStepRejections(d->ts, &rej0));
   PetscCall(TSSetTime(d->ts, t));
   while (tend - tcur > eps) {
-    PetscCheck(n < d->max_substeps, integ->comm, PETSC_ERR_NOT_CONVERGED, "the TS took -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g without reaching t = %g (now at t = %g, step %g)", d->max_substeps, (double)integ->dt, (double)tend, (double)tcur, (double)d->h_next);
+    if (n >= d->max_substeps) { /* stops as a failed step does, the last finite state kept (was an error from inside the step: no such state, no frame of it) */
+      TSType type;
+      PetscCall(TSGetType(d->ts, &type));
+      integ->failed      = PETSC_TRUE;
+      integ->failed_what = "the TS ran out of internal steps";
+      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g reached t = %g of %g, the last proposing h = %g: raise it, or loosen -ts_atol/-ts_rtol)", type, d->max_substeps, (double)integ->dt, (double)tcur, (double)tend, (double)d->h_next));
+      break;
+    }
     h = PetscMin(d->h_next, tend - tcur);
     if (tend - tcur - h <= eps) h = tend - tcur;
     PetscCall(TSSetTimeStep(d->ts, h));
