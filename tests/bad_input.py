@@ -81,8 +81,11 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_msimllt_relax", "-1"], "-pd_pc_msimllt_relax must be >= 0"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_msimllt_relax", "abc"], "-pd_pc_msimllt_relax: 'abc' is not a number"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-pd_pc_msimllt_max_width", "0"], "-pd_pc_msimllt_max_width must be >= 1"),
-    # a friction coefficient with nothing to act on was dropped silently
+    # a friction coefficient with nothing to act on was dropped silently,
     (["-msim_integrator", "implicit_euler", "-msim_friction", "0.5"], "-msim_friction 0.5 acts on nothing"),
+    # and so were VI bounds with no obstacle, and a thickness with no mesh obstacle
+    (["-msim_integrator", "implicit_euler", "-msim_contact_bounds"], "-msim_contact_bounds has no obstacle to take as bounds"),
+    (["-msim_contact_plane", "0,0,1,-1", "-msim_contact_thickness", "0.01"], "-msim_contact_thickness 0.01 acts on mesh obstacles (-msim_contact_mesh) only"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),

@@ -495,8 +495,13 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCheck(ct->pd_refactor == 0 || ct->pd_refactor >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor must be 0 or >= 1 (got %g)", (double)ct->pd_refactor);
   PetscCheck(ct->pd_refactor_selective >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor_selective must be >= 0 (got %" PetscInt_FMT ")", ct->pd_refactor_selective);
   PetscCheck(ct->eps_v > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be > 0 (got %g)", (double)ct->eps_v);
-  /* a coefficient that would act nowhere is refused, not dropped (the penalty and the VI bounds
-     refuse it likewise) */
+  /* a coefficient or a thickness that would act nowhere is refused, not dropped (the penalty and
+     the VI bounds refuse friction likewise) */
+  {
+    PetscBool mesh = PETSC_FALSE;
+    for (const MSimObstacle &o : ct->obs) mesh = (PetscBool)(mesh || o.kind == MSIM_OBSTACLE_MESH);
+    PetscCheck(ct->thickness == 0 || mesh, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_thickness %g acts on mesh obstacles (-msim_contact_mesh) only, and there is none", (double)ct->thickness);
+  }
   PetscCheck(ct->mu == 0 || !ct->obs.empty() || sys->self_contact.on, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_friction %g acts on nothing: friction is with obstacles (-msim_contact_plane, _sphere, _box, _mesh) or between surfaces in self-contact (-msim_self_contact), and there are neither", (double)ct->mu);
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);

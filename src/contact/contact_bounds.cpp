@@ -5,6 +5,7 @@
    within one step: conservative, never inside). */
 #include <msim/contact_bounds.h>
 #include <msim/contact.h>
+#include <msim/contact_force.h>
 #include <msim/options.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
@@ -55,7 +56,12 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(MSimContactGet(sys, &ct));
-  if (!ct) PetscFunctionReturn(PETSC_SUCCESS); /* nothing to bound: a VI type then solves unconstrained */
+  if (!ct) { /* nothing to bound: a VI type then solves unconstrained; the option asked for bounds */
+    PetscBool has;
+    PetscCall(MSimContactHasObstacles(sys, &has)); /* bounds an earlier call took */
+    PetscCheck(!want || has, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_bounds has no obstacle to take as bounds: give axis-aligned planes (-msim_contact_plane) or boxes (-msim_contact_box)");
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   for (size_t k = 0; k < ct->obs.size(); k++) {
     const MSimObstacle &o = ct->obs[k];
     const char *what = o.kind == MSIM_OBSTACLE_SPHERE ? "a sphere" : o.kind == MSIM_OBSTACLE_MESH ? "a mesh" : o.kind == MSIM_OBSTACLE_PLANE && AxisOf(o.p) < 0 ? "a plane whose normal is not along an axis" : NULL;
