@@ -220,7 +220,8 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
      solve (the outer solver's F at its own iterate, where pd is a nonlinear preconditioner). No
      norm schedule says so, and PETSc's solvers that run pd as their right preconditioner
      (anderson, ngmres, newtonls) then evaluate the residual at pd's result (SNESGetNPCFunction)
-     instead of reading the stale Vec as it. */
+     instead of reading the stale Vec as it. pd has no other use for the schedule, so this takes
+     the place of any -snes_norm_schedule given for it. */
   PetscCall(SNESSetNormSchedule(snes, fixed ? SNES_NORM_NONE : SNES_NORM_ALWAYS));
   if (!fixed) {
     PetscCall(SNESComputeFunction(snes, X, F));
