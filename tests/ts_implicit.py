@@ -37,7 +37,9 @@ under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each r
 - -snes_type ntr (it needs an objective), a factorization -pc_type on the first-order forms' nest
   Jacobian, and an error control that rejects a step -ts_max_reject times are each one msim line
   naming the options (were PETSc's "Must call SNESSetObjective()", "MatSolverType mumps does
-  not support matrix type nest", and "the nonlinear solver failed"); the error control's give-up
+  not support matrix type nest", and "the nonlinear solver failed"), and so are TSSolve's options,
+  which msim's stepping never reads (-ts_max_time, -ts_max_steps, and -ts_dt where the TS takes
+  fixed steps: each ran on without a word); the error control's give-up
   and an adaptive TS that runs out of -msim_ts_max_substeps within one -msim_dt end the run as a
   failed step does, its last finite state kept (the latter was an error from inside the step)."""
 import math
@@ -165,7 +167,11 @@ def main():
                 ("alpha2 with ntr", ["-ts_type", "alpha2", "-snes_type", "ntr", "-ksp_type", "stcg"], ["-snes_type ntr", "-msim_integrator ts", "newtonls"]),
                 ("MUMPS on the nest", ["-ts_type", "beuler", "-pc_type", "lu", "-pc_factor_mat_solver_type", "mumps"], ["-pc_type lu", "nest", "-ts_schur_pc_factor_mat_solver_type"]),
                 ("error control", ["-ts_type", "arkimex", "-ts_adapt_type", "basic", "-ts_atol", "1e-14", "-ts_rtol", "1e-14", "-ts_max_reject", "1"],
-                 ["-ts_type arkimex", "error control", "-ts_max_reject", "not a solver failure"])), np_)
+                 ["-ts_type arkimex", "error control", "-ts_max_reject", "not a solver failure"]),
+                # options of TSSolve's loop, which msim's own stepping never reads (ran on silently)
+                ("-ts_max_time", ["-ts_type", "beuler", "-ts_max_time", "0.01"], ["-ts_max_time", "not read", "-msim_steps"]),
+                ("-ts_max_steps", ["-ts_type", "rosw", "-ts_max_steps", "1"], ["-ts_max_steps", "not read", "-msim_steps"]),
+                ("-ts_dt at a fixed step", ["-ts_type", "cn", "-ts_dt", "0.001"], ["-ts_dt", "fixed-step", "-msim_dt"])), np_)
             # the error control's give-up ends the run as a failed step does: the last finite state kept
             out = os.path.join(tmp, f"gave_up_{np_}")
             r = mt.run(MSIM, cloth + ["-msim_steps", "3", "-ts_type", "arkimex", "-ts_adapt_type", "basic", "-ts_atol", "1e-14", "-ts_rtol", "1e-14",

@@ -300,7 +300,15 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     const char *prefix;
     PetscBool   given;
     PetscCall(TSGetOptionsPrefix(d->ts, &prefix));
+    /* msim steps the TS itself (TSStep from each interval's start, landing on its end), so the
+       options of TSSolve's loop never act: -ts_max_time 0.05 with -msim_steps 10 -msim_dt 0.01 ran
+       to 0.1 s without a word (PETSc reads them, so no unused-option warning either) */
+    for (const char *name : {"-ts_max_time", "-ts_max_steps", "-ts_init_time", "-ts_exact_final_time", "-ts_time_span"}) {
+      PetscCall(PetscOptionsHasName(NULL, prefix, name, &given));
+      PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "%s is not read by -msim_integrator ts: msim steps the TS itself, -msim_steps intervals of -msim_dt from t = 0, each landed exactly; set those", name);
+    }
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_dt", &given));
+    PetscCheck(!given || d->adaptive, integ->comm, PETSC_ERR_SUP, "-ts_dt with a fixed-step TS is not read: each -msim_dt is one of its steps; set -msim_dt (an adaptive TS, -ts_adapt_type basic or dsp, starts from -ts_dt)");
     if (given) PetscCall(TSGetTimeStep(d->ts, &d->h_next));
     else d->h_next = d->adaptive && TypeIn(type, {TSBEULER, TSTHETA, TSCN}) ? 1e-3 * integ->dt : integ->dt;
   }
