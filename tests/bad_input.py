@@ -74,6 +74,7 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-snes_type", "aspin"], "the nonlinear preconditioner's type (-npc_snes_type, or -snes_type aspin's) nasm is not supported"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "composite"], "-snes_type composite needs its solvers: -snes_composite_sneses"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "composite", "-snes_composite_sneses", "pd,ngs"], "-snes_composite_sneses's ngs is not supported"),
+    (["-msim_integrator", "implicit_euler", "-npc_snes_type", "pd", "-snes_npc_side", "left"], "-snes_npc_side left with -snes_type newtonls is not supported"),
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-snes_type", "nasm"], "-snes_type nasm is not supported: it needs subdomains of a DM"),
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-snes_type", "anderson", "-npc_snes_type", "pd"], "-snes_type pd needs a problem that provides projective-dynamics steps"),
     # PETSc makes a nonlinear preconditioner for any type; pd, ntr and ksponly would ignore it

@@ -110,8 +110,9 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes);
    own flag for it, read after SNESSetFromOptions. */
 PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses);
 /* Refuses, in one line naming the option, the SNES types msim's problems cannot serve (ngs, nasm,
-   aspin, patch, shell; composite without its solvers) and a nonlinear preconditioner the type would
-   not run (pd, ntr, ksponly, the VI types). Call after SNESSetFromOptions, before any output. */
+   aspin, patch, shell; composite without its solvers or with one of those), a nonlinear
+   preconditioner the type would not run (pd, ntr, ksponly, the VI types) and newtonls
+   preconditioned on the left. Call after SNESSetFromOptions, before any output. */
 PetscErrorCode MSimSNESCheckServed(SNES snes);
 
 /* What a solver carries from one SNESSolve to the next, beyond the problem's own state: SNES pd's

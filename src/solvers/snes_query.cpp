@@ -54,6 +54,15 @@ PetscErrorCode MSimSNESCheckServed(SNES snes)
     PetscCheck(!unserved, comm, PETSC_ERR_SUP, "%s %s is not supported: it needs %s, which msim's problem does not provide (msim serves newtonls, ntr, pd, qn, anderson, ngmres, ncg, nrichardson, ms, fas, composite, ksponly and the VI types)", what[k], t,
                !strcmp(t, SNESNGS) ? "a coloring of an AIJ Jacobian" : !strcmp(t, SNESPATCH) ? "a DMPlex" : !strcmp(t, SNESSHELL) ? "a solve set by code" : "subdomains of a DM");
   }
+  /* newtonls preconditioned on the left solves for x - npc(x) = 0, whose Jacobian msim does not
+     assemble: with the springs' Hessian its linear solves failed at the first step */
+  if (has_npc) {
+    PCSide    side;
+    PetscBool newtonls;
+    PetscCall(SNESGetNPCSide(snes, &side));
+    PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESNEWTONLS, &newtonls));
+    PetscCheck(!(newtonls && side == PC_LEFT), comm, PETSC_ERR_SUP, "-snes_npc_side left with -snes_type newtonls is not supported: it solves x - npc(x) = 0, whose Jacobian msim does not assemble; use the right side (the default)");
+  }
   /* PETSc makes -npc_snes_type's solver for any type, and each type decides by usesnpc (no public
      accessor in 3.18) whether its solve calls it: pd, ntr, ksponly and the VI types do not */
   if (has_npc && !snes->usesnpc) {
