@@ -897,8 +897,10 @@ struct OverlapTraits {
 
 /* triangle a's partner lists (see above), on its first answer within band: listing every
    triangle's at once was half the run of a 24-step drape on the 20,480-triangle ball. A triangle of
-   all-zero plane numbers (too thin, MSimMeshObstacleCreate) is in none and has none. */
-static void CreasePartners(MSimMeshObstacle mo, size_t a)
+   all-zero plane numbers (too thin, MSimMeshObstacleCreate) is in none and has none. Out of line,
+   as RimCorner: both run rarely, and inlined into CreaseContacts, which every query within band
+   calls, they made it dearer (0.1 M instructions a step of the ball drape) */
+static __attribute__((noinline)) void CreasePartners(MSimMeshObstacle mo, size_t a)
 {
   const PetscReal       tol = 1e-9 * (mo->diam + mo->band), reach = 2 * mo->band + tol;
   std::vector<uint32_t> hit;
@@ -973,7 +975,7 @@ static inline void Smooth(PetscReal u, PetscReal *s, PetscReal *ds)
   else *s = u * u * u * (10 + u * (6 * u - 15)), *ds = 30 * u * u * (1 - u) * (1 - u);
 }
 
-static bool RimCorner(MSimMeshObstacle mo, const PetscReal x[3], size_t a, size_t b, PetscReal *d, PetscReal n[3])
+static __attribute__((noinline)) bool RimCorner(MSimMeshObstacle mo, const PetscReal x[3], size_t a, size_t b, PetscReal *d, PetscReal n[3])
 {
   if (!mo->rim[a] || !mo->rim[b]) return false;
   PetscReal pb[3], e[3], rb2 = 0;
