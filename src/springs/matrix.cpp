@@ -74,28 +74,40 @@ PetscErrorCode MSimSystemCreateMatrix(MSimSystem sys, Mat *A)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The blocks a spring (i, j) adds, in the one order the assembly map relies on: (i,i), (j,j), then
-   (i,j), (j,i) when both ends are free (a fixed end, eliminated, adds none of its own); off says an
-   off-diagonal block. The map's builder, the zero pattern and every assembly visit them through this. */
+/* The blocks the springs add to the rank's own rows, in the one order the assembly map relies on:
+   each owned spring (i, j) gives (i,i), (j,j), then (i,j), (j,i), those whose row is owned (a
+   ghost's row is its owner's) and both of whose ends are free for the off-diagonal ones (a fixed
+   end, eliminated, adds none of its own); then each halo spring (an owned hi, a ghost hj) gives
+   (hi,hi), (hi,hj). f(i, j, k, L, r, col, off) for the spring (i, j, k, L) and its block (r, col); off
+   says an off-diagonal block. So no rank adds to another's rows: PETSc's assembly would sum what
+   several ranks send to one row in the order the messages arrive, which at 3 ranks and more made
+   two runs of one scene differ in the last bits. The map's builder, the zero pattern and every
+   assembly visit the blocks through this. */
 template <class F>
-static inline void SpringBlocks(MSimSystem sys, PetscInt i, PetscInt j, F &&f)
+static inline void SpringBlocks(MSimSystem sys, F &&f)
 {
-  const PetscInt nfl = sys->nown + sys->nghost;
-  const bool     fi = i < nfl, fj = j < nfl;
-  if (fi) f(i, i, false);
-  if (fj) f(j, j, false);
-  if (fi && fj) {
-    f(i, j, true);
-    f(j, i, true);
+  const PetscInt nfl = sys->nown + sys->nghost, nown = sys->nown;
+  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
+    const bool fi = i < nfl, fj = j < nfl;
+    if (i < nown) f(i, j, k, L, i, i, false);
+    if (j < nown) f(i, j, k, L, j, j, false);
+    if (fi && fj) {
+      if (i < nown) f(i, j, k, L, i, j, true);
+      if (j < nown) f(i, j, k, L, j, i, true);
+    }
+  });
+  const MSimSprings &sp = sys->springs;
+  for (size_t s = 0; s < sp.hi.size(); s++) {
+    f(sp.hi[s], sp.hj[s], sp.hk[s], sp.hL[s], sp.hi[s], sp.hi[s], false);
+    f(sp.hi[s], sp.hj[s], sp.hk[s], sp.hL[s], sp.hi[s], sp.hj[s], true);
   }
 }
 
 /* Where the spring blocks land in an assembled AIJ matrix, so that later assemblies add straight
    into its value arrays instead of searching each row in MatSetValuesBlocked (39 ms -> a few ms
-   for the 101 x 101 cloth's Jacobian). Blocks are listed in MSimSpringsForEach order: (i,i), (j,j),
-   (i,j), (j,i) as present; for each, the offsets of its three rows' first entries in the diagonal
-   part (owned columns) or the off-diagonal part of the owned rows, or -1 for rows another rank
-   owns (those keep MatSetValuesBlocked and travel in PETSc's stash). Built when the Mat is
+   for the 101 x 101 cloth's Jacobian). Blocks are listed in SpringBlocks's order (owned rows
+   only); for each, the offsets of its three rows' first entries in the diagonal part (owned
+   columns) or the off-diagonal part. Built when the Mat is
    created, its pattern assembled with zeros (AssemblePattern); hangs on the Mat, and is rebuilt after an assembly once the Mat's nonzero pattern has
    changed (entries another term added, e.g. self-contact's blocks, move the value arrays). */
 typedef struct {
@@ -152,11 +164,6 @@ static PetscErrorCode AssemblyMapBuild(MSimSystem sys, Mat A, AssemblyMap **out)
     return (PetscInt)(p - ja[q]);
   };
   auto add_block = [&](PetscInt r, PetscInt c) {
-    if (r >= sys->nown) { /* a ghost's row: its owner assembles it */
-      for (int a = 0; a < 3; a++) map->off.push_back(-1);
-      map->part.push_back(0);
-      return;
-    }
     int      q   = c < sys->nown ? 0 : 1;
     PetscInt col = 3 * c;
     if (q == 1) col = (PetscInt)(std::lower_bound(garray, garray + nghostcols, 3 * sys->local_to_global[c]) - garray); /* Ao's columns: garray's order */
@@ -167,7 +174,7 @@ static PetscErrorCode AssemblyMapBuild(MSimSystem sys, Mat A, AssemblyMap **out)
     }
     map->part.push_back((char)q);
   };
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) { SpringBlocks(sys, i, j, [&](PetscInt r, PetscInt col, bool) { add_block(r, col); }); });
+  SpringBlocks(sys, [&](PetscInt, PetscInt, PetscReal, PetscReal, PetscInt r, PetscInt col, bool) { add_block(r, col); });
   map->diag.resize(3 * sys->nown);
   for (PetscInt r = 0; r < 3 * sys->nown; r++) {
     const PetscInt *lo = ja[0] + ia[0][r], *hi = ja[0] + ia[0][r + 1], *p = std::lower_bound(lo, hi, r);
@@ -216,7 +223,7 @@ static PetscErrorCode AssemblePattern(MSimSystem sys, Mat A)
     const PetscInt gr = sys->local_to_global[r], gc = sys->local_to_global[col];
     ierr = MatSetValuesBlocked(A, 1, &gr, 1, &gc, zero, ADD_VALUES);
   };
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal, PetscReal) { SpringBlocks(sys, i, j, [&](PetscInt r, PetscInt col, bool) { add(r, col); }); });
+  SpringBlocks(sys, [&](PetscInt, PetscInt, PetscReal, PetscReal, PetscInt r, PetscInt col, bool) { add(r, col); });
   PetscCall(ierr);
   for (PetscInt i = 0; i < 3 * sys->nown; i++) {
     const PetscInt row = 3 * sys->rstart + i;
@@ -277,14 +284,19 @@ PetscErrorCode MSimSystemAssembleMatrix(MSimSystem sys, const MSimMatrixCoeffici
     }
     blk++;
   };
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L) {
-    Mat3 H = c->stiffness * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L, (bool)c->psd);
-    if (xn) {
-      const Vec3 n = (CMap3(xn + 3 * i) - CMap3(xn + 3 * j)).normalized();
-      H += (c->damping * sys->damping) * (n * n.transpose());
+  /* a spring's Hessian once for its blocks, which SpringBlocks gives in a row: a new spring is the
+     one whose first block this is (its diagonal block of i or, i a ghost's, of j) */
+  Mat3 H, Hn;
+  SpringBlocks(sys, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal L, PetscInt r, PetscInt col, bool off) {
+    if (!off && (r == i || i >= sys->nown)) {
+      H = c->stiffness * msim::SpringHessian(CMap3(x + 3 * i), CMap3(x + 3 * j), k, L, (bool)c->psd);
+      if (xn) {
+        const Vec3 n = (CMap3(xn + 3 * i) - CMap3(xn + 3 * j)).normalized();
+        H += (c->damping * sys->damping) * (n * n.transpose());
+      }
+      Hn = -H;
     }
-    const Mat3 Hn = -H;
-    SpringBlocks(sys, i, j, [&](PetscInt r, PetscInt col, bool off) { add(r, col, off ? Hn : H); });
+    add(r, col, off ? Hn : H);
   });
   PetscCall(ierr);
   PetscCall(VecRestoreArrayRead(sys->xloc, &x));

@@ -105,26 +105,31 @@ static PetscErrorCode HessianCoefficients_Springs(MSimImplicitTerm term, Vec X, 
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* w_s = h2 k_s + hd kd in the scalar graph Laplacian (free ends only) */
+/* w_s = h2 k_s + hd kd in the scalar graph Laplacian (free ends only), into the rank's own rows:
+   the owned springs' owned ends, and the halo springs' (src/springs/matrix.cpp's SpringBlocks says
+   why no rank adds to another's rows) */
 static PetscErrorCode PDMatrix_Springs(MSimImplicitTerm term, Mat A)
 {
-  MSimImplicit   imp = term->imp;
-  MSimSystem     sys = imp->sys;
-  const PetscInt nfl = sys->nown + sys->nghost;
-  PetscErrorCode ierr = PETSC_SUCCESS;
+  MSimImplicit       imp = term->imp;
+  MSimSystem         sys = imp->sys;
+  const PetscInt     nfl = sys->nown + sys->nghost, nown = sys->nown;
+  const MSimSprings &sp  = sys->springs;
+  PetscErrorCode     ierr = PETSC_SUCCESS;
 
   PetscFunctionBeginUser;
-  MSimSpringsForEach(sys->springs, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal) {
-    const PetscReal   w  = imp->step.h2 * k + imp->step.hd * sys->damping;
-    const bool        fi = i < nfl, fj = j < nfl;
-    const PetscInt    gi = fi ? sys->local_to_global[i] : -1, gj = fj ? sys->local_to_global[j] : -1;
-    const PetscScalar wn = -w;
+  /* row i (owned) of the spring (i, j): w on the diagonal, -w at j where j is free */
+  auto row = [&](PetscInt i, PetscInt j, PetscReal k) {
+    const PetscScalar w = imp->step.h2 * k + imp->step.hd * sys->damping, wn = -w;
+    const PetscInt    gi = sys->local_to_global[i];
     if (ierr) return;
-    if (fi) ierr = MatSetValue(A, gi, gi, w, ADD_VALUES);
-    if (fj && !ierr) ierr = MatSetValue(A, gj, gj, w, ADD_VALUES);
-    if (fi && fj && !ierr) ierr = MatSetValue(A, gi, gj, wn, ADD_VALUES);
-    if (fi && fj && !ierr) ierr = MatSetValue(A, gj, gi, wn, ADD_VALUES);
+    ierr = MatSetValue(A, gi, gi, w, ADD_VALUES);
+    if (j < nfl && !ierr) ierr = MatSetValue(A, gi, sys->local_to_global[j], wn, ADD_VALUES);
+  };
+  MSimSpringsForEach(sp, [&](PetscInt i, PetscInt j, PetscReal k, PetscReal) {
+    if (i < nown) row(i, j, k);
+    if (j < nown) row(j, i, k);
   });
+  for (size_t s = 0; s < sp.hi.size(); s++) row(sp.hi[s], sp.hj[s], sp.hk[s]);
   PetscCall(ierr);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
