@@ -27,7 +27,7 @@
   0.5% of the largest kinetic energy, and no larger in the second half than 1.5 x the first half's,
   where implicit Euler loses more than half of it;
 - -msim_step_atol with -snes_type pd (plain, Anderson, fixed count) or ksponly, which never test
-  their step length, is refused in one line naming the option (it changed nothing there, and the
+  their step length, or ngmres, which hands the test a step length of 0, is refused in one line naming the option (it changed nothing there, and the
   unconverged-steps warning named the rule as if it had run)."""
 import math
 import os
@@ -150,7 +150,8 @@ def energy(np_, tmp):
 def step_rule_refused(np_):
     base = CLOTH + ["-msim_dt", "0.01", "-msim_steps", "2", "-msim_step_atol", "1e-3"]
     cases = [(f"{s} {' '.join(solver)} -msim_step_atol", ["-msim_integrator", s, "-snes_type"] + solver, ["-msim_step_atol", f"-snes_type {solver[0]}", "not supported"])
-             for s, solver in (("implicit_euler", ["pd"]), ("bdf2", ["pd", "-snes_pd_anderson", "3"]), ("implicit_midpoint", ["pd", "-snes_pd_fixed"]), ("newmark", ["ksponly"]))]
+             for s, solver in (("implicit_euler", ["pd"]), ("bdf2", ["pd", "-snes_pd_anderson", "3"]), ("implicit_midpoint", ["pd", "-snes_pd_fixed"]), ("newmark", ["ksponly"]),
+                               ("implicit_euler", ["ngmres", "-npc_snes_type", "pd"]))]
     mt.refusals(check, MSIM, base, cases, np_)
 
 
