@@ -130,9 +130,10 @@ def main():
             check(e < 1e-4, f"np={np_}: adaptive cn over T in one -msim_dt: error {e:.3e} at T (tolerance 1e-6)")
 
             for ts_type, extra in (("arkimex", ["-ts_adapt_type", "basic", "-ts_atol", "1e-6", "-ts_rtol", "0"]), ("alpha2", ["-ts_adapt_type", "none"]),
-                                   ("rosw", ["-ts_adapt_type", "dsp", "-ts_atol", "1e-6", "-ts_rtol", "0"]), ("rk", ["-ts_rk_type", "5dp", "-ts_adapt_type", "none"])):
+                                   ("rosw", ["-ts_adapt_type", "dsp", "-ts_atol", "1e-6", "-ts_rtol", "0"]), ("rk", ["-ts_rk_type", "5dp", "-ts_adapt_type", "none"]),
+                                   ("rk", ["-ts_rk_type", "5dp", "-ts_adapt_type", "dsp", "-ts_atol", "1e-6", "-ts_rtol", "0"])):
                 args = SCENE + ["-msim_integrator", "ts", "-ts_type", ts_type, "-msim_dt", "0.01"] + extra
-                full, ck, part = (os.path.join(tmp, f"{ts_type}_{k}") for k in ("full.bin", "ck", "part.bin"))
+                full, ck, part = (os.path.join(tmp, f"{ts_type}_{extra[-1]}_{k}") for k in ("full.bin", "ck", "part.bin"))
                 mt.run(MSIM, args + ["-msim_steps", "20", "-msim_view_final", f"binary:{full}"], np_)
                 mt.run(MSIM, args + ["-msim_steps", "10", "-msim_checkpoint", ck], np_)
                 r = mt.run(MSIM, args + ["-msim_steps", "20", "-msim_restart", ck, "-msim_view_final", f"binary:{part}"], np_)
@@ -145,6 +146,8 @@ def main():
                 elif ts_type == "rk":
                     warned = "-ts_rk_type 5dp" in r.stderr and "first same as last" in r.stderr
                     check(r.returncode == 0 and warned, f"np={np_}: rk 5dp, whose first stage is the step before's last (FSAL, its derivative kept privately), warns at a restart that the run can differ in the last bits (exit {r.returncode})")
+                    if "dsp" in extra:  # and the controller's lost history, which moves the run by more than the last bits
+                        check("-ts_adapt_type dsp" in r.stderr and "starts afresh" in r.stderr, f"np={np_}: rk 5dp with the dsp controller warns at a restart of the controller's history too")
                 else:
                     warned = "-ts_adapt_type dsp" in r.stderr and "starts afresh" in r.stderr
                     check(r.returncode == 0 and warned, f"np={np_}: adaptive rosw with the dsp controller, whose history PETSc keeps privately, warns at a restart that it starts afresh (exit {r.returncode})")
