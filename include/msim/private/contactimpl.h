@@ -68,9 +68,28 @@ inline void MSimContactForEachNear(const _n_MSimContact *ct, PetscInt nown, cons
     for (const MSimObstacle &o : ct->obs) MSimObstacleContacts(o, v, x + 3 * v, t, reach, hessian, [&](PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, o, d, n, H); });
 }
 
+/* A contact's normal force lambda and tangent projector P for friction, from the barrier's force
+   f = kappa m |b'(d)| and its direction n: lambda = f |n|, P = I - n n^T / |n|^2. n is a unit vector
+   but at an open surface's rim corner (grad E / b'(d), |n| from 0.16 to 8.7 around the open box's),
+   where taking it as one made P indefinite and Newton diverge under friction; a unit n (within
+   1e-12) is taken as it is, so every other contact keeps its bits. */
+inline void MSimFrictionNormal(PetscReal f, const PetscReal n[3], PetscReal *lambda, PetscReal P[9])
+{
+  const PetscReal nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  if (PetscAbsReal(nn - 1) <= 1e-12) { /* the expressions of a unit n, so that they compile alike */
+    *lambda = f;
+    for (int a = 0; a < 3; a++)
+      for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - n[a] * n[c];
+  } else {
+    *lambda = f * PetscSqrtReal(nn);
+    for (int a = 0; a < 3; a++)
+      for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - n[a] * n[c] / nn;
+  }
+}
+
 /* IPC's lagged friction (src/implicit/terms/friction.cpp): f(v, lambda, P, u, y) for every owned
-   vertex within dhat of an obstacle at x_n (obstacle at t), lambda = kappa m |b'(d)| the barrier's
-   normal force there, P = I - n n^T, u = P (x - x_n - v_o (tx - t)) its slip relative to the
+   vertex within dhat of an obstacle at x_n (obstacle at t), lambda the barrier's normal force there
+   and P its tangent projector (MSimFrictionNormal), u = P (x - x_n - v_o (tx - t)) its slip relative to the
    obstacle, y = |u| */
 template <class F>
 inline void MSimContactForEachSliding(const _n_MSimContact *ct, PetscInt nown, const PetscScalar *x, const PetscScalar *xn, const PetscScalar *m, PetscReal t, PetscReal tx, F &&f)
@@ -78,10 +97,9 @@ inline void MSimContactForEachSliding(const _n_MSimContact *ct, PetscInt nown, c
   MSimContactForEachNear(ct, nown, xn, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
     PetscReal e, de, d2e, P[9], u[3], y = 0;
     if (d <= 0) return;
+    PetscReal lambda;
     MSimBarrier(d, ct->dhat, &e, &de, &d2e);
-    const PetscReal lambda = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de);
-    for (int a = 0; a < 3; a++)
-      for (int c = 0; c < 3; c++) P[3 * a + c] = (a == c) - n[a] * n[c];
+    MSimFrictionNormal(ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de), n, &lambda, P);
     for (int a = 0; a < 3; a++) {
       u[a] = 0;
       for (int c = 0; c < 3; c++) u[a] += P[3 * a + c] * PetscRealPart(x[3 * v + c] - xn[3 * v + c] - o.v[c] * (tx - t));

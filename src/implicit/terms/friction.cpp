@@ -69,9 +69,7 @@ static PetscErrorCode GetLagged(MSimImplicitTerm term, MSimContact ct, const Lag
       if (d <= 0) return;
       MSimBarrier(d, ct->dhat, &e, &de, &d2e);
       q.v      = v;
-      q.lambda = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de);
-      for (int a = 0; a < 3; a++)
-        for (int c = 0; c < 3; c++) q.P[3 * a + c] = (a == c) - n[a] * n[c];
+      MSimFrictionNormal(ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de), n, &q.lambda, q.P);
       for (int c = 0; c < 3; c++) q.vo[c] = o.v[c];
       L->s.push_back(q);
     };
