@@ -32,7 +32,10 @@ void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *nt
 PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);
 /* the further contacts of a vertex in a concave crease (right or acute), beside its nearest
    triangle's: each another face's distance less the thickness and its unit normal towards the vertex
-   (the distance to the face's plane: Hessian 0), up to MSIM_MESH_CREASE_MAX of them
+   (the distance to the face's plane: Hessian 0), or, at an open surface's rim corner, the distance d
+   whose barrier b(d) is the corner's share of the pair's energy and n = grad / b'(d), not a unit
+   vector (src/contact/mesh_obstacle.cpp, RimCorner; friction takes its length apart,
+   msim/private/contactimpl.h's MSimFrictionNormal), up to MSIM_MESH_CREASE_MAX of them
    (src/contact/mesh_obstacle.cpp, CreaseContacts) */
 enum { MSIM_MESH_CREASE_MAX = 4 };
 typedef struct {
