@@ -77,6 +77,7 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-npc_snes_type", "pd", "-snes_npc_side", "left"], "-snes_npc_side left with -snes_type newtonls is not supported"),
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-snes_type", "nasm"], "-snes_type nasm is not supported: it needs subdomains of a DM"),
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-snes_type", "anderson", "-npc_snes_type", "pd"], "-snes_type pd needs a problem that provides projective-dynamics steps"),
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-snes_type", "ngmres", "-npc_snes_type", "newtonls"], "-npc_snes_type with -msim_integrator ts is not supported"),
     # PETSc makes a nonlinear preconditioner for any type; pd, ntr and ksponly would ignore it
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-npc_snes_type", "newtonls"], "-npc_snes_type newtonls with -snes_type pd is not supported: pd runs no nonlinear preconditioner"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "ntr", "-npc_snes_type", "pd"], "-npc_snes_type pd with -snes_type ntr is not supported: ntr runs no nonlinear preconditioner"),

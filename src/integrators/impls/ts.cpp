@@ -275,6 +275,14 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     PetscCall(TSGetSNES(d->ts, &snes));
     PetscCall(MSimSNESCheckServed(snes));
     PetscCall(MSimSNESSetUpPD(snes)); /* pd (or pd as the preconditioner) is refused here, not at the first stage */
+    {
+      /* a nonlinear preconditioner gets the TS's stage function with PETSc's default linear
+         solver, which the nest Jacobian does not take (ngmres over newtonls: "no ILU for a nest"),
+         or wants an objective the TS has none of (ntr) */
+      PetscBool has_npc;
+      PetscCall(SNESHasNPC(snes, &has_npc));
+      PetscCheck(!has_npc, integ->comm, PETSC_ERR_SUP, "-npc_snes_type with -msim_integrator ts is not supported: the stage solves take one SNES (newtonls by default); nonlinear preconditioners serve the implicit schemes (implicit_euler, bdf2, implicit_midpoint, newmark)");
+    }
     PetscCall(MSimTSFormsSetFromOptions(d->forms, d->ts));
   }
   PetscCall(TSSetUp(d->ts));
