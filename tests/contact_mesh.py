@@ -27,7 +27,7 @@
   as on the closed box; a fin standing on a box (non-manifold) likewise with trust-region Newton;
 - bad input, one error line each: a face naming a missing vertex (the reader's error), a triangle
   of zero area (naming the file), a cloth vertex inside a closed mesh (naming the vertex and the
-  obstacle), a velocity list of the wrong length (one value too many too), a negative thickness,
+  obstacle), a velocity list one value short and one too long, a negative thickness,
   more than 64 mesh files or none after -msim_contact_mesh (PETSc dropped the rest, or the option,
   silently), and 70 obstacles take their 70 velocities (the list held 64); an open mesh at thickness 0
   with the penalty of an explicit integrator or ts (it acts only at negative distance, which an
@@ -307,7 +307,7 @@ def main():
                     (("a face naming a missing vertex", ["-msim_contact_mesh", bad_face], ["bad_face.obj", "line 4"]),
                      ("a zero-area triangle", ["-msim_contact_mesh", flat], ["flat.obj", "zero area"]),
                      ("a vertex inside a closed mesh", ["-msim_contact_mesh", inside], ["vertex 12 starts inside obstacle 0", "-msim_contact_mesh"]),
-                     ("a velocity list of the wrong length", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_velocity", "0,0,1,0"], ["-msim_contact_velocity", "one vx,vy,vz per obstacle"]),
+                     ("a velocity list one value short", ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_velocity", "0,0"], ["-msim_contact_velocity", "one vx,vy,vz per obstacle", "got 2 values"]),
                      ("a negative thickness", ["-msim_contact_mesh", table_obj, "-msim_contact_thickness", "-1"], ["-msim_contact_thickness", ">= 0"]),
                      # PETSc drops what does not fit its array, and a string option without a value, silently
                      ("65 mesh files", ["-msim_contact_mesh", ",".join([sheet_obj] * 65)], ["-msim_contact_mesh", "at most 64 files"]),
