@@ -14,6 +14,12 @@
   roundoff: the same function on the same state), and contact_n counts the vertices whose force
   is non-zero;
 - frame 0 (the cloth above the plane, beyond the contact distance) holds zero forces;
+- a cloth that starts within the contact distance dhat of the plane, at d: frame 0 and the monitor's
+  step-0 row hold the barrier's force of that state, kappa m |b'(d)| along +z summed to
+  kappa MASS |b'(d)| with kappa = 1/(beta h^2 b''(dhat/2)) (implicit Euler beta 1, Newton and PD;
+  BDF2 beta 4/9), where they showed 0 until the first step set kappa; the penalty of symplectic
+  Euler and ts pushes only below the plane, where no start may be (refused), so 0 there; a run
+  restarted from a checkpoint writes the uninterrupted run's rows from its first step on;
 - the plane as VI bounds (-msim_contact_bounds): the same force (the bound's reaction) with every
   vertex exactly on the plane; a sphere or a tilted plane as bounds is refused in one line;
 - without obstacles the frames have no contact_force array.
@@ -45,6 +51,51 @@ def read_frames(out, fmt):
             with h5py.File(os.path.join(out, name), "r") as f:
                 frames.append((int(name[6:12]), f["contact_force"][:].reshape(-1, 3) if "contact_force" in f else None))
     return frames
+
+
+def barrier_db(d, dhat):
+    """b'(d) and b''(d) of IPC's barrier b(d) = -(d - dhat)^2 log(d / dhat)"""
+    lg = np.log(d / dhat)
+    return -2 * (d - dhat) * lg - (d - dhat) ** 2 / d, -2 * lg - 4 * (d - dhat) / d + (d - dhat) ** 2 / d ** 2
+
+
+def start_in_contact(exe, check, tmp, np_):
+    """frame 0 and the step-0 row of a cloth starting at d = 0.005 from the plane, inside dhat =
+    0.02, against the barrier's force derived here; then a restart's rows against the run's"""
+    h, d, dhat = 0.01, 0.005, 0.02
+    rest = ["-msim_cloth_n", str(N), "-msim_fix", "none", "-msim_mass", str(MASS), "-msim_contact_plane", f"0,0,1,{-d}",
+            "-msim_contact_distance", str(dhat), "-msim_dt", str(h), "-msim_steps", "1"]
+    db, _ = barrier_db(d, dhat)
+    _, d2b_half = barrier_db(dhat / 2, dhat)
+    cases = (("implicit Euler, Newton, vtu", ["-msim_integrator", "implicit_euler"], "vtu", 1.0),
+             ("implicit Euler, PD, HDF5", ["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-msim_output_format", "hdf5"], "hdf5", 1.0),
+             ("BDF2, Newton, vtu", ["-msim_integrator", "bdf2"], "vtu", 4.0 / 9.0),
+             ("symplectic Euler, penalty, vtu", ["-msim_integrator", "symplectic_euler", "-msim_dt", "0.0005"], "vtu", None),
+             ("ts, penalty, vtu", ["-msim_integrator", "ts", "-msim_dt", "0.0005"], "vtu", None))
+    for label, args, fmt, beta in cases:
+        out, csv = os.path.join(tmp, f"start_{np_}_{len(os.listdir(tmp))}"), os.path.join(tmp, f"start_{np_}_{len(os.listdir(tmp))}.csv")
+        r = mt.run(exe, rest + args + ["-msim_output", out, "-msim_monitor_csv", csv], np_)
+        if not check(r.returncode == 0, f"np {np_}: starting within dhat, {label}: runs ({r.stderr.strip()[-300:]})"):
+            continue
+        f0 = read_frames(out, fmt)[0][1]
+        row = mt.read_csv(csv)[0]
+        mon = np.array([float(row[k]) for k in ("contact_fx", "contact_fy", "contact_fz")])
+        want = np.array([0.0, 0.0, -MASS * db / (beta * h * h * d2b_half)]) if beta else np.zeros(3)
+        count = N * N if beta else 0
+        check(np.abs(f0.sum(axis=0) - want).max() <= 1e-9 * max(want[2], 1) and np.abs(mon - want).max() <= 1e-9 * max(want[2], 1)
+              and int(row["contact_n"]) == count and int((np.abs(f0).sum(axis=1) > 0).sum()) == count,
+              f"np {np_}: starting within dhat, {label}: frame 0 and the step-0 row hold the start's force {want} N on {count} vertices "
+              f"(frame {f0.sum(axis=0)}, row {mon}, {row['contact_n']} vertices)")
+    # restarted at step 2 (friction: its x_n is the checkpoint's), the rows of steps 3 and 4 are the run's
+    ck, full, part = os.path.join(tmp, f"start_{np_}.ck"), os.path.join(tmp, f"full_{np_}.csv"), os.path.join(tmp, f"part_{np_}.csv")
+    base = rest[:-2] + ["-msim_integrator", "implicit_euler", "-msim_friction", "0.3"]
+    r1 = mt.run(exe, base + ["-msim_steps", "4", "-msim_monitor_csv", full], np_)
+    r2 = mt.run(exe, base + ["-msim_steps", "2", "-msim_checkpoint", ck], np_)
+    r3 = mt.run(exe, base + ["-msim_steps", "4", "-msim_restart", ck, "-msim_monitor_csv", part], np_)
+    if check(r1.returncode == 0 and r2.returncode == 0 and r3.returncode == 0, f"np {np_}: starting within dhat, restarted at step 2: runs"):
+        strip = lambda rows: [{k: v for k, v in row.items() if k != "wall_s"} for row in rows]  # noqa: E731
+        a, b = strip(mt.read_csv(full)), strip(mt.read_csv(part))
+        check(b == a[3:], f"np {np_}: starting within dhat, restarted at step 2: its rows are the run's rows of steps 3 and 4 ({b} vs {a[3:]})")
 
 
 def main():
@@ -95,6 +146,7 @@ def main():
             r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"] + args, np_)
             err = mt.lines(r.stderr)
             check(r.returncode != 0 and len(err) == 1 and "axis-aligned planes and boxes only" in err[0], f"np {np_}: VI bounds with {label}: refused in one line ({err})")
+        start_in_contact(exe, check, tmp, np_)
         out = os.path.join(tmp, f"none_{np_}")
         r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "2", "-msim_output", out], np_)
         if check(r.returncode == 0, f"np {np_}: without obstacles: runs"):

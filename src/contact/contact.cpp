@@ -7,7 +7,8 @@
    - dhat = 1e-2 of the scene's diameter (the barrier acts within 1% of the scene's size);
    - kappa (implicit barrier, per unit mass) = 1 / (beta h^2 b''(dhat/2)): the barrier's stiffness
      in Phi equals the mass's at half the contact distance, IPC's rule of balancing the barrier
-     against the mass/h^2 scale (Li et al. 2020, sec. 4.3), set at the first step;
+     against the mass/h^2 scale (Li et al. 2020, sec. 4.3), set at the implicit integrator's set-up
+     (so that step 0's monitor row and frame report a start's force);
    - kc (explicit penalty, N/m) = the largest rest row sum of spring stiffnesses over free
      vertices: a vertex in contact with one obstacle is at most half again as stiff as the
      stiffest vertex in the Gershgorin bound, so the stability guard's limit drops by at most

@@ -12,6 +12,7 @@
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <msim/private/contactimpl.h> /* MSimContactGetForStep: kappa at set-up */
 #include <msim/destroy.h>
 
 #define MSIM_MAX_TERM_HISTORY 4 /* terms' history vectors (MSimImplicitTermOps.get_history) */
@@ -673,6 +674,15 @@ static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitCreateWithScheme(sys, integ->type, &ie->imp));
   ie->imp->h = integ->dt;
+  if (!integ->help_listing) {
+    /* the barrier's stiffness kappa (its default needs beta h^2) now rather than at the first
+       step: the step-0 monitor row and frame 0 report the force of a start within dhat of an
+       obstacle, which the run applies from its first step (they showed 0, then the force). Not
+       for -help's listing, whose scheme's beta is not the run's. */
+    MSimContact ct;
+    PetscCall(MSimImplicitStepUpdate(ie->imp));
+    PetscCall(MSimContactGetForStep(sys, ie->imp->step.h2, &ct));
+  }
   PetscCall(ReadOptions(integ, ie));
   if (ie->imp->scheme->no_objective) ie->check_saddle = PETSC_FALSE; /* saddles of a Phi it has not */
   PetscCall(CreateSNES(integ, ie, &ksp));
