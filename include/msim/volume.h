@@ -5,7 +5,8 @@
    its free vertex of least global number, which has slots for all 4 vertices (the others are
    joined to that one by the tet's edge springs: ghosts or fixed slots like any spring end; a tet
    whose edge is no spring gets its ghost all the same). Forces on ghost slots go to their owners
-   with one reverse scatter. The explicit force, the energies, the Gershgorin bound, the spectrum's
+   with one reverse scatter; the Hessian's blocks do not: each rank adds its own rows, taking
+   those of other ranks' tets from a halo copy of them. The explicit force, the energies, the Gershgorin bound, the spectrum's
    K and the implicit term 'volume' (src/implicit/terms/volume.cpp) all call these.
    With kv = 0 (-msim_volume_stiffness 0: the inversion barrier alone) the term is zero on every
    tet above J = jhat, and the energy, gradient and Hessian passes skip the tets that the safe

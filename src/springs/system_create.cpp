@@ -123,8 +123,9 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   sys->rstart         = L.rstart;
   sys->nspring_global = L.nspring_moving;
 
-  /* local slots: owned [0, nown), ghosts (the other free ends of owned and halo springs, by
-     global number), then the fixed ends of owned springs (by input id) */
+  /* local slots: owned [0, nown), ghosts (the other free ends of owned and halo springs and the
+     free vertices of the tets and halo tets, by global number), then the fixed ends of owned
+     springs and of the tets (by input id) */
   std::vector<PetscInt>        ghosts;
   const std::vector<PetscInt> &fixed    = L.fixed_vid;
   auto                         is_owned = [&](PetscInt g) { return g >= sys->rstart && g < sys->rstart + sys->nown; };
@@ -150,15 +151,18 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
     return sys->nown + (PetscInt)(std::lower_bound(ghosts.begin(), ghosts.end(), g) - ghosts.begin());
   };
   sys->tets.ntet = L.ntet;
-  sys->tets.slot.resize(4 * L.tets.size());
-  sys->tets.V0.resize(L.tets.size());
-  sys->tets.iV0.resize(L.tets.size());
+  sys->tets.slot.resize(4 * L.ntet_own);
+  sys->tets.V0.resize(L.ntet_own);
+  sys->tets.iV0.resize(L.ntet_own);
+  sys->tets.hslot.resize(4 * (L.tets.size() - L.ntet_own));
+  sys->tets.hV0.resize(L.tets.size() - L.ntet_own);
   for (size_t c = 0; c < L.tets.size(); c++) {
-    PetscInt *sl = &sys->tets.slot[4 * c];
+    const bool own = c < (size_t)L.ntet_own;
+    PetscInt  *sl  = own ? &sys->tets.slot[4 * c] : &sys->tets.hslot[4 * (c - L.ntet_own)];
     for (int q = 0; q < 4; q++) sl[q] = slot(L.tets[c].g[q], L.tets[c].v[q]);
     if (L.tets[c].V0 < 0) std::swap(sl[1], sl[2]); /* every tet positive at rest, whatever the file's orientation */
-    sys->tets.V0[c]  = PetscAbsReal(L.tets[c].V0);
-    sys->tets.iV0[c] = 1.0 / sys->tets.V0[c];
+    (own ? sys->tets.V0[c] : sys->tets.hV0[c - L.ntet_own]) = PetscAbsReal(L.tets[c].V0);
+    if (own) sys->tets.iV0[c] = 1.0 / sys->tets.V0[c];
   }
   std::vector<MSimRoutedTet>().swap(L.tets);
   sys->b0.resize(3 * sys->nfix);

@@ -34,13 +34,14 @@ struct MSimLocalPart {
   std::vector<PetscInt>  fixed_vid;         /* the fixed ends of owned springs, ascending input ids ... */
   std::vector<PetscReal> fixed_x0;          /* ... and their rest positions */
   PetscInt               nspring_moving = 0, between_free = 0, cut = 0;
-  std::vector<MSimRoutedTet> tets;          /* the tets this rank computes (-msim_volume) */
+  std::vector<MSimRoutedTet> tets;          /* the tets this rank computes (-msim_volume), then its halo */
+  PetscInt               ntet_own = 0;      /* the first of tets: those this rank computes */
   PetscInt               ntet = 0;          /* tets with a free vertex, all ranks */
   PetscReal              modulus = 0;       /* the springs' equivalent Young's modulus (volume.cpp) */
 };
 
 /* The tets to the ranks that compute them (the owner of each tet's free vertex of least global
-   number) and the springs' modulus, before the springs are routed. Collective. */
+   number), halo copies to the other owners of their free vertices, and the springs' modulus, before the springs are routed. Collective. */
 PetscErrorCode MSimSystemDistributeTets(MPI_Comm comm, const MSimSceneData &S, const std::vector<MSimVertexOwner> &table, MSimLocalPart &L);
 
 /* morton: number each rank's vertices along a Z-order curve (else in input order). The scene's

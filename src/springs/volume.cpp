@@ -1,7 +1,9 @@
 /* The volume term over the system's tets (msim/volume.h; the per-tet physics in
    msim/volume_kernels.hpp). Each tet is computed by one rank from its local slots: owned rows from
    X's array, ghost and fixed slots from xloc (the springs' exchange); forces on ghost slots are
-   added to their owners by one reverse scatter (floc's ghost slots). */
+   added to their owners by one reverse scatter (floc's ghost slots; PETSc's star forest adds what
+   each rank sent in rank order, after every message arrived: the same sums in every run). The
+   Hessian's blocks in other ranks' rows are their halo tets' instead. */
 #include <msim/volume.h>
 #include <msim/volume_kernels.hpp>
 #include <msim/log.h>
@@ -252,31 +254,51 @@ PetscErrorCode MSimSystemVolumeGradient(MSimSystem sys, PetscReal t, Vec X, Pets
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Each rank adds to its own rows only: its tets' blocks there, then its halo tets' (another
+   rank's tets with an owned vertex, computed again here). PETSc's assembly would sum the blocks
+   that several ranks send to one row in the order the messages arrive, so that at 3 ranks and
+   more two runs of one scene differed in the last bits (the springs' matrices do the same,
+   src/springs/matrix.cpp). With the barrier alone a halo tet at or above jhat adds a zero block:
+   skipped (J as TetEnergy takes it), as the pass skips the tets the reference proves there. */
 PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, PetscReal w, PetscBool psd, Mat J)
 {
   const MSimTets         &T   = sys->tets; /* a skipped tet's block is zero (kv = 0, J > jhat) */
   const msim::TetMaterial m   = Material(sys);
   const PetscInt          nfl = sys->nown + sys->nghost;
+  const PetscScalar      *xl;
   PetscErrorCode          ierr = PETSC_SUCCESS;
 
   PetscFunctionBeginUser;
   if (!T.ntet) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscLogEventBegin(MSIM_Volume, X, J, 0, 0));
-  PetscCall(ForEachTet(sys, t, X, [&](size_t c, const double *const x[4]) {
+  auto add = [&](const PetscInt *q4, PetscReal V0, const double *const x[4]) {
     msim::Mat12 H;
-    PetscInt    idx[12];
+    PetscInt    row[12], col[12];
     PetscScalar blk[144];
     if (ierr) return;
-    msim::TetEnergy(m, T.V0[c], x, NULL, &H, psd);
-    /* fixed vertices are no unknowns: their rows and columns are left out (negative indices) */
-    for (int q = 0; q < 4; q++) {
-      const PetscInt s = T.slot[4 * c + q];
-      for (int k = 0; k < 3; k++) idx[3 * q + k] = s < nfl ? 3 * sys->local_to_global[s] + k : -1;
-    }
+    msim::TetEnergy(m, V0, x, NULL, &H, psd);
+    /* fixed vertices are no unknowns: their rows and columns are left out (negative indices), as
+       are the rows other ranks own */
+    for (int q = 0; q < 4; q++)
+      for (int k = 0; k < 3; k++) {
+        col[3 * q + k] = q4[q] < nfl ? 3 * sys->local_to_global[q4[q]] + k : -1;
+        row[3 * q + k] = q4[q] < sys->nown ? col[3 * q + k] : -1;
+      }
     for (int a = 0; a < 12; a++)
       for (int b = 0; b < 12; b++) blk[12 * a + b] = w * H(a, b);
-    ierr = MatSetValues(J, 12, idx, 12, idx, blk, ADD_VALUES);
-  }, CanSkip(sys)));
+    ierr = MatSetValues(J, 12, row, 12, col, blk, ADD_VALUES);
+  };
+  PetscCall(ForEachTet(sys, t, X, [&](size_t c, const double *const x[4]) { add(&T.slot[4 * c], T.V0[c], x); }, CanSkip(sys)));
+  PetscCall(ierr);
+  PetscCall(VecGetArrayRead(sys->xloc, &xl)); /* X's local slots, as the pass left them */
+  for (size_t c = 0; c < T.hV0.size(); c++) {
+    const PetscInt *q4   = &T.hslot[4 * c];
+    const double   *x[4] = {xl + 3 * q4[0], xl + 3 * q4[1], xl + 3 * q4[2], xl + 3 * q4[3]};
+    msim::Vec12     g;
+    if (m.kv == 0 && !T.noskip && msim::TetVolumeGradient(x, g) / T.hV0[c] >= m.jhat) continue; /* TetEnergy's J */
+    add(q4, T.hV0[c], x);
+  }
+  PetscCall(VecRestoreArrayRead(sys->xloc, &xl));
   PetscCall(ierr);
   PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
   PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));

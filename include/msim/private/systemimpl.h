@@ -42,10 +42,13 @@ static inline void MSimSpringsForEach(const MSimSprings &sp, F &&f)
 
 /* The tets of the volume term (msim/volume.h): each computed by one rank, the owner of its free
    vertex of least global number, where all 4 vertices have slots (owned, ghost or fixed, as a
-   spring's ends) */
+   spring's ends). The halo tets are not owned: another rank's tets with an owned vertex, whose
+   Hessian blocks this rank adds to its own rows (src/springs/volume.cpp says why). */
 typedef struct {
   std::vector<PetscInt>  slot;      /* 4 local slots per tet */
   std::vector<PetscReal> V0, iV0;   /* rest volume (> 0: the slots are ordered so) and 1 / V0 */
+  std::vector<PetscInt>  hslot;     /* the halo tets: 4 local slots each, ordered as slot's, ... */
+  std::vector<PetscReal> hV0;       /* ... and rest volume */
   PetscInt               ntet = 0;  /* tets of the scene in the term (every rank knows it) */
   PetscReal              kv = 0, kappa = 0, jhat = 0; /* msim/volume_kernels.hpp's TetMaterial */
   PetscBool              pd_bound = PETSC_TRUE; /* -msim_volume_pd_bound: PD's step length from the barrier's pd_gap */
