@@ -50,6 +50,8 @@ CASES = [
     (["-msim_wind", "a,b,c", "-msim_drag", "1"], "-msim_wind: 'a' is not a number"),
     (["-msim_fix", "list", "-msim_fix_list", "1,x"], "-msim_fix_list: 'x' is not an integer"),
     (["-msim_checkpoint_every", "10"], "-msim_checkpoint_every needs -msim_checkpoint F"),
+    # found at set-up, not at the first checkpoint after -msim_checkpoint_every steps of output
+    (["-msim_checkpoint", "no_such_dir/run.ck", "-msim_checkpoint_every", "200"], "-msim_checkpoint no_such_dir/run.ck: cannot write no_such_dir/run.ck.tmp"),
     (["-msim_progress", "-1"], "-msim_progress must be >= 0 s"),
     # scene data with nothing to simulate; output that cannot be written
     (["-msim_scene", "chain", "-msim_chain_n", "2", "-msim_fix", "corners"], "every vertex of the chain scene is fixed: nothing to simulate"),
@@ -163,6 +165,20 @@ def main():
             check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: the nonlinear solver failed (-snes_type qn: DIVERGED_FUNCTION_COUNT) at step 1")
                   and len(rows) >= 2 and rows[0] == "step,iteration,wall_s,phi,gnorm" and rows[1].startswith("1,0,") and not os.path.exists(hist + ".tmp"),
                   f"np={np} failed implicit solve: rc {r.returncode}, stderr {lines!r}, history {rows[:2]!r}")
+        # a solve that fails after steps the divergence check did not look at (it checks every 10th
+        # step without a monitor): the step before the failure is the last finite state, saved as
+        # the frame a run writing every step has of it (was the last checked one, step 0)
+        failing = ["-msim_cloth_n", "6", "-msim_fix", "none", "-msim_steps", "3", "-msim_dt", "0.01", "-msim_contact_plane", "0,0,1,-0.1",
+                   "-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_type", "broyden"]
+        for np in nps:
+            sparse, every = os.path.join(tmp, f"failed_sparse_{np}"), os.path.join(tmp, f"failed_every_{np}")
+            r = run(failing + ["-msim_output", sparse], tmp, np)
+            r1 = run(failing + ["-msim_output", every, "-msim_output_every", "1"], tmp, np)
+            lines = mt.lines(r.stderr)
+            saved = [os.path.join(sparse, "last_finite.vtu"), os.path.join(every, "frame_000001.vtu")]
+            check(r.returncode != 0 and r1.returncode != 0 and len(lines) == 1 and "at step 2" in lines[0] and lines[0].endswith("last finite state is step 1")
+                  and all(os.path.exists(f) for f in saved) and open(saved[0], "rb").read() == open(saved[1], "rb").read(),
+                  f"np={np} failed solve after an unchecked step: rc {r.returncode}, stderr {lines!r}; last_finite.vtu is step 1's frame")
         # msimllt given a matrix that is not positive definite (Newton's exact Hessian of a cloth
         # whose springs compress as it sags: negative transverse curvature): one error line naming
         # the matrix's row, a global row index (the factor's own numbering is AMD's), at 1 and 2

@@ -78,7 +78,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscBool   want_mon, want_out;
   PetscReal   factor = 10, kin, pot, E0, scale, gnorm, vobs;
   PetscInt    check_every = 10, last_good = 0;
-  Vec         Xgood, Vgood;
+  Vec         Xgood, Vgood, Xprev, Vprev; /* the last checked state; the one before this step */
 
   PetscFunctionBeginUser;
   *info = MSimRunInfo();
@@ -113,7 +113,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   if (restarted) PetscCall(MSimOutputResume(out, step0));
   integ->first_step = step0 + 1;
   {
-    PetscErrorCode merr = MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1);
+    PetscErrorCode merr = MSimCheckpointCheckWritable(ck); /* first: a refusal leaves no file behind */
+    if (!merr) merr = MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1);
     if (!merr && integ->ops.openfiles) merr = integ->ops.openfiles(integ);
     if (merr) { /* refused before anything is written: the new output directory goes again */
       PetscCall(MSimOutputRemoveIfUnused(out));
@@ -151,6 +152,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   integ->first_step = step0 + 1;
   PetscCall(VecDuplicate(X, &Xgood));
   PetscCall(VecDuplicate(V, &Vgood));
+  PetscCall(VecDuplicate(X, &Xprev));
+  PetscCall(VecDuplicate(V, &Vprev));
   PetscCall(VecCopy(X, Xgood));
   PetscCall(VecCopy(V, Vgood));
 
@@ -163,6 +166,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(MSimCheckpointDestroy(&ck));
     PetscCall(VecDestroy(&Xgood));
     PetscCall(VecDestroy(&Vgood));
+    PetscCall(VecDestroy(&Xprev));
+    PetscCall(VecDestroy(&Vprev));
     PetscCall(PetscLogStagePop());
     return PETSC_SUCCESS;
   };
@@ -174,6 +179,10 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     int             signal_seen;
     PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
 
+    if (last_good != n - 1) { /* x_{n-1} was not checked: kept, so a failure here can still save it */
+      PetscCall(VecCopy(X, Xprev));
+      PetscCall(VecCopy(V, Vprev));
+    }
     PetscCall(MSimIntegratorStep(integ, t0, X, V));
     if (n == 1) {
       /* the energy the contact barriers held at the start (known once the first step began),
@@ -194,6 +203,18 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       info->diverged   = PETSC_TRUE;
       info->steps_done = n;
       info->t          = t;
+      if (last_good != n - 1) {
+        /* the steps since the last check were not checked (-msim_divergence_check_every): the one
+           before this is the last finite state if it passes the same test (a failed solve at step
+           2 named and saved step 0, up to k - 1 good steps lost) */
+        PetscReal k0, p0;
+        PetscCall(MSimSystemComputeEnergy(sys, t0, Xprev, Vprev, &k0, &p0));
+        if (!PetscIsInfOrNanReal(k0 + p0) && PetscAbsReal(k0 + p0 - E0) <= factor * scale) {
+          last_good = n - 1;
+          PetscCall(VecSwap(Xgood, Xprev));
+          PetscCall(VecSwap(Vgood, Vprev));
+        }
+      }
       PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
       PetscCall(VecCopy(Xgood, X));
       PetscCall(VecCopy(Vgood, V));
@@ -246,5 +267,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(MSimOutputDestroy(&out));
   PetscCall(VecDestroy(&Xgood));
   PetscCall(VecDestroy(&Vgood));
+  PetscCall(VecDestroy(&Xprev));
+  PetscCall(VecDestroy(&Vprev));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

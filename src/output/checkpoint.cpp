@@ -26,6 +26,8 @@
 #include <sstream>
 #include <string>
 #include <sys/stat.h>
+#include <cerrno>
+#include <cstring>
 
 static const PetscInt MSIM_CHECKPOINT_MAGIC   = 0x6d73696d; /* "msim" */
 static const PetscInt MSIM_CHECKPOINT_VERSION = 3; /* 2: the integrator's history; 3: the solver's */
@@ -161,6 +163,29 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, sys->comm));
   PetscCheck(ok, sys->comm, PETSC_ERR_FILE_WRITE, "-msim_checkpoint: cannot rename %s to %s", tmp.c_str(), ck->path);
   PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The checkpoint's file is written first at -msim_checkpoint_every steps, so a path that cannot be
+   written (a missing directory, no permission) failed only then, in PETSc's words, after the run
+   had spent those steps and written frames and monitor rows. Called where the other output files
+   are opened (the output directory, which may hold it, exists by then): rank 0 creates F.tmp,
+   the file each write goes through, and removes it again. */
+PetscErrorCode MSimCheckpointCheckWritable(MSimCheckpoint ck)
+{
+  MSimSystem        sys = ck->sys;
+  const std::string tmp = std::string(ck->path) + ".tmp";
+  int               err = 0;
+
+  PetscFunctionBeginUser;
+  if (!ck->path[0]) PetscFunctionReturn(PETSC_SUCCESS);
+  if (sys->rank == 0) {
+    FILE *fp = fopen(tmp.c_str(), "wb");
+    if (!fp) err = errno;
+    else if (fclose(fp) != 0 || remove(tmp.c_str()) != 0) err = errno;
+  }
+  PetscCallMPI(MPI_Bcast(&err, 1, MPI_INT, 0, sys->comm));
+  PetscCheck(!err, sys->comm, PETSC_ERR_FILE_OPEN, "-msim_checkpoint %s: cannot write %s (%s)", ck->path, tmp.c_str(), strerror(err));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
