@@ -4,19 +4,20 @@ an obstacle rising 6 cm a step (3 m/s, dt 0.02) through a 9 x 9 cloth whose cont
 is 1.41 cm comes farther in one step than its gap to the cloth, so between two steps it passes
 vertices it never was within dhat of (the step's feasible start carried only those; the box rose
 through the cloth, which was left under it, falling, with no contact force and exit 0). Now each
-step's start carries a vertex the obstacle would pass as far as the obstacle's own CCD along the
-vertex's motion relative to it says (src/implicit/terms/obstacles.cpp, FeasibleStart_Obstacles).
+step's start also carries with the obstacle a vertex whose motion relative to it the obstacle's own
+CCD sees cross it (src/implicit/terms/obstacles.cpp, FeasibleStart_Obstacles).
 For a 2 cm thick box under the cloth pinned at its corners with Newton, PD and BDF2, and with
 Newton a ball 30 cm across rising 32 cm a step under a free cloth in zero gravity (a pinned cloth
-slips off a ball pulled that far), a plane under a free cloth, and the box as a closed OBJ mesh and
-as an open OBJ square (its top alone, thickness 0):
+slips off a ball pulled that far), a plane under a free cloth, and the box as a closed OBJ mesh (at
+thickness 0 and 5 mm: the shell's conservative advancement) and as an open OBJ square (its top
+alone, thickness 0):
 - the run exits 0 and the monitor's contact force is > 0 along +z at every step (the obstacle is
   under the cloth from the first step on; it was 0 from the first or second);
 - in every frame, every vertex over the obstacle at the start (within its footprint in x, y; every
-  vertex for the plane) is, wherever it is over it, above its top where it is at that frame's time:
-  the cloth stays on the side it started on (those the obstacles jumped were under them, 0.3 m
-  and more). A plane cannot be jumped (a vertex it passes is inside it: carried as before), so
-  its case guards the carry within dhat;
+  vertex for the plane) is, wherever it is over it, above its top (and shell) where it is at that
+  frame's time: the cloth stays on the side it started on (those the obstacles jumped were under
+  them, 0.3 m and more). A plane cannot be jumped (a vertex it passes is inside it: carried as
+  before), so its case guards the carry within dhat;
 - the box carrying the cloth into a static box over it (a ceiling) is one error line: the vertex is
   squeezed between the two (the box passed through cloth and ceiling, exit 0).
 Usage: contact_sweep.py path/to/msim [--np N]"""
@@ -37,6 +38,7 @@ VZ = 3.0  # m/s: 6 cm a step
 BOX = (0.3, 0.7, 0.3, 0.7, -0.05, -0.03)  # 2 cm thick, its top 3 cm under the cloth at z = 0
 SPHERE, SPHERE_VZ = (0.5, 0.5, -0.16, 0.15), 16.0  # 30 cm across, 1 cm under the cloth, 32 cm a step
 PLANE_Z = -0.05
+SHELL = 0.005  # a mesh's thickness
 
 
 def write_obj(path, V, F):
@@ -59,6 +61,12 @@ def box_top(p, t, vz):
     """which vertices are over the box (within its footprint in x, y) and their height above its top"""
     x0, x1, y0, y1, _, z1 = BOX
     return (p[:, 0] > x0) & (p[:, 0] < x1) & (p[:, 1] > y0) & (p[:, 1] < y1), p[:, 2] - (z1 + vz * t)
+
+
+def shell_top(p, t, vz):
+    """the same for the box's shell"""
+    over, height = box_top(p, t, vz)
+    return over, height - SHELL
 
 
 def sphere_top(p, t, vz):
@@ -92,6 +100,7 @@ def main():
              ("sphere, Newton", ball + euler, SPHERE_VZ, sphere_top),
              ("plane, Newton", free + euler + ["-msim_contact_plane", f"0,0,1,{PLANE_Z}"], VZ, plane_top),
              ("closed OBJ box, Newton", pinned + euler + ["-msim_contact_mesh", box_obj], VZ, box_top),
+             ("closed OBJ box at thickness 5 mm, Newton", pinned + euler + ["-msim_contact_mesh", box_obj, "-msim_contact_thickness", str(SHELL)], VZ, shell_top),
              ("open OBJ square, Newton", pinned + euler + ["-msim_contact_mesh", sheet_obj], VZ, box_top))
     for np_ in mt.ranks():
         for label, args, vz, top in cases:

@@ -1027,20 +1027,24 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
 /* Moving obstacles: x_n is outside them at t, but one may have moved onto it, or past it, by tx.
    In obstacle o's frame at tx, vertex v's motion over the step is the segment from a + v_o h to a
    (a: x_n, or where another obstacle carried it), whose start is at v's distance d(a, t) > 0 from
-   o. A vertex o approached to within dhat is carried with o, all of v_o h (a rigid translation
-   keeps its distance), so the first iterate can be pulled back towards a feasible point. A vertex
-   whose segment crosses o (o came farther in the step than their gap: a box rising 6 cm a step
-   passed through the cloth, left under it with no force) is carried (1 - s) v_o h, s the safe
-   fraction of o's own CCD along the segment: 0.8 of the hit time for the analytic shapes and a
-   mesh at thickness 0 (s < 0.8: a hit within the segment, or for a box a pass by its edge nearer
-   than a quarter of the start's distance), conservative advancement to a tenth of the start's
-   distance for a mesh's shell. It starts on the side it was on, short of o, for the
-   barrier to push. Only such a hit counts, and a segment whose end is farther from o than its
-   length cannot have one (most vertices: no query beyond the one at tx), so scenes where no
-   obstacle passes a vertex start as before. Fixed vertices are no unknowns and are not carried: as
-   a cloth pinned inside a static box runs, so does a handle a moving one passes (its free vertices
-   kept out). A vertex carried into another obstacle is squeezed between two: no feasible start
-   exists. Per vertex: no communication but the one check. */
+   o. A vertex o approached to within dhat, or whose segment o's own CCD sees cross o (o came
+   farther in the step than their gap: a box rising 6 cm a step passed through the cloth, left
+   under it with no force), is carried with o, all of v_o h: the segment's start, a rigid
+   translation that keeps its distance, on the side it was on, so that the first iterate can be
+   pulled back towards a feasible point and the barrier pushes it. The CCD's safe step (0.8 of the
+   hit time for the analytic shapes and a mesh at thickness 0: below 0.8 is a hit within the
+   segment, or for a box a pass by its edge nearer than a quarter of the start's distance;
+   conservative advancement to a tenth of the start's distance for a mesh's shell) is not taken as
+   the start, as self-contact's moving handles take theirs (FeasibleStart_Self): there a vertex
+   resting within dhat starts at a fifth of its gap, and PD's fixed iterations (-snes_pd_fixed,
+   10) ended with a contact force of 1e5 N on the 9 x 9 cloth (6e8 N under a ball) where the
+   whole carry gives 600 N (1.3e3 N); converged Newton ends the same from either. A segment whose
+   end is farther from o than its length cannot cross it (most vertices: no query beyond the one
+   at tx), and a vertex o does not cross is carried as before, so scenes where no obstacle passes a
+   vertex start as before. Fixed vertices are no unknowns and are not carried: as a cloth pinned
+   inside a static box runs, so does a handle a moving one passes (its free vertices kept out). A
+   vertex carried into another obstacle is squeezed between two: no feasible start exists. Per
+   vertex: no communication but the one check. */
 static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
 {
   MSimImplicit   imp = term->imp;
@@ -1061,16 +1065,14 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
       const PetscReal u[3] = {-o.v[0] * dt, -o.v[1] * dt, -o.v[2] * dt}, len = PetscSqrtReal(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
       const PetscReal dnew = MSimObstacleDistanceAt(&o, imp->step.tx, a + 3 * v, n, NULL);
       if (dnew >= ct->dhat && dnew > len) continue; /* the distance is 1-Lipschitz: the segment ending here cannot reach o */
-      const PetscReal dold = MSimObstacleDistanceAt(&o, imp->step.t, a + 3 * v, n, NULL);
-      if (dnew < ct->dhat && dnew < dold) {
-        for (int c = 0; c < 3; c++) a[3 * v + c] += o.v[c] * dt;
-        continue;
+      const PetscReal dold  = MSimObstacleDistanceAt(&o, imp->step.t, a + 3 * v, n, NULL);
+      PetscBool       carry = (PetscBool)(dnew < ct->dhat && dnew < dold);
+      if (!carry && dold > 0) { /* (dold <= 0: carried into o's place at t by another, no segment from outside; the check below judges it) */
+        const PetscReal z[3] = {PetscRealPart(a[3 * v]) - u[0], PetscRealPart(a[3 * v + 1]) - u[1], PetscRealPart(a[3 * v + 2]) - u[2]};
+        carry = (PetscBool)(MSimObstacleSafeStep(&o, imp->step.tx, z, u, 0.8) < 0.8); /* the plain query: the meshes' per-vertex answers stay the barrier's */
       }
-      if (!(dold > 0)) continue; /* carried into o's place at t by another: no segment from outside; the check below judges it */
-      const PetscReal z[3] = {PetscRealPart(a[3 * v]) - u[0], PetscRealPart(a[3 * v + 1]) - u[1], PetscRealPart(a[3 * v + 2]) - u[2]};
-      const PetscReal s    = MSimObstacleSafeStep(&o, imp->step.tx, z, u, 0.8); /* the plain query: the meshes' per-vertex answers stay the barrier's */
-      if (s < 0.8)
-        for (int c = 0; c < 3; c++) a[3 * v + c] += (1 - s) * o.v[c] * dt;
+      if (carry)
+        for (int c = 0; c < 3; c++) a[3 * v + c] += o.v[c] * dt;
     }
     for (const MSimObstacle &o : ct->obs) {
       PetscReal n[3];
