@@ -142,6 +142,17 @@ struct _n_MSimMeshObstacle {
      k + 1) is a boundary edge of the surface, in no other triangle (RimCorner) */
   std::vector<PetscInt>      tv;
   std::vector<unsigned char> rim;
+  /* an open surface with an obtuse concave crease (FeatureSum): the features' weights, each feature
+     counted at the first triangle holding it (0 elsewhere): edge k of triangle t (vertex k to k + 1)
+     ew[3 t + k] = m - 1 for an edge of m triangles (a boundary edge 0), its vertex k vw[3 t + k] =
+     1 - (its triangles) + (the sum of its edges' weights) (an interior vertex 1, a boundary one 0);
+     bent[t]: an edge of t is a crease (its triangles not coplanar, or more than two); ie_near[t]:
+     a bent triangle lies within 2 band of t (0: not yet known, 1: no, 2: yes), found at t's first
+     answer within band */
+  bool                       ie = false;
+  std::vector<PetscReal>     ew, vw;
+  std::vector<unsigned char> bent, ie_near;
+  std::vector<uint32_t>      ie_hit; /* FeatureSum's triangles (kept: no allocation per query) */
   uint64_t          nvq[5] = {0, 0, 0, 0, 0}; /* vertex queries in the band's box: answered again, skipped as far, full, by the near set; of the far ones, by the centre's ball alone */
 };
 
@@ -153,6 +164,8 @@ static inline PetscReal Roundoff(MSimMeshObstacle mo)
 {
   return 1e-12 * (mo->diam + mo->band + mo->ext);
 }
+
+static const PetscReal CREASE_COS = 1e-6; /* right angles to roundoff; well below any obtuse crease's cosine */
 
 /* closest point p on triangle (a, b, c) to x; region 0 face, 1 edge (e its unit direction), 2 vertex */
 static void ClosestOnTriangle(const PetscReal x[3], const Triangle &T, PetscReal p[3], int *region, PetscReal e[3])
@@ -484,6 +497,63 @@ static PetscErrorCode ReadOnRankZero(const char file[], std::vector<PetscReal> &
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* FeatureSum's data (_n_MSimMeshObstacle's ie, ew, vw, bent) from the file's vertices x, triangles
+   tri and each edge's triangle count. An edge's two triangles (i, j, a) and (j, i, b) open at the
+   angle theta with cos theta = uA . uB, uA and uB the unit directions from the edge's line to a and
+   b: -1 flat, 0 a right angle (an open box's walls), between them an obtuse crease, concave on the
+   side it opens to (an open surface is seen from both). Only such a surface takes the features'
+   sum: the others (every closed surface, the open box, the fin) keep the nearest face and
+   CreaseContacts, their numbers unchanged */
+static PetscErrorCode FeatureWeights(MSimMeshObstacle mo, const std::vector<PetscReal> &x, const std::vector<PetscInt> &tri, const std::map<std::pair<PetscInt, PetscInt>, int> &edges)
+{
+  const size_t                                    nt = tri.size() / 3;
+  std::map<std::pair<PetscInt, PetscInt>, size_t> first; /* an edge's first triangle */
+  std::map<PetscInt, PetscReal>                   vsum;  /* a vertex's 1 - triangles + edges' weights */
+  std::map<PetscInt, size_t>                      vfirst;
+
+  PetscFunctionBeginUser;
+  if (mo->closed) PetscFunctionReturn(PETSC_SUCCESS);
+  mo->ew.assign(3 * nt, 0), mo->vw.assign(3 * nt, 0), mo->bent.assign(nt, 0);
+  auto apex = [&](size_t t, PetscInt i, PetscInt j) { /* the vertex of t off the edge i j */
+    for (int k = 0; k < 3; k++)
+      if (tri[3 * t + k] != i && tri[3 * t + k] != j) return tri[3 * t + k];
+    return (PetscInt)-1;
+  };
+  for (size_t t = 0; t < nt; t++) {
+    for (int k = 0; k < 3; k++) {
+      const PetscInt i = tri[3 * t + k], j = tri[3 * t + (k + 1) % 3];
+      const auto     key = std::make_pair(PetscMin(i, j), PetscMax(i, j));
+      const int      m   = edges.at(key);
+      vsum[i] += vfirst.insert({i, t}).second ? 0.0 : -1.0; /* 1 for the vertex, -1 for each triangle */
+      const auto f = first.insert({key, t});
+      if (!f.second) { /* the edge's second (or later) triangle: t and its first */
+        if (m != 2) mo->bent[t] = mo->bent[f.first->second] = 1;
+        else {
+          const PetscInt a = apex(f.first->second, i, j), b = apex(t, i, j);
+          PetscReal      e[3], ua[3], ub[3], ee = 0, pa = 0, pb = 0, la = 0, lb = 0, c = 0;
+          for (int q = 0; q < 3; q++) e[q] = x[3 * j + q] - x[3 * i + q], ee += e[q] * e[q];
+          for (int q = 0; q < 3; q++) pa += (x[3 * a + q] - x[3 * i + q]) * e[q], pb += (x[3 * b + q] - x[3 * i + q]) * e[q];
+          for (int q = 0; q < 3; q++) {
+            ua[q] = x[3 * a + q] - x[3 * i + q] - pa / ee * e[q], ub[q] = x[3 * b + q] - x[3 * i + q] - pb / ee * e[q];
+            la += ua[q] * ua[q], lb += ub[q] * ub[q];
+          }
+          for (int q = 0; q < 3; q++) c += ua[q] * ub[q] / std::sqrt(la * lb);
+          if (c > -1 + 1e-9) mo->bent[t] = mo->bent[f.first->second] = 1;
+          if (c > -1 + 1e-9 && c < -CREASE_COS) mo->ie = true;
+        }
+        continue;
+      }
+      mo->ew[3 * t + k] = m - 1;
+      vsum[i] += m - 1, vsum[j] += m - 1;
+    }
+  }
+  for (const auto &v : vfirst)
+    for (int k = 0; k < 3; k++)
+      if (tri[3 * v.second + k] == v.first) mo->vw[3 * v.second + k] = vsum[v.first];
+  if (!mo->ie) mo->ew.clear(), mo->vw.clear(), mo->bent.clear();
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscReal thickness, MSimMeshObstacle *mesh)
 {
   std::vector<PetscReal> x;
@@ -531,6 +601,7 @@ PetscErrorCode MSimMeshObstacleCreate(MPI_Comm comm, const char file[], PetscRea
       PetscInt i = tri[3 * t + k], j = tri[3 * t + (k + 1) % 3];
       if (edges[{PetscMin(i, j), PetscMax(i, j)}] == 1) mo->rim[t] |= (unsigned char)(1 << k);
     }
+  PetscCall(FeatureWeights(mo, x, tri, edges));
   mo->plane.resize(_n_MSimMeshObstacle::PLANE_STRIDE * mo->tri.size());
   for (size_t t = 0; t < mo->tri.size(); t++) {
     PetscReal *pl = &mo->plane[_n_MSimMeshObstacle::PLANE_STRIDE * t], v[3][3];
@@ -584,6 +655,7 @@ void MSimMeshObstacleSetBand(MSimMeshObstacle mo, PetscReal band)
   ClearCells(mo);
   mo->cr_at.assign(4 * mo->tri.size(), ~(uint32_t)0); /* the partners are the band's */
   mo->cr_tri.clear();
+  if (mo->ie) mo->ie_near.assign(mo->tri.size(), 0); /* as the partners */
   if (!(band > 0 && band < PETSC_MAX_REAL)) return;
   /* cells one band wide (half-diagonal 0.87 band; a quarter band before the per-vertex queries,
      which now ask the cells ~8 x less often, so that the cells' collections weigh more: 101 x 101
@@ -859,7 +931,8 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
        smooth through the bisector. An obtuse crease would switch B on where the foot crosses the
        crease, at d_B < dhat: a jump of b(d_B) in the energy, worse than the kink it removes, which
        is milder there (the normals turn by less than 90 degrees); obtuse creases keep the nearest
-       triangle alone.
+       triangle alone (but on an open surface that has one, where FeatureSum below replaces this
+       rule).
    Where the foot passes to a coplanar neighbour (a wall's other triangle) the contact goes on, the
    same plane counted once; where it leaves B through an edge of the surface's boundary (the rim of
    an open box's wall) the contact leaves with b(d_B) still > 0 if d_B < dhat there: a jump in the
@@ -876,7 +949,6 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
    strictly on side s' (where x is in the crease, A's nearest point is). The lists are empty for
    every triangle of a convex surface seen from outside and for the shallow creases of a smooth
    curved one, so the vertices there cost one comparison of two offsets. */
-static const PetscReal CREASE_COS = 1e-6; /* right angles to roundoff; well below any obtuse crease's cosine */
 
 static inline PetscReal PlaneHeight(const PetscReal *pl, const PetscReal x[3])
 {
@@ -975,6 +1047,22 @@ static inline void Smooth(PetscReal u, PetscReal *s, PetscReal *ds)
   else *s = u * u * u * (10 + u * (6 * u - 15)), *ds = 30 * u * u * (1 - u) * (1 - u);
 }
 
+/* the distance d with b(d) = eb > 0 (dh: b's dhat) and b'(d): Newton from d0 with b(d0) >= eb,
+   which climbs to the root without passing it, b being convex and decreasing; false where b' is
+   not negative there (eb too small to resolve) */
+static bool BarrierLevel(PetscReal eb, PetscReal d0, PetscReal dh, PetscReal *d, PetscReal *db)
+{
+  PetscReal dd = d0, be, dbe, d2e;
+  for (int it = 0; it < 200; it++) {
+    MSimBarrier(dd, dh, &be, &dbe, &d2e);
+    const PetscReal step = dbe < 0 ? (be - eb) / -dbe : 0;
+    if (!(step > 1e-15 * dd)) break;
+    dd += step;
+  }
+  *d = dd, *db = dbe;
+  return dbe < 0;
+}
+
 static __attribute__((noinline)) bool RimCorner(MSimMeshObstacle mo, const PetscReal x[3], size_t a, size_t b, PetscReal *d, PetscReal n[3])
 {
   if (!mo->rim[a] || !mo->rim[b]) return false;
@@ -1022,16 +1110,8 @@ static __attribute__((noinline)) bool RimCorner(MSimMeshObstacle mo, const Petsc
         MSimBarrier(rv - th, dh, &bv, &dbv, &d2);
         const PetscReal w = sa * sb, eb = bb - (1 - w) * bv; /* E - b(rA), B's contact's */
         if (!(eb > 0)) return false;
-        /* the distance d with b(d) = eb: Newton from rB - thickness (b(rB - thickness) >= eb), which
-           climbs to the root without passing it, b being convex and decreasing */
-        PetscReal dd = rb - th, be, dbe, d2e;
-        for (int it = 0; it < 200; it++) {
-          MSimBarrier(dd, dh, &be, &dbe, &d2e);
-          const PetscReal step = dbe < 0 ? (be - eb) / -dbe : 0;
-          if (!(step > 1e-15 * dd)) break;
-          dd += step;
-        }
-        if (!(dbe < 0)) return false;
+        PetscReal dd, dbe;
+        if (!BarrierLevel(eb, rb - th, dh, &dd, &dbe)) return false; /* (b(rB - thickness) >= eb) */
         for (int c = 0; c < 3; c++) {
           const PetscReal nb = (x[c] - q[c]) / rb, nv = (x[c] - V[c]) / rv, na = (x[c] - pa[c]) / ra;
           const PetscReal gw = dsa * sb * (uB[c] - alpha * na) / ra + sa * dsb * (uA[c] - beta * nb) / rb;
@@ -1045,11 +1125,108 @@ static __attribute__((noinline)) bool RimCorner(MSimMeshObstacle mo, const Petsc
   return false;
 }
 
+/* Obtuse creases. Where two faces meet at an obtuse concave crease (a tray's wall sloping at 120 or
+   135 degrees to its floor, a faceted bowl's panels) the nearest face's distance is kinked on the
+   bisector too, and the rule above keeps it alone there (a second face counted as such would switch
+   on with b(d) > 0 where its foot crosses the crease): a cloth dropped into an open tray with 120
+   or 135 degree walls made Newton diverge (runs/contact/README.md). On an open surface with such a
+   crease (FeatureWeights) the barrier is instead the sum over the surface's features, as in IPC's
+   convergent formulation (Li et al.), each at its true distance r (to the closed triangle, segment,
+   point) less the thickness,
+     E(x) = sum_faces b(r_F) - sum_edges w_E b(r_E) + sum_vertices w_V b(r_V),
+   w_E = m - 1 for an edge of m triangles (1 inside, 0 on the boundary) and w_V = 1 - (the vertex's
+   triangles) + (its edges' weights) (1 inside, 0 on the boundary): each term is C1 away from the
+   surface, so E is too, and where the surface within dhat of x is flat or convex the terms cancel
+   to b(nearest) (the foot in a face: the neighbours' distances are their shared edges'; near a
+   vertex of k faces, k - k + 1). In a crease it is b(r_A) + b(r_B) - b(r_E) >= b(nearest), the
+   same whichever face is nearest: smooth across the bisector, and across a rim corner (the walls'
+   edge ends at a boundary vertex, weight 0), with no rule on the angle. It is taken only where the
+   nearest triangle ta has a bent one within 2 band (every feature within band of x is then within
+   2 band of ta), the nearest face alone elsewhere, where the sum is that face's: the switch is
+   continuous (but where the flat pieces within band of x are two, a thin gap or a notch in an open
+   edge, which the sum counts twice and the nearest once). The nearest keeps its contact (its
+   distance, normal and Hessian), and the rest, E - b(nearest), is one contact as RimCorner's: the
+   distance d with b(d) equal to it and n = grad / b'(d), so the callers' energy, gradient, PD
+   weight and friction take it as they are, its Hessian b''(d) n n^T PSD (exact where the rest is one
+   face's, its foot inside); the safe step and the anchors keep the nearest distance. Where the
+   rest is not positive (the features within band circling a hole, or roundoff: below 1e-12 of the
+   terms' sum) there is none. Sets cr (none where ta has no bent triangle near) */
+static __attribute__((noinline)) void FeatureSum(MSimMeshObstacle mo, const PetscReal x[3], size_t ta, MSimMeshCreases *cr)
+{
+  const PetscReal band = mo->band, th = mo->thickness, dh = band - th;
+  if (!mo->ie_near[ta]) { /* ta's first answer within band */
+    const PetscReal tol = 1e-9 * (mo->diam + band), reach = 2 * band + tol;
+    const CGAL::Bbox_3 bb = mo->tri[ta].bbox();
+    OverlapTraits      overlap{&mo->ie_hit, mo->tri.data()};
+    mo->ie_hit.clear();
+    mo->tree.traversal(CGAL::Bbox_3(bb.xmin() - reach, bb.ymin() - reach, bb.zmin() - reach, bb.xmax() + reach, bb.ymax() + reach, bb.zmax() + reach), overlap);
+    mo->ie_near[ta] = 1;
+    for (const uint32_t t : mo->ie_hit)
+      if (mo->bent[t]) mo->ie_near[ta] = 2;
+  }
+  if (mo->ie_near[ta] != 2) return;
+  OverlapTraits overlap{&mo->ie_hit, mo->tri.data()};
+  mo->ie_hit.clear();
+  mo->tree.traversal(CGAL::Bbox_3(x[0] - band, x[1] - band, x[2] - band, x[0] + band, x[1] + band, x[2] + band), overlap);
+  PetscReal sum = 0, mag = 0, g[3] = {0, 0, 0}, rmin = PETSC_MAX_REAL, nmin[3] = {0, 0, 0};
+  /* w b(r - th) for the feature's nearest point p, its gradient; r */
+  auto term = [&](PetscReal w, const PetscReal p[3]) {
+    const PetscReal q[3] = {x[0] - p[0], x[1] - p[1], x[2] - p[2]}, r = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+    if (w != 0 && r < band) {
+      PetscReal b, db, d2b;
+      MSimBarrier(r - th, dh, &b, &db, &d2b);
+      sum += w * b, mag += std::abs(w) * b;
+      for (int c = 0; c < 3; c++) g[c] += w * db * q[c] / r;
+    }
+    return r;
+  };
+  for (const uint32_t t : mo->ie_hit) {
+    PetscReal p[3], e[3];
+    int       region;
+    ClosestOnTriangle(x, mo->tri[t], p, &region, e);
+    const PetscReal r = term(1, p);
+    if (r < rmin) {
+      rmin = r;
+      for (int c = 0; c < 3; c++) nmin[c] = (x[c] - p[c]) / r;
+    }
+    for (int k = 0; k < 3; k++) {
+      const PetscReal *w = &mo->ew[3 * t];
+      if (w[k] != 0) { /* edge k's nearest point */
+        PetscReal a[3], f[3], ff = 0, s = 0;
+        for (int c = 0; c < 3; c++) a[c] = mo->tri[t][k][c], f[c] = mo->tri[t][(k + 1) % 3][c] - a[c], ff += f[c] * f[c], s += (x[c] - a[c]) * f[c];
+        s = PetscMin(1.0, PetscMax(0.0, s / ff));
+        for (int c = 0; c < 3; c++) p[c] = a[c] + s * f[c];
+        term(-w[k], p);
+      }
+      if (mo->vw[3 * t + k] != 0) {
+        for (int c = 0; c < 3; c++) p[c] = mo->tri[t][k][c];
+        term(mo->vw[3 * t + k], p);
+      }
+    }
+  }
+  if (!(rmin < band && rmin > th)) return;
+  PetscReal bm, dbm, d2m, dd, dbe;
+  MSimBarrier(rmin - th, dh, &bm, &dbm, &d2m);
+  const PetscReal rest = sum - bm;
+  if (!(rest > 1e-12 * mag)) return;
+  PetscReal d0 = rmin - th; /* b(d0) >= rest: BarrierLevel's start */
+  while (bm < rest) {
+    d0 *= 0.5;
+    MSimBarrier(d0, dh, &bm, &dbm, &d2m);
+  }
+  MSimBarrier(rmin - th, dh, &bm, &dbm, &d2m);
+  if (!BarrierLevel(rest, d0, dh, &dd, &dbe)) return;
+  cr->k    = 1;
+  cr->d[0] = dd;
+  for (int c = 0; c < 3; c++) cr->n[0][c] = (g[c] - dbm * nmin[c]) / dbe;
+}
+
 /* the creases' contacts of the answer d at x whose nearest triangle is ta (-1: none within band) */
 static void CreaseContacts(MSimMeshObstacle mo, const PetscReal x[3], int32_t ta, PetscReal d, MSimMeshCreases *cr)
 {
   cr->k = 0;
   if (ta < 0 || mo->cr_at.empty() || !(d > 0)) return;
+  if (mo->ie) return FeatureSum(mo, x, (size_t)ta, cr);
   const uint32_t *at = &mo->cr_at[4 * (size_t)ta];
   if (at[0] == ~(uint32_t)0) CreasePartners(mo, (size_t)ta);
   if (at[0] == at[1] && at[2] == at[3]) return; /* no partner on either side (convex surfaces) */

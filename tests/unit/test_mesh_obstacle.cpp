@@ -34,6 +34,7 @@
 #include <random>
 #include <vector>
 #include <array>
+#include <map>
 
 typedef std::array<double, 3> V3;
 
@@ -413,44 +414,168 @@ static PetscErrorCode Slivers(PetscMPIInt rank)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The barrier summed over a point's contacts (the nearest and its creases', MSimObstacleContacts'
-   rule) along a straight path: each step's change is within twice the larger end's gradient times
-   the step (no jump; the sum may have a kink), the path's most contacts at one point, and (kink)
-   the largest change of the gradient between neighbouring points, which halves with the step where
-   the gradient is continuous and stays where it jumps */
-static PetscErrorCode CreaseSweep(MSimMeshObstacle mo, double dhat, const V3 &x0, const V3 &dir, int n, double *worst, int *most, double *kink = NULL)
+/* the features' sum of mesh_obstacle.cpp's FeatureSum, computed here by brute force over every
+   face, edge and vertex of s (edge weight m - 1 for m triangles, vertex weight 1 - triangles +
+   edges' weights), each b(r - th) at its true distance r; and b(nearest - th) */
+static double FeatureEnergy(const Surface &s, const V3 &x, double th, double dhat, double *nearest)
 {
-  PetscFunctionBeginUser;
-  auto energy = [&](const V3 &x, V3 &g, int *nc) {
-    double          nn[3], e = 0;
-    MSimMeshCreases cr;
-    const double    d = MSimMeshObstacleDistanceVertex(mo, -1, x.data(), nn, NULL, &cr);
-    *nc               = 0;
-    g                 = {0, 0, 0};
-    auto add = [&](double dd, const double *nv) {
-      double b, db, d2b;
-      if (dd >= dhat) return;
-      MSimBarrier(dd, dhat, &b, &db, &d2b);
-      e += b;
-      for (int c = 0; c < 3; c++) g[c] += db * nv[c];
-      (*nc)++;
-    };
-    add(d, nn);
-    for (PetscInt k = 0; k < cr.k; k++) add(cr.d[k], cr.n[k]);
+  std::map<std::pair<int, int>, int> m;
+  std::map<int, double>              w;
+  for (const auto &q : s.t)
+    for (int k = 0; k < 3; k++) {
+      m[{std::min(q[k], q[(k + 1) % 3]), std::max(q[k], q[(k + 1) % 3])}]++;
+      w[q[k]] = 1;
+    }
+  for (const auto &q : s.t)
+    for (int k = 0; k < 3; k++) w[q[k]] -= 1;
+  for (const auto &e : m) w[e.first.first] += e.second - 1, w[e.first.second] += e.second - 1;
+  auto b = [&](double r) {
+    double e = 0, db, d2b;
+    if (r - th < dhat) MSimBarrier(r - th, dhat, &e, &db, &d2b);
     return e;
   };
-  V3     g0, g1;
-  double e0 = 0;
-  int    nc;
+  double sum = 0, best = 1e300;
+  for (const auto &q : s.t) {
+    const double r = std::sqrt(TriangleDistance2(x, s.v[q[0]], s.v[q[1]], s.v[q[2]]));
+    sum += b(r), best = std::min(best, r);
+  }
+  for (const auto &e : m) sum -= (e.second - 1) * b(std::sqrt(SegmentDistance2(x, s.v[e.first.first], s.v[e.first.second])));
+  for (const auto &v : w) sum += v.second * b(std::sqrt(Dot(Sub(x, s.v[v.first]), Sub(x, s.v[v.first]))));
+  *nearest = b(best);
+  return sum;
+}
+
+/* the barrier summed over x's contacts (MSimObstacleContacts' rule: the nearest and its creases'),
+   its gradient; dhat: b's */
+static double ContactEnergy(MSimMeshObstacle mo, const V3 &x, double dhat, V3 *g, int *nc)
+{
+  double          nn[3], e = 0;
+  MSimMeshCreases cr;
+  const double    d = MSimMeshObstacleDistanceVertex(mo, -1, x.data(), nn, NULL, &cr);
+  *nc               = 0;
+  *g                = {0, 0, 0};
+  auto add = [&](double dd, const double *nv) {
+    double b, db, d2b;
+    if (dd >= dhat) return;
+    MSimBarrier(dd, dhat, &b, &db, &d2b);
+    e += b;
+    for (int c = 0; c < 3; c++) (*g)[c] += db * nv[c];
+    (*nc)++;
+  };
+  add(d, nn);
+  for (PetscInt k = 0; k < cr.k; k++) add(cr.d[k], cr.n[k]);
+  return e;
+}
+
+/* writes s to path as OBJ */
+static PetscErrorCode WriteSurface(const char *path, const Surface &s)
+{
+  PetscFunctionBeginUser;
+  FILE *f = fopen(path, "w");
+  PetscCheck(f, PETSC_COMM_SELF, PETSC_ERR_FILE_OPEN, "cannot write %s", path);
+  for (const V3 &v : s.v) fprintf(f, "v %.17g %.17g %.17g\n", v[0], v[1], v[2]);
+  for (const auto &t : s.t) fprintf(f, "f %d %d %d\n", t[0] + 1, t[1] + 1, t[2] + 1);
+  fclose(f);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* an open tray: the floor [lo, hi]^2 at z = 0 as an n x n grid, four walls up to z = 0.4 at angle
+   (degrees, inside) to it, open at the top (tests/contact_mesh.py's trays: n = 1); each wall a fan
+   from its rim corner over the floor's side, and one triangle */
+static Surface Tray(double angle, int n, double lo = 0.3, double hi = 0.7)
+{
+  const double o = 0.4 / std::tan((180 - angle) * 3.14159265358979323846 / 180), hw = hi - lo;
+  Surface      s;
+  auto         at = [&](int i, int j) { return i * (n + 1) + j; };
+  for (int i = 0; i <= n; i++)
+    for (int j = 0; j <= n; j++) s.v.push_back({lo + hw * i / n, lo + hw * j / n, 0});
+  for (int i = 0; i < n; i++)
+    for (int j = 0; j < n; j++) s.t.push_back({at(i, j), at(i + 1, j), at(i + 1, j + 1)}), s.t.push_back({at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+  const int    top = (int)s.v.size();
+  const double cx[4] = {lo - o, hi + o, hi + o, lo - o}, cy[4] = {lo - o, lo - o, hi + o, hi + o};
+  for (int k = 0; k < 4; k++) s.v.push_back({cx[k], cy[k], 0.4});
+  for (int k = 0; k < 4; k++) { /* wall k: the floor's side from corner k to corner k + 1 */
+    std::vector<int> side;
+    for (int i = 0; i <= n; i++) side.push_back(k == 0 ? at(i, 0) : k == 1 ? at(n, i) : k == 2 ? at(n - i, n) : at(0, n - i));
+    const int ta = top + k, tb = top + (k + 1) % 4;
+    for (int i = 0; i < n; i++) s.t.push_back({side[i], side[i + 1], tb});
+    s.t.push_back({side[0], tb, ta});
+  }
+  for (int c = 0; c < 3; c++) { /* the box, as ReadSurface sets it */
+    s.lo[c] = 1e300, s.hi[c] = -1e300;
+    for (const V3 &v : s.v) s.lo[c] = std::min(s.lo[c], v[c]), s.hi[c] = std::max(s.hi[c], v[c]);
+  }
+  return s;
+}
+
+/* a faceted bowl: a floor of n triangles (an n-gon of radius r0 at z = 0 around (0.5, 0.5)) and n
+   panels, each two triangles, up to z = 0.4 at angle (degrees, inside) to it, open at the top */
+static Surface Bowl(int n, double angle, double r0)
+{
+  const double PI = 3.14159265358979323846, o = 0.4 / std::tan((180 - angle) * PI / 180);
+  Surface      s;
+  s.v.push_back({0.5, 0.5, 0});
+  for (int ring = 0; ring < 2; ring++)
+    for (int k = 0; k < n; k++) s.v.push_back({0.5 + (r0 + ring * o) * std::cos(2 * PI * (k + 0.5) / n), 0.5 + (r0 + ring * o) * std::sin(2 * PI * (k + 0.5) / n), 0.4 * ring});
+  for (int k = 0; k < n; k++) {
+    const int a = 1 + k, b = 1 + (k + 1) % n;
+    s.t.push_back({0, a, b}), s.t.push_back({a, b + n, b}), s.t.push_back({a, a + n, b + n});
+  }
+  return s;
+}
+
+/* a UV sphere of radius 0.5 around (0.5, 0.5, 0), nu points a ring, nv bands pole to pole; open:
+   its upper half alone (a dome, open at the equator) */
+static Surface Ball(int nu, int nv, bool open)
+{
+  const double PI = 3.14159265358979323846;
+  Surface      s;
+  const int    rings = open ? nv / 2 : nv - 1;
+  s.v.push_back({0.5, 0.5, 0.5});
+  for (int i = 1; i <= rings; i++)
+    for (int j = 0; j < nu; j++) s.v.push_back({0.5 + 0.5 * std::sin(PI * i / nv) * std::cos(2 * PI * j / nu), 0.5 + 0.5 * std::sin(PI * i / nv) * std::sin(2 * PI * j / nu), 0.5 * std::cos(PI * i / nv)});
+  for (int j = 0; j < nu; j++) s.t.push_back({0, 1 + j, 1 + (j + 1) % nu});
+  for (int i = 0; i + 1 < rings; i++)
+    for (int j = 0; j < nu; j++) {
+      const int a = 1 + i * nu + j, b = 1 + i * nu + (j + 1) % nu;
+      s.t.push_back({a, a + nu, b + nu}), s.t.push_back({a, b + nu, b});
+    }
+  if (!open) {
+    s.v.push_back({0.5, 0.5, -0.5});
+    const int S = (int)s.v.size() - 1, base = 1 + (rings - 1) * nu;
+    for (int j = 0; j < nu; j++) s.t.push_back({S, base + (j + 1) % nu, base + j});
+  }
+  return s;
+}
+
+/* The barrier summed over a point's contacts (ContactEnergy) along a straight path: each step's
+   change is within twice the larger end's gradient times the step (no jump; the sum may have a
+   kink), the path's most contacts at one point, (kink) the largest change of the gradient between
+   neighbouring points, which halves with the step where the gradient is continuous and stays where
+   it jumps, and (fd) the largest difference of the gradient along the path from the energy's
+   central difference (h = 1e-7), relative to the gradient */
+static PetscErrorCode CreaseSweep(MSimMeshObstacle mo, double dhat, const V3 &x0, const V3 &dir, int n, double *worst, int *most, double *kink = NULL, double *fd = NULL)
+{
+  PetscFunctionBeginUser;
+  V3           g0, g1, gh;
+  double       e0 = 0;
+  int          nc, nh;
+  const double len = std::sqrt(Dot(dir, dir)), hfd = 1e-7;
   *worst = 0, *most = 0;
   if (kink) *kink = 0;
+  if (fd) *fd = 0;
   for (int i = 0; i <= n; i++) {
     const V3     x  = {x0[0] + dir[0] * i / n, x0[1] + dir[1] * i / n, x0[2] + dir[2] * i / n};
-    const double e1 = energy(x, g1, &nc);
+    const double e1 = ContactEnergy(mo, x, dhat, &g1, &nc);
     if (i) {
       const V3 dg = Sub(g1, g0);
-      *worst      = std::max(*worst, std::abs(e1 - e0) / (2 * std::max(std::sqrt(Dot(g0, g0)), std::sqrt(Dot(g1, g1))) * std::sqrt(Dot(dir, dir)) / n + 1e-300));
+      *worst      = std::max(*worst, std::abs(e1 - e0) / (2 * std::max(std::sqrt(Dot(g0, g0)), std::sqrt(Dot(g1, g1))) * len / n + 1e-300));
       if (kink) *kink = std::max(*kink, std::sqrt(Dot(dg, dg)));
+    }
+    if (fd && nc) {
+      const V3     xp = {x[0] + hfd * dir[0] / len, x[1] + hfd * dir[1] / len, x[2] + hfd * dir[2] / len}, xm = {x[0] - hfd * dir[0] / len, x[1] - hfd * dir[1] / len, x[2] - hfd * dir[2] / len};
+      const double cd = (ContactEnergy(mo, xp, dhat, &gh, &nh) - ContactEnergy(mo, xm, dhat, &gh, &nh)) / (2 * hfd);
+      *fd             = std::max(*fd, std::abs(cd - Dot(g1, dir) / len) / std::sqrt(Dot(g1, g1)));
     }
     *most = std::max(*most, nc);
     e0 = e1, g0 = g1;
@@ -560,6 +685,169 @@ static PetscErrorCode RimCorners(PetscMPIInt rank)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Obtuse concave creases (mesh_obstacle.cpp, FeatureSum): open trays whose walls slope at 120 and
+   135 degrees to the floor and a faceted bowl (16 panels at 135 degrees on a floor), where the
+   nearest face alone (b4c5436's rule keeps it there) has a gradient that flips on the crease's
+   bisector (a cloth dropped in made Newton diverge).
+   - Sweeps across the bisectors (floor and wall, with and without a thickness; two walls; two
+     panels): no jump, the gradient's largest step at least a third smaller with 800 points than
+     with 400 (the nearest face alone: the same), the gradient within 1e-5 of the energy's central
+     difference, and two contacts (the nearest and the rest of the sum);
+   - at random points within the band of each, both sides of the open surface: the summed
+     barrier is the features' sum computed here by brute force (FeatureEnergy), within 1e-9;
+   - where the surface within dhat is convex or flat the sum is the nearest face's: brute force
+     on a closed coarse ball (dhat 0.3, the triangles ~0.26 wide) at random points outside it,
+     and both brute force and the contacts at random points over an open coarse dome and over a
+     tray's floor gridded finely (dhat 0.06, 3.6 triangles) between 1.5 and 1.9 dhat from its
+     walls (the walls then beyond dhat, the creases within 2 dhat: the sum is taken) */
+static PetscErrorCode ObtuseCreases(PetscMPIInt rank)
+{
+  char             path[PETSC_MAX_PATH_LEN];
+  const double     PI = 3.14159265358979323846;
+  MSimMeshObstacle mo;
+  std::mt19937_64  rng(7 + rank);
+  std::uniform_real_distribution<double> U(0, 1);
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(path, sizeof path, "/tmp/msim_test_mesh_obtuse_%d_%d.obj", (int)getpid(), (int)rank));
+  struct Sweep {
+    const char *what;
+    Surface     s;
+    double      th, dhat;
+    V3          x0, dir;
+  };
+  /* the floor-wall crease of a tray along y = 0.5 (x = 0.3, z = 0): its bisector's direction at
+     angle a (radians, inside) and a point at distance rho on it; the path crosses it, 8 mm long */
+  auto crease = [&](double angle, double rho, V3 *x0, V3 *dir) {
+    const double a = angle * PI / 180, bx = std::cos(a / 2), bz = std::sin(a / 2);
+    *x0 = {0.3 + rho * bx - 0.004 * bz, 0.5, rho * bz + 0.004 * bx};
+    *dir = {0.008 * bz, 0, -0.008 * bx};
+  };
+  std::vector<Sweep> sweeps;
+  for (double angle : {120.0, 135.0}) {
+    Sweep w{angle == 120 ? "tray 120, floor and wall" : "tray 135, floor and wall", Tray(angle, 1), 0, 0.01, {}, {}};
+    crease(angle, 0.006, &w.x0, &w.dir);
+    sweeps.push_back(w);
+  }
+  {
+    Sweep w{"tray 120, floor and wall, thickness 5 mm", Tray(120, 1), 0.005, 0.01, {}, {}};
+    crease(120, 0.012, &w.x0, &w.dir);
+    sweeps.push_back(w);
+    /* two walls of the 135 tray at their edge's middle (0.1, 0.1, 0.2), across the plane x = y */
+    Sweep v{"tray 135, two walls", Tray(135, 1), 0, 0.01, {0.1 + 0.005 + 0.004, 0.1 + 0.005 - 0.004, 0.2 + 0.003}, {-0.008, 0.008, 0}};
+    sweeps.push_back(v);
+    /* two panels of the bowl at their edge's middle, across it towards the axis (tangentially) */
+    const double ph = 2 * PI * 0.5 / 16, r = 0.2 + 0.2 - 0.006;
+    Sweep b{"bowl of 16 panels, two panels", Bowl(16, 135, 0.2), 0, 0.01, {0.5 + r * std::cos(ph) + 0.004 * std::sin(ph), 0.5 + r * std::sin(ph) - 0.004 * std::cos(ph), 0.2}, {-0.008 * std::sin(ph), 0.008 * std::cos(ph), 0}};
+    sweeps.push_back(b);
+  }
+  for (const Sweep &w : sweeps) {
+    double worst, w2, kink[2], fd, fd2;
+    int    most, m2;
+    PetscCall(WriteSurface(path, w.s));
+    PetscCall(MSimMeshObstacleCreate(PETSC_COMM_SELF, path, w.th, &mo));
+    MSimMeshObstacleSetBand(mo, w.th + w.dhat);
+    PetscCall(CreaseSweep(mo, w.dhat, w.x0, w.dir, 400, &worst, &most, &kink[0], &fd));
+    PetscCall(CreaseSweep(mo, w.dhat, w.x0, w.dir, 800, &w2, &m2, &kink[1], &fd2));
+    MSimMeshObstacleDestroy(&mo);
+    NOTE("obtuse crease, %s: most contacts %d, largest change %.3g of the gradient's bound, the gradient's largest step %.3g at 400 points, %.3g at 800, against the central difference %.3g\n", w.what, most, PetscMax(worst, w2), kink[0], kink[1], PetscMax(fd, fd2));
+    CHECK(worst <= 1 && w2 <= 1, "obtuse crease, %s: an energy change %.3g x its gradient's bound (a jump)", w.what, PetscMax(worst, w2));
+    CHECK(kink[1] <= 2.0 / 3.0 * kink[0], "obtuse crease, %s: the gradient's largest step %.3g at 800 points against %.3g at 400 (a kink)", w.what, kink[1], kink[0]);
+    CHECK(PetscMax(fd, fd2) <= 1e-5, "obtuse crease, %s: the gradient off the energy's central difference by %.3g of it", w.what, PetscMax(fd, fd2));
+    CHECK(most == 2, "obtuse crease, %s: %d contacts (2 expected)", w.what, most);
+  }
+
+  /* random points within the band, on a random triangle's either side */
+  auto near = [&](const Surface &s, double band, V3 *x) {
+    const auto  &t = s.t[(size_t)(U(rng) * s.t.size()) % s.t.size()];
+    double       a = U(rng), b = U(rng);
+    if (a + b > 1) a = 1 - a, b = 1 - b;
+    const V3     n = Cross(Sub(s.v[t[1]], s.v[t[0]]), Sub(s.v[t[2]], s.v[t[0]]));
+    const double h = (U(rng) < 0.5 ? -1 : 1) * (0.02 + 0.97 * U(rng)) * band / std::sqrt(Dot(n, n));
+    for (int c = 0; c < 3; c++) (*x)[c] = s.v[t[0]][c] + a * (s.v[t[1]][c] - s.v[t[0]][c]) + b * (s.v[t[2]][c] - s.v[t[0]][c]) + h * n[c];
+  };
+  struct Case {
+    const char *what;
+    Surface     s;
+    double      th, dhat;
+  } cases[] = {{"tray 120", Tray(120, 1), 0, 0.05}, {"tray 135, thickness 0.02", Tray(135, 1), 0.02, 0.05}, {"bowl of 16 panels", Bowl(16, 135, 0.2), 0, 0.05}};
+  for (const Case &c : cases) {
+    double off = 0, nearest;
+    int    n = 0;
+    V3     g;
+    PetscCall(WriteSurface(path, c.s));
+    PetscCall(MSimMeshObstacleCreate(PETSC_COMM_SELF, path, c.th, &mo));
+    MSimMeshObstacleSetBand(mo, c.th + c.dhat);
+    for (int i = 0; i < 2000; i++) {
+      V3 x;
+      int nc;
+      near(c.s, c.th + c.dhat, &x);
+      const double ef = FeatureEnergy(c.s, x, c.th, c.dhat, &nearest);
+      if (!(nearest > 0)) continue; /* within the thickness or beyond the band */
+      const double ec = ContactEnergy(mo, x, c.dhat, &g, &nc);
+      off = std::max(off, std::abs(ec - ef) / ef);
+      n++;
+    }
+    MSimMeshObstacleDestroy(&mo);
+    NOTE("features' sum, %s: %d points, the contacts' sum off brute force's by %.3g\n", c.what, n, off);
+    CHECK(n > 1000 && off <= 1e-9, "features' sum, %s: the contacts' barrier off the features' sum by %.3g of it (%d points)", c.what, off, n);
+  }
+
+  /* convex and flat: the sum is the nearest's */
+  {
+    const Surface ball = Ball(12, 6, false);
+    double        off = 0, nearest;
+    int           n = 0;
+    for (int i = 0; i < 2000; i++) {
+      V3 x;
+      near(ball, 0.3, &x);
+      const V3 r = Sub(x, V3{0.5, 0.5, 0});
+      if (Dot(r, r) < 0.25) continue; /* outside alone (the faces' planes cut the sphere: near enough) */
+      const double ef = FeatureEnergy(ball, x, 0, 0.3, &nearest);
+      if (!(nearest > 0)) continue;
+      off = std::max(off, std::abs(ef - nearest) / nearest), n++;
+    }
+    NOTE("features' sum on a closed coarse ball: %d points, off the nearest's by %.3g\n", n, off);
+    CHECK(n > 500 && off <= 1e-9, "features' sum on a closed coarse ball: off the nearest face's by %.3g of it (%d points)", off, n);
+  }
+  struct Flat {
+    const char *what;
+    Surface     s;
+    double      dhat;
+    bool        (*keep)(const V3 &x, double dhat);
+  } flats[] = {
+    {"an open coarse dome, above it", Ball(12, 6, true), 0.3, [](const V3 &x, double) { const V3 r = Sub(x, V3{0.5, 0.5, 0}); return Dot(r, r) > 0.25 && x[2] > 0; }},
+    {"a tray's fine floor, 1.5 to 1.9 dhat from its walls", Tray(135, 24), 0.06,
+     [](const V3 &x, double dh) {
+       const double u = std::min({x[0] - 0.3, 0.7 - x[0], x[1] - 0.3, 0.7 - x[1]});
+       return u >= 1.5 * dh && u <= 1.9 * dh && x[2] > 0 && x[2] < dh;
+     }},
+  };
+  for (const Flat &c : flats) {
+    double off = 0, offc = 0, nearest;
+    int    n = 0;
+    V3     g;
+    PetscCall(WriteSurface(path, c.s));
+    PetscCall(MSimMeshObstacleCreate(PETSC_COMM_SELF, path, 0.0, &mo));
+    MSimMeshObstacleSetBand(mo, c.dhat);
+    for (int i = 0; i < 40000 && n < 1000; i++) {
+      V3  x;
+      int nc;
+      near(c.s, c.dhat, &x);
+      if (!c.keep(x, c.dhat)) continue;
+      const double ef = FeatureEnergy(c.s, x, 0, c.dhat, &nearest);
+      if (!(nearest > 0)) continue;
+      off  = std::max(off, std::abs(ef - nearest) / nearest);
+      offc = std::max(offc, std::abs(ContactEnergy(mo, x, c.dhat, &g, &nc) - nearest) / nearest), n++;
+    }
+    MSimMeshObstacleDestroy(&mo);
+    NOTE("features' sum on %s: %d points, off the nearest's by %.3g (brute force), %.3g (the contacts)\n", c.what, n, off, offc);
+    CHECK(n >= 200 && off <= 1e-9 && offc <= 1e-9, "features' sum on %s: off the nearest face's by %.3g (brute force), %.3g (the contacts) (%d points)", c.what, off, offc, n);
+  }
+  remove(path);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Body(void)
 {
   PetscMPIInt rank;
@@ -573,6 +861,7 @@ static PetscErrorCode Body(void)
   PetscCall(Slivers(rank));
   PetscCall(Creases(rank));
   PetscCall(RimCorners(rank));
+  PetscCall(ObtuseCreases(rank));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

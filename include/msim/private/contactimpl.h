@@ -38,8 +38,9 @@ PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *
    each with d < reach, its distance, unit gradient and (when hessian) Hessian: the nearest point's,
    then, on a mesh, those of the concave creases v sits in (msim/contact.h's MSimMeshCreases,
    Hessian 0; at an open surface's rim corner n is grad E / b'(d) for the pair's energy E = b(d),
-   not a unit vector: mesh_obstacle.cpp's RimCorner). Returns the nearest distance, the least of
-   them. */
+   not a unit vector: mesh_obstacle.cpp's RimCorner; on an open surface with an obtuse crease one
+   contact, the features' sum less the nearest's, likewise: mesh_obstacle.cpp's FeatureSum).
+   Returns the nearest distance, the least of them. */
 template <class F>
 inline PetscReal MSimObstacleContacts(const MSimObstacle &o, PetscInt v, const PetscScalar *xv, PetscReal t, PetscReal reach, PetscBool hessian, F &&f)
 {
