@@ -10,7 +10,10 @@ For a 2 cm thick box under the cloth pinned at its corners with Newton, PD and B
 Newton a ball 30 cm across rising 32 cm a step under a free cloth in zero gravity (a pinned cloth
 slips off a ball pulled that far), a plane under a free cloth, and the box as a closed OBJ mesh (at
 thickness 0 and 5 mm: the shell's conservative advancement) and as an open OBJ square (its top
-alone, thickness 0):
+alone, thickness 0), and the open square rising 32 cm a step from 28 cm under a free cloth in zero
+gravity, alone and as a 5 mm shell (it passes the cloth in the last fifth of its first step, 4 cm
+past it, beyond dhat: a mesh's CCD asked up to 0.8 of the step searched no farther and left the
+cloth under it with no contact force):
 - the run exits 0 and the monitor's contact force is > 0 along +z at every step (the obstacle is
   under the cloth from the first step on; it was 0 from the first or second);
 - in every frame, every vertex over the obstacle at the start (within its footprint in x, y; every
@@ -39,6 +42,7 @@ BOX = (0.3, 0.7, 0.3, 0.7, -0.05, -0.03)  # 2 cm thick, its top 3 cm under the c
 SPHERE, SPHERE_VZ = (0.5, 0.5, -0.16, 0.15), 16.0  # 30 cm across, 1 cm under the cloth, 32 cm a step
 PLANE_Z = -0.05
 SHELL = 0.005  # a mesh's thickness
+FAR = 0.28  # the fast open square's depth under the cloth: 7/8 of its 32 cm step
 
 
 def write_obj(path, V, F):
@@ -75,6 +79,17 @@ def sphere_top(p, t, vz):
     return rho2 < r * r, p[:, 2] - (cz + vz * t + np.sqrt(np.maximum(r * r - rho2, 0)))
 
 
+def far_top(p, t, vz):
+    """the same for the fast open square, at -FAR"""
+    over, _ = box_top(p, t, vz)
+    return over, p[:, 2] - (-FAR + vz * t)
+
+
+def far_shell_top(p, t, vz):
+    over, height = far_top(p, t, vz)
+    return over, height - SHELL
+
+
 def plane_top(p, t, vz):
     return np.ones(len(p), dtype=bool), p[:, 2] - (PLANE_Z + vz * t)
 
@@ -87,13 +102,16 @@ def main():
     write_obj(box_obj, *box_mesh(BOX))
     x0, x1, y0, y1, _, z1 = BOX
     write_obj(sheet_obj, [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)], [(0, 1, 2), (0, 2, 3)])
+    far_obj = os.path.join(tmp, "far.obj")
+    write_obj(far_obj, [(x0, y0, -FAR), (x1, y0, -FAR), (x1, y1, -FAR), (x0, y1, -FAR)], [(0, 1, 2), (0, 2, 3)])
     base = ["-msim_cloth_n", "9", "-msim_dt", str(DT), "-msim_steps", str(STEPS)]
     pinned, free = ["-msim_fix", "corners"], ["-msim_fix", "none"]
     box = ["-msim_contact_box", ",".join(map(str, BOX))]
     euler = ["-msim_integrator", "implicit_euler"]
     # a ball pulling a pinned cloth that far slips from under it (a point on a ball): it carries a
     # free cloth in zero gravity
-    ball = free + ["-msim_gravity", "0,0,0", "-msim_contact_sphere", ",".join(map(str, SPHERE))]
+    zero_g = free + ["-msim_gravity", "0,0,0"]
+    ball = zero_g + ["-msim_contact_sphere", ",".join(map(str, SPHERE))]
     cases = (("box, Newton", pinned + euler + box, VZ, box_top),
              ("box, PD", pinned + euler + box + ["-snes_type", "pd", "-snes_max_it", "200"], VZ, box_top),
              ("box, BDF2", pinned + ["-msim_integrator", "bdf2"] + box, VZ, box_top),
@@ -101,7 +119,9 @@ def main():
              ("plane, Newton", free + euler + ["-msim_contact_plane", f"0,0,1,{PLANE_Z}"], VZ, plane_top),
              ("closed OBJ box, Newton", pinned + euler + ["-msim_contact_mesh", box_obj], VZ, box_top),
              ("closed OBJ box at thickness 5 mm, Newton", pinned + euler + ["-msim_contact_mesh", box_obj, "-msim_contact_thickness", str(SHELL)], VZ, shell_top),
-             ("open OBJ square, Newton", pinned + euler + ["-msim_contact_mesh", sheet_obj], VZ, box_top))
+             ("open OBJ square, Newton", pinned + euler + ["-msim_contact_mesh", sheet_obj], VZ, box_top),
+             ("open OBJ square from 28 cm, Newton", zero_g + euler + ["-msim_contact_mesh", far_obj], SPHERE_VZ, far_top),
+             ("open OBJ square from 28 cm at thickness 5 mm, Newton", zero_g + euler + ["-msim_contact_mesh", far_obj, "-msim_contact_thickness", str(SHELL)], SPHERE_VZ, far_shell_top))
     for np_ in mt.ranks():
         for label, args, vz, top in cases:
             out, mon = os.path.join(tmp, f"out_{np_}"), os.path.join(tmp, f"m_{np_}.csv")

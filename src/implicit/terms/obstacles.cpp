@@ -1041,7 +1041,8 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
    pulled back towards a feasible point and the barrier pushes it. The CCD's safe step (0.8 of the
    hit time for the analytic shapes and a mesh at thickness 0: below 0.8 is a hit within the
    segment, or for a box a pass by its edge nearer than a quarter of the start's distance;
-   conservative advancement to a tenth of the start's distance for a mesh's shell) is not taken as
+   conservative advancement to a tenth of the start's distance for a mesh's shell: below 1 is
+   one within the segment) is not taken as
    the start, as self-contact's moving handles take theirs (FeasibleStart_Self): there a vertex
    resting within dhat starts at a fifth of its gap, and PD's fixed iterations (-snes_pd_fixed,
    10) ended with a contact force of 1e5 N on the 9 x 9 cloth (6e8 N under a ball) where the
@@ -1076,7 +1077,12 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
       PetscBool       carry = (PetscBool)(dnew < ct->dhat && dnew < dold);
       if (!carry && dold > 0) { /* (dold <= 0: carried into o's place at t by another, no segment from outside; the check below judges it) */
         const PetscReal z[3] = {PetscRealPart(a[3 * v]) - u[0], PetscRealPart(a[3 * v + 1]) - u[1], PetscRealPart(a[3 * v + 2]) - u[2]};
-        carry = (PetscBool)(MSimObstacleSafeStep(&o, imp->step.tx, z, u, 0.8) < 0.8); /* the plain query: the meshes' per-vertex answers stay the barrier's */
+        /* the plain query (the meshes' per-vertex answers stay the barrier's), over the whole
+           segment: a mesh searches only up to tmax, so 0.8 missed one passing a vertex in the last
+           fifth of its step (an open square rising 32 cm a step, 28 cm under the cloth). Its
+           shell's answer is the advancement's own t, below 1 within the segment */
+        const PetscReal s = MSimObstacleSafeStep(&o, imp->step.tx, z, u, 1.0);
+        carry             = (PetscBool)(s < (o.kind == MSIM_OBSTACLE_MESH && ct->thickness > 0 ? 1.0 : 0.8));
       }
       if (carry)
         for (int c = 0; c < 3; c++) a[3 * v + c] += o.v[c] * dt;
