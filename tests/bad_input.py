@@ -64,6 +64,24 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-msim_step_atol", "-1"], "-msim_step_atol must be >= 0"),
     # inertia correction reads the inertia of MUMPS's LDL^T of the exact Hessian: nothing else has it
     (["-msim_integrator", "implicit_euler", "-msim_inertia_correction"], "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS"),
+    # msim's options that only some SNES types read, set for one that does not: pd, or pd as the
+    # nonlinear preconditioner of a type with no linear solves, ran the same steps without them
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-msim_psd", "1"], "-msim_psd with -snes_type pd is not supported: it projects the Hessian's blocks, and this SNES assembles none"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-msim_pc_pd"], "-msim_pc_pd with -snes_type pd is not supported: it preconditions the SNES's linear solves, and this one solves none"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd", "-msim_psd", "0"], "-msim_psd with -snes_type anderson -npc_snes_type pd is not supported"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-msim_psd", "1"], "-msim_psd with -snes_type qn is not supported: it projects the Hessian's blocks, and this SNES assembles none (qn's Jacobian is the constant PD matrix unless a -pc_type is given)"),
+    (["-msim_integrator", "implicit_euler", "-msim_psd_fallback"], "-msim_psd_fallback with -snes_type newtonls and -msim_psd 1 is not supported"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-msim_check_saddle", "0"], "-msim_check_saddle with -snes_type pd is not supported here: it reads the inertia of Newton's factor"),
+    # a type's own options (PETSc's and msim's) given for another type, or under -npc_ with no
+    # nonlinear preconditioner: nothing read them
+    (["-msim_integrator", "implicit_euler", "-snes_type", "newtonls", "-snes_pd_fixed"], "-snes_pd_fixed with -snes_type newtonls is not supported: only the type pd reads it"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd", "-snes_pd_anderson", "2"], "-snes_pd_anderson with -snes_type anderson is not supported: only the type pd reads it (the nonlinear preconditioner's take its prefix: -npc_snes_pd_anderson)"),
+    (["-msim_integrator", "implicit_euler", "-npc_snes_pd_fixed"], "-npc_snes_pd_fixed is not supported without a nonlinear preconditioner"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "newtonls", "-npc_snes_pd_fixed"], "-npc_snes_pd_fixed with -npc_snes_type newtonls is not supported: only the type pd reads it"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-snes_qn_m", "3"], "-snes_qn_m with -snes_type pd is not supported: only the type qn reads it"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-snes_anderson_m", "3"], "-snes_anderson_m with -snes_type pd is not supported: only the type anderson reads it"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_ntr_eta", "0.1"], "-snes_ntr_eta with -snes_type qn is not supported: only the type ntr reads it"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-snes_pd_lbfgs_fused", "0"], "-snes_pd_lbfgs_fused without -snes_pd_lbfgs m > 0 is not supported"),
     # solver types and solver options, PD's global step's among them, are read while the
     # integrator sets up, before any output; a type PETSc does not know is named with its option
     (["-msim_integrator", "implicit_euler", "-snes_type", "newton"], "-snes_type: 'newton' is not a SNES type"),
@@ -94,6 +112,17 @@ CASES = [
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
+]
+# the same options where a solver of the run reads them: msim's defaults for a type given
+# explicitly, the nonlinear preconditioner's with its prefix; each must run without a word
+ACCEPTED = [
+    ["-snes_type", "anderson", "-npc_snes_type", "pd", "-npc_snes_pd_fixed", "-npc_snes_max_it", "1", "-npc_snes_pd_anderson", "2"],
+    ["-snes_type", "newtonls", "-npc_snes_type", "pd", "-npc_snes_pd_fixed", "-npc_snes_max_it", "1", "-msim_psd", "1", "-msim_pc_pd"],
+    ["-snes_type", "ntr", "-msim_psd", "1", "-snes_ntr_eta", "0.1"],
+    ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-msim_pc_pd", "1", "-snes_qn_m", "5"],
+    ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_lbfgs_scale_max", "2", "-snes_pd_lbfgs_fused", "0"],
+    ["-snes_type", "newtonls", "-msim_psd", "0", "-msim_psd_fallback", "0", "-msim_pc_pd", "0"],
+    ["-snes_type", "newtonls", "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-msim_check_saddle", "0"],
 ]
 # factorizations a matrix spread over several ranks has no package for: checked at set-up, before
 # any output (on one rank these run)
@@ -138,6 +167,10 @@ def main():
                 if os.path.exists(out):
                     problems.append("output directory was created")
                 check(not problems, f"np={np} {' '.join(args)}: " + "; ".join(problems))
+        for np in nps:
+            for args in ACCEPTED:
+                r = run(["-msim_integrator", "implicit_euler", "-msim_cloth_n", "6", "-msim_dt", "0.01", "-msim_steps", "2", "-snes_max_it", "500"] + args, tmp, np)
+                check(r.returncode == 0 and not r.stderr.strip(), f"np={np} {' '.join(args)}: read by the run's solvers, runs without a word (rc {r.returncode}, stderr {r.stderr.strip()[-300:]!r})")
         # a misspelled option runs with the defaults, so it is named in a warning (one line, exit 0)
         for np in nps:
             r = run(["-msim_stifness", "10", "-msim_steps", "2"], tmp, np)

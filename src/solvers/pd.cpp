@@ -32,7 +32,7 @@ typedef struct {
 static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *PetscOptionsObject, void *ctx)
 {
   SNESPDOptions *o = (SNESPDOptions *)ctx;
-  PetscBool      pd;
+  PetscBool      pd, scale_set, fused_set, check_set;
 
   PetscFunctionBeginUser;
   PetscCall(PetscObjectTypeCompare(obj, SNESPD, &pd));
@@ -41,11 +41,13 @@ static PetscErrorCode SNESPDSetFromOptions(PetscObject obj, PetscOptionItems *Pe
   PetscCall(MSimOptionsInt("-snes_pd_anderson", "SNES pd: Anderson acceleration with m previous iterates and an energy safeguard (0: plain PD)", NULL, o->anderson, &o->anderson, NULL));
   PetscCheck(o->anderson >= 0, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_anderson must be >= 0 (got %" PetscInt_FMT ")", o->anderson);
   PetscCall(MSimOptionsInt("-snes_pd_lbfgs", "SNES pd: L-BFGS with m pairs and the PD matrix as initial Hessian, Armijo-safeguarded on Phi (0: plain PD)", NULL, o->lbfgs, &o->lbfgs, NULL));
-  PetscCall(PetscOptionsReal("-snes_pd_lbfgs_scale_max", "SNES pd: L-BFGS scales its initial Hessian A^-1 by s^T A s / s^T y of the newest pair, kept in [1, this] (1: unscaled)", NULL, o->gamma_max, &o->gamma_max, NULL));
+  PetscCall(PetscOptionsReal("-snes_pd_lbfgs_scale_max", "SNES pd: L-BFGS scales its initial Hessian A^-1 by s^T A s / s^T y of the newest pair, kept in [1, this] (1: unscaled)", NULL, o->gamma_max, &o->gamma_max, &scale_set));
   PetscCheck(o->gamma_max >= 1, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_lbfgs_scale_max must be >= 1 (got %g)", (double)o->gamma_max);
-  PetscCall(PetscOptionsBool("-snes_pd_lbfgs_fused", "SNES pd: L-BFGS takes Phi's gradient from the local step's passes where every term can (0: A x - rhs(x), one product with A per iteration)", NULL, o->lbfgs_fused, &o->lbfgs_fused, NULL));
-  PetscCall(PetscOptionsBool("-snes_pd_lbfgs_check", "SNES pd: L-BFGS compares its fused gradient and s^T A s with the products A x - rhs(x) and A s, printed with -info (costs products; for tests)", NULL, o->lbfgs_check, &o->lbfgs_check, NULL));
+  PetscCall(PetscOptionsBool("-snes_pd_lbfgs_fused", "SNES pd: L-BFGS takes Phi's gradient from the local step's passes where every term can (0: A x - rhs(x), one product with A per iteration)", NULL, o->lbfgs_fused, &o->lbfgs_fused, &fused_set));
+  PetscCall(PetscOptionsBool("-snes_pd_lbfgs_check", "SNES pd: L-BFGS compares its fused gradient and s^T A s with the products A x - rhs(x) and A s, printed with -info (costs products; for tests)", NULL, o->lbfgs_check, &o->lbfgs_check, &check_set));
   PetscCheck(o->lbfgs >= 0, PetscObjectComm(obj), PETSC_ERR_ARG_OUTOFRANGE, "-snes_pd_lbfgs must be >= 0 (got %" PetscInt_FMT ")", o->lbfgs);
+  /* L-BFGS's own options are read by it alone: plain PD or Anderson went on without them */
+  PetscCheck(o->lbfgs > 0 || !(scale_set || fused_set || check_set), PetscObjectComm(obj), PETSC_ERR_SUP, "-%ssnes_pd_lbfgs_%s without -%ssnes_pd_lbfgs m > 0 is not supported: only pd's L-BFGS reads it", PetscOptionsObject->prefix ? PetscOptionsObject->prefix : "", scale_set ? "scale_max" : fused_set ? "fused" : "check", PetscOptionsObject->prefix ? PetscOptionsObject->prefix : "");
   PetscCheck(!(o->lbfgs > 0 && o->anderson > 0), PetscObjectComm(obj), PETSC_ERR_ARG_INCOMP, "-snes_pd_lbfgs and -snes_pd_anderson cannot be used together: choose one");
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -26,6 +26,8 @@ typedef struct {
   MSimConvergenceMonitor conv;
   PetscBool              psd_fallback;   /* exact Hessian: PSD-projected direction where it fails */
   PetscBool              psd_set;        /* -msim_psd given */
+  PetscBool              pc_pd_set, psd_fallback_set, check_saddle_set; /* -msim_pc_pd, -msim_psd_fallback, -msim_check_saddle given */
+  PetscBool              exact_mumps;    /* newtonls on the exact Hessian factored by MUMPS Cholesky (SetUpInertia) */
   MSimLineSearchCtx      ls;
   PetscReal              ls_cut;         /* the last pre-check's cut of PETSc's search direction (1: none) */
   PetscBool              check_saddle;   /* -msim_check_saddle */
@@ -254,9 +256,9 @@ static PetscErrorCode SetUpInertia(ImplicitData *ie, PetscMPIInt size)
   PetscInt      icntl13 = 1;
 
   PetscFunctionBeginUser;
-  ie->inertia = PETSC_FALSE;
+  ie->inertia = ie->exact_mumps = PETSC_FALSE;
   PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESNEWTONLS, &newton));
-  if (!(ie->check_saddle || ie->inertia_correction) || !newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!newton || ie->imp->psd || ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(SNESGetKSP(ie->snes, &ksp));
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PetscObjectTypeCompare((PetscObject)pc, PCCHOLESKY, &cholesky));
@@ -264,6 +266,8 @@ static PetscErrorCode SetUpInertia(ImplicitData *ie, PetscMPIInt size)
   PetscCall(PCFactorGetMatSolverType(pc, &solver));
   PetscCall(PetscStrcmp(solver, MATSOLVERMUMPS, &mumps));
   if (!solver || !mumps) PetscFunctionReturn(PETSC_SUCCESS);
+  ie->exact_mumps = PETSC_TRUE; /* where -msim_check_saddle and -msim_inertia_correction are read (RefuseUnread) */
+  if (!(ie->check_saddle || ie->inertia_correction)) PetscFunctionReturn(PETSC_SUCCESS);
   if (size > 1) {
     Mat F;
     icntl13 = ie->icntl13; /* a user's -mat_mumps_icntl_13 wins over the 1 set below */
@@ -444,12 +448,12 @@ static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
   PetscFunctionBeginUser;
   PetscOptionsBegin(integ->comm, NULL, "msim implicit integrators", NULL);
   PetscCall(PetscOptionsBool("-msim_psd", "Project each spring's Hessian block to PSD in the Newton Jacobian (keeps CG and Cholesky applicable; default off for -snes_type ntr)", NULL, ie->imp->psd, &ie->imp->psd, &ie->psd_set));
-  PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, NULL));
-  PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, NULL));
+  PetscCall(PetscOptionsBool("-msim_psd_fallback", "With -msim_psd 0: where the exact Hessian's Newton direction raises Phi, or needs a step below 1/1024 to lower it, take the PSD-projected Hessian's", NULL, ie->psd_fallback, &ie->psd_fallback, &ie->psd_fallback_set));
+  PetscCall(PetscOptionsBool("-msim_check_saddle", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): after each converged step, factor the Hessian at the solution once more and warn where it has negative eigenvalues (a saddle of Phi)", NULL, ie->check_saddle, &ie->check_saddle, &ie->check_saddle_set));
   PetscCall(PetscOptionsBool("-msim_inertia_correction", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): factor H + delta M with the least delta (0, then 1e-3 x 8^k) that leaves no negative pivot, so Newton converges to minima of Phi, not saddles", NULL, ie->inertia_correction, &ie->inertia_correction, NULL));
   PetscCall(MSimOptionsReal("-msim_step_atol", "Converged also once an iteration's step dx has |dx|_2 below this (m; 0: off), with a contact or inversion barrier only if also |g| <= free mass x this (a barrier's short steps hide its force): graphics codes' rule, absolute where -snes_stol is relative to |x| (newtonls, ntr, qn)", NULL, ie->step_atol, &ie->step_atol, NULL));
   PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
-  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, NULL));
+  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, &ie->pc_pd_set));
   PetscOptionsEnd();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -665,6 +669,57 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The SNES's type, and its nonlinear preconditioner's, as the options name them */
+static PetscErrorCode SNESTypes(SNES snes, char buf[], size_t len)
+{
+  SNESType  type;
+  PetscBool has_npc;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetType(snes, &type));
+  PetscCall(SNESHasNPC(snes, &has_npc));
+  if (has_npc) {
+    SNES     npc;
+    SNESType npc_type;
+    PetscCall(SNESGetNPC(snes, &npc));
+    PetscCall(SNESGetType(npc, &npc_type));
+    PetscCall(PetscSNPrintf(buf, len, "-snes_type %s -npc_snes_type %s", type, npc_type));
+  } else PetscCall(PetscSNPrintf(buf, len, "-snes_type %s", type));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* msim's options that only some solvers read, refused in one line naming the option and the
+   SNES's type where the user set them and the run would go on without them (-msim_psd and
+   -msim_pc_pd with pd: the same steps as without). Read after the SNES is set up (SetUpJacobian,
+   SetUpInertia); -msim_step_atol and -msim_inertia_correction are refused where they are read,
+   the types' own options (-snes_pd_*, -snes_ntr_*, -snes_qn_*) by MSimSNESCheckServed. A
+   nonlinear preconditioner assembles no Hessian and solves nothing with the PD factor (newtonls
+   as one gets PETSc's finite-difference Jacobian): only the SNES's own type counts. */
+static PetscErrorCode RefuseUnread(MSimIntegrator integ, ImplicitData *ie)
+{
+  PetscBool uses, shell = PETSC_FALSE, newton, ls_shell = PETSC_FALSE;
+  char      types[128];
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESTypes(ie->snes, types, sizeof(types)));
+  PetscCall(MSimSNESUsesJacobian(ie->snes, &uses));
+  if (ie->J) PetscCall(PetscObjectTypeCompare((PetscObject)ie->J, MATSHELL, &shell));
+  const PetscBool hessian = (PetscBool)(ie->J && !shell); /* the springs' Hessian assembled (not L-BFGS's constant PD matrix) */
+  PetscCheck(!ie->pc_pd_set || uses, integ->comm, PETSC_ERR_SUP, "-msim_pc_pd with %s is not supported: it preconditions the SNES's linear solves, and this one solves none (newtonls, ntr, ksponly, the VI types and qn with -snes_qn_scale_type jacobian do)", types);
+  PetscCheck(!ie->psd_set || hessian, integ->comm, PETSC_ERR_SUP, "-msim_psd with %s is not supported: it projects the Hessian's blocks, and this SNES assembles none (%s)", types,
+             uses ? "qn's Jacobian is the constant PD matrix unless a -pc_type is given" : "newtonls, ntr, ksponly, the VI types and qn with -snes_qn_scale_type jacobian and a -pc_type do");
+  PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESNEWTONLS, &newton));
+  if (newton) {
+    SNESLineSearch ls;
+    PetscCall(SNESGetLineSearch(ie->snes, &ls));
+    PetscCall(PetscObjectTypeCompare((PetscObject)ls, SNESLINESEARCHSHELL, &ls_shell));
+  }
+  PetscCheck(!ie->psd_fallback_set || (newton && ls_shell && hessian && !ie->imp->psd && !ie->inertia_correction), integ->comm, PETSC_ERR_SUP,
+             "-msim_psd_fallback with %s%s is not supported: it replaces the exact Hessian's Newton direction in msim's line search, which needs -snes_type newtonls, -msim_psd 0, no -snes_linesearch_type and no -msim_inertia_correction", types, ie->imp->psd ? " and -msim_psd 1" : "");
+  PetscCheck(!ie->check_saddle_set || ie->exact_mumps, integ->comm, PETSC_ERR_SUP, "-msim_check_saddle with %s is not supported here: it reads the inertia of Newton's factor of the exact Hessian, which needs -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps", types);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
 {
   ImplicitData *ie  = (ImplicitData *)integ->data;
@@ -702,6 +757,7 @@ static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
     PetscCheck(ie->inertia, integ->comm, PETSC_ERR_ARG_INCOMP, "-msim_inertia_correction needs Newton on the exact Hessian factored by MUMPS: -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps (and, in parallel, -mat_mumps_icntl_13 1)");
     PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianInertiaCorrected, ie));
   }
+  PetscCall(RefuseUnread(integ, ie));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
