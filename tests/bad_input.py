@@ -113,6 +113,13 @@ CASES = [
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),
 ]
+# preconditioners that cannot work on msim's AIJ matrices, named at set-up (PETSc stopped at the
+# first solve in its own words, after the output had begun; cp gave a zero Newton step silently)
+CASES += [(["-msim_integrator", "implicit_euler", "-pc_type", pc], f"-pc_type {pc} is not supported: {why}") for pc, why in (
+    ("bddc", "it needs a MATIS matrix"), ("nn", "it needs a MATIS matrix"), ("lsc", "it preconditions a Schur complement"),
+    ("vpbjacobi", "it needs variable block sizes"), ("shell", "a shell preconditioner's apply is set by code"),
+    ("patch", "it needs a DMPlex discretization"), ("composite", "it needs its preconditioners: -pc_composite_pcs"), ("cp", ""))]
+CASES.append((["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-pd_pc_type", "bddc"], "-pd_pc_type bddc is not supported: it needs a MATIS matrix"))
 # the same options where a solver of the run reads them: msim's defaults for a type given
 # explicitly, the nonlinear preconditioner's with its prefix; each must run without a word
 ACCEPTED = [
