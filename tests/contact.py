@@ -16,8 +16,11 @@
   (Gershgorin: 2 / sqrt((2 sum k + kc) / m), 2 / sqrt((2 sum k + 2 kc) / m) with two obstacles a
   vertex can press into at once; SLEPc: 2 / sqrt(kc / m) for a flat cloth, whose springs are not
   stiff across its plane);
-- PETSc's implicit TS (beuler, bdf, theta, alpha2) takes the same penalty with its stiffness in the
-  Jacobian: at rest the cloth carries m g (1e-3) and sinks m_v g / kc (1%);
+- PETSc's implicit TS (beuler, bdf, theta, alpha2 at radius 0) takes the same penalty with its
+  stiffness in the Jacobian: at rest the cloth carries m g (1e-3) and sinks m_v g / kc (1%); alpha2 at
+  radius 0 lands a cloth on a frictionless plane without drag and its total energy never rises above
+  its start (1e-6 m g h); alpha and alpha2 with alpha_f < 1 (radius > 0), which gained 3.99 J from
+  0.49 J there, are refused with an obstacle;
 - bad input: a sphere given with 3 values, a cloth starting inside a sphere, implicit_midpoint
   with an obstacle (refused: the barrier keeps its unknown, the midpoint, feasible, not x_{n+1})
   and ksponly with an obstacle (refused: one linear step, no feasible line search), and friction
@@ -175,7 +178,7 @@ def main():
         # PETSc's implicit TS types take the penalty too, with its stiffness in their Jacobian: at rest
         # the same cloth carries its weight m g and sinks m_v g / kc (a Newton step on the force alone,
         # without the penalty's stiffness, stops short: 9.51 N of 9.81 with beuler)
-        for ts in (["beuler"], ["bdf", "-ts_adapt_type", "none"], ["theta", "-ts_theta_theta", "0.7"], ["alpha2", "-ts_alpha_radius", "0.5"]):
+        for ts in (["beuler"], ["bdf", "-ts_adapt_type", "none"], ["theta", "-ts_theta_theta", "0.7"], ["alpha2", "-ts_alpha_radius", "0"]):
             mon = os.path.join(tmp, f"ts_penalty_{ts[0]}_{np_}.csv")
             p, r = mt.final_positions(exe, ["-msim_integrator", "ts", "-ts_type"] + ts + ["-msim_cloth_n", "5", "-msim_fix", "none", "-msim_mass", str(mass), "-msim_drag", "0.5",
                                             "-msim_contact_plane", "0,0,1,-0.05", "-msim_contact_stiffness", str(kc), "-msim_dt", "0.01", "-msim_steps", "300",
@@ -187,6 +190,23 @@ def main():
                 fz = float(mt.read_csv(mon)[-1]["contact_fz"])
                 check(err <= 0.01 * sink and abs(fz - mass * G) <= 1e-3 * mass * G,
                       f"np {np_}: ts {ts[0]} with the penalty: rest height {z.min():.8f}..{z.max():.8f} is -0.05 - m_v g / kc = {-0.05 - sink:.8f} (within 1% of the sink), contact force {fz:.6g} N = m g = {mass * G:.6g} N (1e-3)")
+        # a flat landing on a frictionless plane, no drag, the default kc (12000 N/m on 0.01 kg:
+        # omega h = 11): the total energy never rises above its start. alpha2 at radius 0 (forces
+        # at x_{n+1}) keeps it (1e-6 of the 0.49 J the 5 cm drop releases); at radius 0.5 or 0.9
+        # (alpha_f < 1, the penalty at x_n + alpha_f (x_{n+1} - x_n)) the same 200 steps reached
+        # 3.99 and 12.1 J, and alpha at 0.9 11.6 J: alpha and alpha2 with alpha_f < 1 and an
+        # obstacle are refused in one line
+        land = ["-msim_integrator", "ts", "-msim_cloth_n", "10", "-msim_fix", "none", "-msim_contact_plane", "0,0,1,-0.05", "-msim_dt", "0.01", "-msim_steps", "200"]
+        mon = os.path.join(tmp, f"ts_landing_{np_}.csv")
+        r = mt.run(exe, land + ["-ts_type", "alpha2", "-ts_alpha_radius", "0", "-msim_monitor_csv", mon], np_)
+        if check(r.returncode == 0, f"np {np_}: ts alpha2 at radius 0 lands a cloth on a plane ({r.stderr.strip()[-300:]})"):
+            rows = mt.read_csv(mon)
+            e = [float(row["total"]) for row in rows]
+            hit = any(int(row["contact_n"]) > 0 for row in rows)
+            check(hit and len(e) == 201 and max(e) <= e[0] + 1e-6 * 0.05 * G,
+                  f"np {np_}: ts alpha2 at radius 0, a landing on a frictionless plane: total energy at most its start {e[0]:.3g} + 1e-6 m g h over {len(e) - 1} steps (max {max(e):.6g} J at step {e.index(max(e))}, contact seen: {hit})")
+        mt.refusals(check, exe, land, tuple((f"ts {t} at radius {rad} with an obstacle", ["-ts_type", t, "-ts_alpha_radius", rad], [f"-ts_type {t}", "alpha_f", "obstacle", "not supported", "-ts_alpha_radius 0"])
+                                            for t, rad in (("alpha2", "0.5"), ("alpha2", "0.9"), ("alpha", "0.5"))), np_)
         # the stability guard counts the penalty: Gershgorin omega_max^2 <= max_i (2 sum_j k_ij + kc) / m_i;
         # an interior vertex of the 5 x 5 grid has 12 springs of 1000 N/m, m_i = 1/25 kg, and
         # symplectic Euler's limit is 2 / omega_max
