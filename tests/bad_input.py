@@ -108,6 +108,9 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-msim_friction", "0.5"], "-msim_friction 0.5 acts on nothing"),
     # and so were VI bounds with no obstacle, and a thickness with no mesh obstacle
     (["-msim_integrator", "implicit_euler", "-msim_contact_bounds"], "-msim_contact_bounds has no obstacle to take as bounds"),
+    # the penalty integrators ran the penalty and said only that the option was never used
+    (["-msim_integrator", "symplectic_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_bounds"], "-msim_contact_bounds with -msim_integrator symplectic_euler is not supported"),
+    (["-msim_integrator", "ts", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_bounds"], "-msim_contact_bounds with -msim_integrator ts is not supported"),
     (["-msim_contact_plane", "0,0,1,-1", "-msim_contact_thickness", "0.01"], "-msim_contact_thickness 0.01 acts on mesh obstacles (-msim_contact_mesh) only"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),

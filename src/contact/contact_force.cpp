@@ -30,6 +30,13 @@ PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
   /* the penalty has no friction: a coefficient it would ignore is refused, not dropped */
   PetscCall(MSimContactGet(sys, &ct));
   PetscCheck(barrier || !ct || ct->mu == 0, sys->comm, PETSC_ERR_SUP, "-msim_friction with -msim_integrator %s is not supported: its contact is a penalty, which has no friction; use implicit_euler or bdf2 (IPC's friction)", type);
+  /* variable bounds are the implicit integrators' SNES's (contact_bounds.cpp): the others ran the
+     penalty and said only that the option was never used */
+  if (!barrier) {
+    PetscBool bounds = PETSC_FALSE;
+    PetscCall(PetscOptionsGetBool(NULL, NULL, "-msim_contact_bounds", &bounds, NULL));
+    PetscCheck(!bounds, sys->comm, PETSC_ERR_SUP, "-msim_contact_bounds with -msim_integrator %s is not supported: its contact is a penalty force; variable bounds need an implicit integrator's SNES (implicit_euler or bdf2)", type);
+  }
   /* the penalty pushes only where the distance is negative: an open surface's distance is the
      unsigned one less the thickness, never negative at thickness 0, so the cloth would fall
      through it with no force at all (the barrier keeps a vertex on the side it starts on) */
