@@ -27,6 +27,7 @@ from study import read_csv, run  # noqa: E402
 
 SOLVERS = {"pd10": ["-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"],
            "pd_anderson_1e-5": ["-snes_type", "pd", "-snes_pd_anderson", "5", "-snes_max_it", "300", "-snes_rtol", "1e-5"]}
+NEWTON_ONLY = ("-msim_psd",)  # the examples' Newton options that -snes_type pd does not read
 WEIGHTS = {"weights": ["-msim_contact_pd_weight", "1"], "rhs_only": ["-msim_contact_pd_weight", "0"]}
 
 
@@ -40,8 +41,11 @@ def main():
         path = os.path.join(ROOT, "examples", name + ".opts")
         obs, opts = obstacles(path)
         steps = int(opts["-msim_steps"])
-        # the same cloth and solver with no obstacle (the example's options less its contact ones)
-        free = [x for k, v in opts.items() if not k.startswith(("-msim_contact", "-msim_friction", "-msim_output")) for x in ([k, v] if v else [k])]
+        # the example's options less its Newton's (-msim_psd, which pd refuses), and the same cloth
+        # and solver with no obstacle (less its contact ones too: the cost baseline)
+        scene = {k: v for k, v in opts.items() if k not in NEWTON_ONLY}
+        own = [x for k, v in scene.items() for x in ([k, v] if v else [k])]
+        free = [x for k, v in scene.items() if not k.startswith(("-msim_contact", "-msim_friction", "-msim_output")) for x in ([k, v] if v else [k])]
         for s, sopts in SOLVERS.items():
             rc, err, log, cpu = run(a.msim, free + sopts)
             rows.append(dict(example=name, solver=s, pd_matrix="no obstacle", ok=int(rc == 0), cpu_ms_per_step=1e3 * cpu / steps, its_per_step=np.nan,
@@ -50,7 +54,7 @@ def main():
             print(rows[-1], flush=True)
             for w, wopts in WEIGHTS.items():
                 out, csv = os.path.join(tmp, f"{name}_{s}_{w}"), os.path.join(tmp, f"{name}_{s}_{w}.csv")
-                rc, err, log, cpu = run(a.msim, ["-options_file", path, "-msim_output", out, "-msim_output_every", "1", "-msim_monitor_csv", csv] + sopts + wopts)
+                rc, err, log, cpu = run(a.msim, own + ["-msim_output", out, "-msim_output_every", "1", "-msim_monitor_csv", csv] + sopts + wopts)
                 row = dict(example=name, solver=s, pd_matrix=w, ok=int(rc == 0), cpu_ms_per_step=1e3 * cpu / steps, its_per_step=np.nan, factorizations=-1,
                            energy_evaluations=-1, least_distance_m=np.nan, contact_fz_end=np.nan, kinetic_end=np.nan, note="")
                 if rc == 0:
