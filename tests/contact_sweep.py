@@ -22,7 +22,9 @@ cloth under it with no contact force):
   them, 0.3 m and more). A plane cannot be jumped (a vertex it passes is inside it: carried as
   before), so its case guards the carry within dhat;
 - the box carrying the cloth into a static box over it (a ceiling) is one error line: the vertex is
-  squeezed between the two (the box passed through cloth and ceiling, exit 0).
+  squeezed between the two (the box passed through cloth and ceiling, exit 0); so is the box
+  carrying it through a 5 mm ceiling or an open OBJ square there (the start's check at its end
+  alone let the cloth through, exit 0).
 Usage: contact_sweep.py path/to/msim [--np N]"""
 import math
 import os
@@ -102,7 +104,8 @@ def main():
     write_obj(box_obj, *box_mesh(BOX))
     x0, x1, y0, y1, _, z1 = BOX
     write_obj(sheet_obj, [(x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)], [(0, 1, 2), (0, 2, 3)])
-    far_obj = os.path.join(tmp, "far.obj")
+    far_obj, ceiling_obj = os.path.join(tmp, "far.obj"), os.path.join(tmp, "ceiling.obj")
+    write_obj(ceiling_obj, [(0.2, 0.2, 0.1), (0.8, 0.2, 0.1), (0.8, 0.8, 0.1), (0.2, 0.8, 0.1)], [(0, 1, 2), (0, 2, 3)])
     write_obj(far_obj, [(x0, y0, -FAR), (x1, y0, -FAR), (x1, y1, -FAR), (x0, y1, -FAR)], [(0, 1, 2), (0, 2, 3)])
     base = ["-msim_cloth_n", "9", "-msim_dt", str(DT), "-msim_steps", str(STEPS)]
     pinned, free = ["-msim_fix", "corners"], ["-msim_fix", "none"]
@@ -144,9 +147,14 @@ def main():
         # a static ceiling 10 cm up, over the box: the box carries the cloth's middle up to it by
         # the third step, where no start outside both exists (the box passed through cloth and
         # ceiling, exit 0)
+        # a ceiling 5 mm thick or an open OBJ square there: carried through it in that step (no
+        # vertex inside at its end, exit 0 with the cloth above the ceiling)
         ceiling = ",".join(map(str, BOX + (0.2, 0.8, 0.2, 0.8, 0.1, 0.3)))
-        mt.refusals(check, exe, base, (("the box carrying the cloth into a static ceiling", pinned + euler + ["-msim_contact_box", ceiling, "-msim_contact_velocity", f"0,0,{VZ},0,0,0"],
-                                        ["squeezed between moving obstacles at t = 0.06", "-msim_dt"]),), np_)
+        thin = ",".join(map(str, BOX + (0.2, 0.8, 0.2, 0.8, 0.1, 0.105)))
+        squeezed = ["squeezed between moving obstacles at t = 0.06", "-msim_dt"]
+        mt.refusals(check, exe, base, (("the box carrying the cloth into a static ceiling", pinned + euler + ["-msim_contact_box", ceiling, "-msim_contact_velocity", f"0,0,{VZ},0,0,0"], squeezed),
+                                       ("the box carrying the cloth through a 5 mm ceiling", pinned + euler + ["-msim_contact_box", thin, "-msim_contact_velocity", f"0,0,{VZ},0,0,0"], squeezed),
+                                       ("the box carrying the cloth through an open OBJ ceiling", pinned + euler + box + ["-msim_contact_mesh", ceiling_obj, "-msim_contact_velocity", f"0,0,{VZ},0,0,0"], squeezed)), np_)
     return check.exit_code()
 
 

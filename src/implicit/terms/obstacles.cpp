@@ -1031,6 +1031,18 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Whether a vertex's move from x0 at t to x1 at tx crosses o: o's exact hit time along the move
+   relative to it (the analytic shapes; a mesh's ray query at thickness 0). A mesh's shell is judged
+   at x1 alone: its conservative advancement cannot tell a crossing from a close pass. */
+static PetscBool MoveCrosses(const MSimObstacle &o, PetscReal thickness, PetscReal t, PetscReal tx, const PetscReal x0[3], const PetscReal x1[3])
+{
+  PetscReal y[3], u[3];
+  for (int c = 0; c < 3; c++) y[c] = x0[c] - o.v[c] * t, u[c] = x1[c] - o.v[c] * tx - y[c];
+  if (u[0] == 0 && u[1] == 0 && u[2] == 0) return PETSC_FALSE;
+  if (o.kind == MSIM_OBSTACLE_MESH) return (PetscBool)(thickness == 0 && MSimMeshObstacleSafeStep(o.mesh, y, u, 1.0) < 0.8);
+  return (PetscBool)(MSimObstacleHitTime(&o, y, u) < 1);
+}
+
 /* Moving obstacles: x_n is outside them at t, but one may have moved onto it, or past it, by tx.
    In obstacle o's frame at tx, vertex v's motion over the step is the segment from a + v_o h to a
    (a: x_n, or where another obstacle carried it), whose start is at v's distance d(a, t) > 0 from
@@ -1051,8 +1063,8 @@ static PetscErrorCode Clamp_Obstacles(MSimImplicitTerm term, Vec A, Vec X)
    at tx), and a vertex o does not cross is carried as before, so scenes where no obstacle passes a
    vertex start as before. Fixed vertices are no unknowns and are not carried: as a cloth pinned
    inside a static box runs, so does a handle a moving one passes (its free vertices kept out). A
-   vertex carried into another obstacle is squeezed between two: no feasible start exists. Per
-   vertex: no communication but the one check. */
+   vertex carried into or through another obstacle (MoveCrosses) is squeezed between two: no
+   feasible start exists. Per vertex: no communication but the one check. */
 static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
 {
   MSimImplicit   imp = term->imp;
@@ -1067,6 +1079,8 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
   if (!ct || !ct->moving) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(VecGetArray(A, &a));
   for (PetscInt v = 0; v < sys->nown && bad < 0; v++) {
+    const PetscReal x0[3]   = {PetscRealPart(a[3 * v]), PetscRealPart(a[3 * v + 1]), PetscRealPart(a[3 * v + 2])};
+    PetscBool       carried = PETSC_FALSE;
     for (const MSimObstacle &o : ct->obs) {
       if (o.v[0] == 0 && o.v[1] == 0 && o.v[2] == 0) continue;
       PetscReal       n[3];
@@ -1084,12 +1098,17 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
         const PetscReal s = MSimObstacleSafeStep(&o, imp->step.tx, z, u, 1.0);
         carry             = (PetscBool)(s < (o.kind == MSIM_OBSTACLE_MESH && ct->thickness > 0 ? 1.0 : 0.8));
       }
-      if (carry)
+      if (carry) {
         for (int c = 0; c < 3; c++) a[3 * v + c] += o.v[c] * dt;
+        carried = PETSC_TRUE;
+      }
     }
+    /* squeezed: inside an obstacle at tx, or carried through one (a box rising 6 cm a step carried
+       the cloth through a 5 mm ceiling, which the check at tx alone let pass, exit 0) */
     for (const MSimObstacle &o : ct->obs) {
-      PetscReal n[3];
-      if (MSimObstacleDistanceAt(&o, imp->step.tx, a + 3 * v, n, NULL) <= 0) bad = v;
+      PetscReal       n[3];
+      const PetscReal x1[3] = {PetscRealPart(a[3 * v]), PetscRealPart(a[3 * v + 1]), PetscRealPart(a[3 * v + 2])};
+      if (MSimObstacleDistanceAt(&o, imp->step.tx, x1, n, NULL) <= 0 || (carried && MoveCrosses(o, ct->thickness, imp->step.t, imp->step.tx, x0, x1))) bad = v;
     }
   }
   PetscCall(VecRestoreArray(A, &a));
