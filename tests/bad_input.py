@@ -94,10 +94,14 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-snes_type", "aspin"], "the nonlinear preconditioner's type (-npc_snes_type, or -snes_type aspin's) nasm is not supported"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "composite"], "-snes_type composite needs its solvers: -snes_composite_sneses"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "composite", "-snes_composite_sneses", "pd,ngs"], "-snes_composite_sneses's ngs is not supported"),
+    # sub-solvers that solve linear systems got PETSc's dense finite-difference Jacobian, not msim's
+    (["-msim_integrator", "implicit_euler", "-snes_type", "composite", "-snes_composite_sneses", "pd,newtonls"], "-snes_composite_sneses's newtonls is not supported: msim gives its analytic Jacobian to the outer solver only"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "newtonls"], "newtonls is not supported: msim gives its analytic Jacobian to the outer solver only"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "fas"], "-snes_type fas is not supported: msim's problem has one level"),
     (["-msim_integrator", "implicit_euler", "-npc_snes_type", "pd", "-snes_npc_side", "left"], "-snes_npc_side left with -snes_type newtonls is not supported"),
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-snes_type", "nasm"], "-snes_type nasm is not supported: it needs subdomains of a DM"),
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-snes_type", "anderson", "-npc_snes_type", "pd"], "-snes_type pd needs a problem that provides projective-dynamics steps"),
-    (["-msim_integrator", "ts", "-ts_type", "beuler", "-snes_type", "ngmres", "-npc_snes_type", "newtonls"], "-npc_snes_type with -msim_integrator ts is not supported"),
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-snes_type", "ngmres", "-npc_snes_type", "nrichardson"], "-npc_snes_type with -msim_integrator ts is not supported"),
     # PETSc makes a nonlinear preconditioner for any type; pd, ntr and ksponly would ignore it
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-npc_snes_type", "newtonls"], "-npc_snes_type newtonls with -snes_type pd is not supported: pd runs no nonlinear preconditioner"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "ntr", "-npc_snes_type", "pd"], "-npc_snes_type pd with -snes_type ntr is not supported: ntr runs no nonlinear preconditioner"),

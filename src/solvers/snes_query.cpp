@@ -113,7 +113,7 @@ PetscErrorCode MSimSNESCheckServed(SNES snes)
     SNESType t;
     PetscCall(PetscObjectTypeCompareAny((PetscObject)solvers[k], &unserved, SNESNGS, SNESNASM, SNESASPIN, SNESPATCH, SNESSHELL, ""));
     PetscCall(SNESGetType(solvers[k], &t));
-    PetscCheck(!unserved, comm, PETSC_ERR_SUP, "%s %s is not supported: it needs %s, which msim's problem does not provide (msim serves newtonls, ntr, pd, qn, anderson, ngmres, ncg, nrichardson, ms, fas, composite, ksponly and the VI types)", what[k], t,
+    PetscCheck(!unserved, comm, PETSC_ERR_SUP, "%s %s is not supported: it needs %s, which msim's problem does not provide (msim serves newtonls, ntr, pd, qn, anderson, ngmres, ncg, nrichardson, ms, composite, ksponly and the VI types)", what[k], t,
                !strcmp(t, SNESNGS) ? "a coloring of an AIJ Jacobian" : !strcmp(t, SNESPATCH) ? "a DMPlex" : !strcmp(t, SNESSHELL) ? "a solve set by code" : "subdomains of a DM");
   }
   /* newtonls preconditioned on the left solves for x - npc(x) = 0, whose Jacobian msim does not
@@ -132,6 +132,22 @@ PetscErrorCode MSimSNESCheckServed(SNES snes)
     PetscCall(SNESGetNPC(snes, &npc));
     PetscCall(SNESGetType(npc, &npc_type));
     SETERRQ(comm, PETSC_ERR_SUP, "-npc_snes_type %s with -snes_type %s is not supported: %s runs no nonlinear preconditioner (newtonls, qn, ncg, nrichardson, anderson and ngmres do)", npc_type, type, type);
+  }
+  /* msim hands its analytic Jacobian to the outer SNES alone: a sub-solver that solves linear
+     systems (composite's newtonls, anderson's or ngmres's -npc_snes_type newtonls, fas's smoother)
+     got PETSc's default, a dense finite-difference Jacobian built one column at a time (-snes_view
+     said so: seqdense), which msim never builds unasked */
+  for (size_t k = 1; k < solvers.size(); k++) {
+    PetscBool uses;
+    SNESType  t;
+    PetscCall(MSimSNESUsesJacobian(solvers[k], &uses));
+    PetscCall(SNESGetType(solvers[k], &t));
+    PetscCheck(!uses, comm, PETSC_ERR_SUP, "%s %s is not supported: msim gives its analytic Jacobian to the outer solver only, and PETSc would build this one by finite differences, dense; use -snes_type %s itself, or pd as the inner solver", what[k], t, t);
+  }
+  {
+    PetscBool fas;
+    PetscCall(PetscObjectTypeCompare((PetscObject)snes, SNESFAS, &fas));
+    PetscCheck(!fas, comm, PETSC_ERR_SUP, "-snes_type fas is not supported: msim's problem has one level (no grid hierarchy), and its smoother would get a dense finite-difference Jacobian; use newtonls");
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
