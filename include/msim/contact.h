@@ -35,7 +35,9 @@ PetscReal MSimMeshObstacleDistance(MSimMeshObstacle mesh, const PetscReal x[3], 
    (the distance to the face's plane: Hessian 0), or, at an open surface's rim corner, the distance d
    whose barrier b(d) is the corner's share of the pair's energy and n = grad / b'(d), not a unit
    vector (src/contact/mesh_obstacle.cpp, RimCorner; friction takes its length apart,
-   msim/private/contactimpl.h's MSimFrictionNormal), up to MSIM_MESH_CREASE_MAX of them
+   msim/private/contactimpl.h's MSimFrictionNormal), or, on an open surface with an obtuse
+   crease, one contact carrying the sum over its faces, edges and vertices less the nearest's
+   (FeatureSum: n not a unit vector either), up to MSIM_MESH_CREASE_MAX of them
    (src/contact/mesh_obstacle.cpp, CreaseContacts) */
 enum { MSIM_MESH_CREASE_MAX = 4 };
 typedef struct {

@@ -111,8 +111,10 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes);
 PetscErrorCode MSimSNESUsesJacobian(SNES snes, PetscBool *uses);
 /* Refuses, in one line naming the option, the SNES types msim's problems cannot serve (ngs, nasm,
    aspin, patch, shell; composite without its solvers or with one of those), a nonlinear
-   preconditioner the type would not run (pd, ntr, ksponly, the VI types) and newtonls
-   preconditioned on the left. Call after SNESSetFromOptions, before any output. */
+   preconditioner the type would not run (pd, ntr, ksponly, the VI types), newtonls
+   preconditioned on the left, a sub-solver (composite's, the nonlinear preconditioner, fas's)
+   that would solve linear systems on PETSc's dense finite-difference Jacobian, and the options
+   of a SNES type the run does not use (-snes_<type>_*). Call after SNESSetFromOptions, before any output. */
 PetscErrorCode MSimSNESCheckServed(SNES snes);
 
 /* What a solver carries from one SNESSolve to the next, beyond the problem's own state: SNES pd's
