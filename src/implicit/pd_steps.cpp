@@ -811,6 +811,14 @@ static PetscErrorCode PDLocalAt(MSimImplicit imp, void *ctx, Vec X, PetscReal *p
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* whether a term keeps the iterates in a feasible set (its max_step: contact, inversion barriers) */
+static PetscBool HasFeasibleSet(MSimImplicit imp)
+{
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.max_step) return PETSC_TRUE;
+  return PETSC_FALSE;
+}
+
 /* The first iterate no worse than x_n. PD's iterates never raise Phi from the first (the global
    step's check), so a step ends no worse than it starts; but the first iterate, the guess pulled
    back vertex by vertex from the obstacles (MSimImplicitGuess's clamp: 0.8 of each vertex's way
@@ -832,14 +840,17 @@ static PetscErrorCode PDLocalAt(MSimImplicit imp, void *ctx, Vec X, PetscReal *p
    first gradient (PDProblemGradient). PD to a tolerance measured its first residual at the
    guess: its relative tolerance stays relative to that. *moved: X is now the step's start, and
    the caller redoes its pass (local step or fused gradient) there. */
-static PetscErrorCode PDStartNoWorse(MSimImplicit imp, Vec X, PetscObjectState ystate, PetscBool *moved)
+static PetscErrorCode PDStartNoWorse(MSimImplicit imp, Vec X, PetscBool *moved)
 {
   MSimSystem         sys = imp->sys;
   const PetscScalar *xn, *y, *m;
   PetscReal          low, phin, phi = imp->pd_phi;
+  PetscObjectState   ystate;
 
   PetscFunctionBeginUser;
-  *moved               = PETSC_FALSE;
+  *moved = PETSC_FALSE;
+  PetscCall(PetscObjectStateGet((PetscObject)imp->Y, &ystate));
+  if (ystate == imp->pd_start_ystate) PetscFunctionReturn(PETSC_SUCCESS); /* compared already this time step */
   imp->pd_start_ystate = ystate;
   PetscCall(VecGetArrayRead(imp->Xn, &xn));
   PetscCall(VecGetArrayRead(imp->Y, &y));
@@ -867,14 +878,12 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
 {
   MSimImplicit imp = (MSimImplicit)ctx;
   PetscReal    own;
-  PetscBool    asked = (PetscBool)(phi != NULL), feasible = PETSC_TRUE;
+  const PetscBool asked = (PetscBool)(phi != NULL), feasible = HasFeasibleSet(imp);
 
   PetscFunctionBeginUser;
   /* with a feasible set the global step may check Phi from X: Phi(X) comes almost free with the
      local step's passes (kept in imp->pd_phi), where a separate evaluation costs every term's */
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
-  if (!feasible && !phi) phi = &own;
+  if (feasible && !phi) phi = &own;
   if (imp->pd_pending) {
     PetscObjectState state;
     PetscCall(PetscObjectStateGet((PetscObject)X, &state));
@@ -903,14 +912,10 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
      PDProblemGlobal). Without it Anderson started the bunny's landing step (examples/bunny_drop.opts,
      step 11) at Phi 1.405e-5 against Phi(x_n) 1.134e-5 and ended its 30 iterations at 1.164e-5,
      still above x_n: KE + potential rose from 0.071 J to 0.19 J, then 0.25 J */
-  if (asked && !feasible) {
-    PetscObjectState ystate;
-    PetscCall(PetscObjectStateGet((PetscObject)imp->Y, &ystate));
-    if (ystate != imp->pd_start_ystate) {
-      PetscBool moved;
-      PetscCall(PDStartNoWorse(imp, X, ystate, &moved));
-      if (moved) PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi)); /* the local step at the start into the caller's rhs, Phi there cached */
-    }
+  if (asked && feasible) {
+    PetscBool moved;
+    PetscCall(PDStartNoWorse(imp, X, &moved));
+    if (moved) PetscCall(MSimImplicitPDRHS(imp, X, rhs, phi)); /* the local step at the start into the caller's rhs, Phi there cached */
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -924,21 +929,14 @@ static PetscErrorCode PDProblemRHS(void *ctx, Vec X, Vec rhs, PetscReal *phi)
    and the solver takes rhs and the product, PDProblemRHS's, as for any such solve. */
 static PetscErrorCode PDProblemGradient(void *ctx, Vec X, Vec G, PetscReal *phi, PetscBool *done)
 {
-  MSimImplicit imp      = (MSimImplicit)ctx;
-  PetscBool    feasible = PETSC_TRUE;
+  MSimImplicit imp = (MSimImplicit)ctx;
 
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitPDGradient(ctx, X, G, phi, done));
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
-  if (*done && !feasible) {
-    PetscObjectState ystate;
-    PetscCall(PetscObjectStateGet((PetscObject)imp->Y, &ystate));
-    if (ystate != imp->pd_start_ystate) {
-      PetscBool moved;
-      PetscCall(PDStartNoWorse(imp, X, ystate, &moved));
-      if (moved) PetscCall(MSimImplicitPDGradient(ctx, X, G, phi, done));
-    }
+  if (*done && HasFeasibleSet(imp)) {
+    PetscBool moved;
+    PetscCall(PDStartNoWorse(imp, X, &moved));
+    if (moved) PetscCall(MSimImplicitPDGradient(ctx, X, G, phi, done));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -1022,29 +1020,26 @@ static PetscErrorCode PDStepTo(Vec X0, Vec D, PetscReal alpha, Vec X)
    where it passes, and friction's gap costs three of its passes, more than the check's one. */
 static PetscErrorCode PDProblemGlobal(void *ctx, Vec rhs, Vec guess, Vec X)
 {
-  MSimImplicit imp      = (MSimImplicit)ctx;
-  PetscBool    feasible = PETSC_TRUE, cached = PETSC_FALSE;
-  Vec          X0 = NULL, D = NULL;
-  PetscReal    alpha;
+  MSimImplicit    imp      = (MSimImplicit)ctx;
+  const PetscBool feasible = HasFeasibleSet(imp);
+  PetscBool       cached   = PETSC_FALSE;
+  Vec             X0 = NULL, D = NULL;
+  PetscReal       alpha;
 
   PetscFunctionBeginUser;
   PetscCall(PDCheckResolve(imp)); /* x_k is final before a step from it (the work Vecs are reused) */
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.max_step) feasible = PETSC_FALSE;
-  if (!feasible && guess) {
+  if (feasible && guess) {
     PetscObjectId    id;
     PetscObjectState state;
     PetscCall(PetscObjectGetId((PetscObject)guess, &id));
     PetscCall(PetscObjectStateGet((PetscObject)guess, &state));
     cached = (PetscBool)(imp->pd_phi_id && id == imp->pd_phi_id && state == imp->pd_phi_state); /* Phi(guess) known */
     if (cached && X == guess) { /* plain PD (the step in place), at its first global step of a time step */
-      PetscObjectState ystate;
-      PetscCall(PetscObjectStateGet((PetscObject)imp->Y, &ystate));
-      if (ystate != imp->pd_start_ystate) {
-        PetscBool moved;
-        PetscReal phi;
-        PetscCall(PDStartNoWorse(imp, X, ystate, &moved));
-        if (moved) PetscCall(MSimImplicitPDRHS(imp, X, rhs, &phi)); /* the local step at the start into the caller's rhs, Phi there cached */
+      PetscBool moved;
+      PetscReal phi;
+      PetscCall(PDStartNoWorse(imp, X, &moved));
+      if (moved) {
+        PetscCall(MSimImplicitPDRHS(imp, X, rhs, &phi)); /* the local step at the start into the caller's rhs, Phi there cached */
         PetscCall(PetscObjectStateGet((PetscObject)guess, &state));
         cached = (PetscBool)(id == imp->pd_phi_id && state == imp->pd_phi_state);
       }
