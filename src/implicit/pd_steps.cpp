@@ -852,20 +852,21 @@ static PetscErrorCode PDStartNoWorse(MSimImplicit imp, Vec X, PetscBool *moved)
   PetscCall(PetscObjectStateGet((PetscObject)imp->Y, &ystate));
   if (ystate == imp->pd_start_ystate) PetscFunctionReturn(PETSC_SUCCESS); /* compared already this time step */
   imp->pd_start_ystate = ystate;
-  PetscCall(VecGetArrayRead(imp->Xn, &xn));
+  /* where a term has a feasible set, the step's feasible start (MSimImplicitGuess's: x_n carried as
+     far as moving handles or obstacles need), not x_n itself, which their move can have left
+     infeasible: from x_n plain PD let a sheet lifted by handles 15 mm a step pass through another
+     resting 9.5 mm above it. The lower bound is the start's own (x_n's is none for it: a carried
+     start's Phi can exceed a first iterate below x_n's bound) */
+  Vec start = imp->guess_a ? imp->guess_a : imp->Xn;
+  PetscCall(VecGetArrayRead(start, &xn));
   PetscCall(VecGetArrayRead(imp->Y, &y));
   PetscCall(VecGetArrayRead(sys->mass, &m));
   low = InertiaEnergy(3 * sys->nown, xn, y, y, m, 0);
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(imp->Y, &y));
-  PetscCall(VecRestoreArrayRead(imp->Xn, &xn));
+  PetscCall(VecRestoreArrayRead(start, &xn));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &low, 1, MPIU_REAL, MPIU_SUM, sys->comm));
   if (phi <= low) PetscFunctionReturn(PETSC_SUCCESS);
-  /* where a term has a feasible set, the step's feasible start (MSimImplicitGuess's: x_n carried as
-     far as moving handles or obstacles need), not x_n itself, which their move can have left
-     infeasible: from x_n plain PD let a sheet lifted by handles 15 mm a step pass through another
-     resting 9.5 mm above it */
-  Vec start = imp->guess_a ? imp->guess_a : imp->Xn;
   PetscCall(MSimImplicitObjective(imp, start, &phin));
   if (!(phi > phin + MSIM_PHI_ROUNDOFF * PetscAbsReal(phin))) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscInfo(X, "pd: the first iterate's Phi %.17g is above Phi at the step's feasible start %.17g: the step starts from there\n", (double)phi, (double)phin));
