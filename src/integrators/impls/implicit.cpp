@@ -693,8 +693,8 @@ static PetscErrorCode SNESTypes(SNES snes, char buf[], size_t len)
    -msim_pc_pd with pd: the same steps as without). Read after the SNES is set up (SetUpJacobian,
    SetUpInertia); -msim_step_atol and -msim_inertia_correction are refused where they are read,
    the types' own options (-snes_pd_*, -snes_ntr_*, -snes_qn_*) by MSimSNESCheckServed. A
-   nonlinear preconditioner assembles no Hessian and solves nothing with the PD factor (newtonls
-   as one gets PETSc's finite-difference Jacobian): only the SNES's own type counts. */
+   nonlinear preconditioner assembles no Hessian and solves nothing with the PD factor (one that
+   would solve linear systems is refused by MSimSNESCheckServed): only the SNES's own type counts. */
 static PetscErrorCode RefuseUnread(MSimIntegrator integ, ImplicitData *ie)
 {
   PetscBool uses, shell = PETSC_FALSE, newton, ls_shell = PETSC_FALSE;
