@@ -29,8 +29,7 @@ SOLVERS = (("Anderson", []), ("L-BFGS", ["-snes_pd_anderson", "0", "-snes_pd_lbf
 
 def main():
     exe, check = mt.msim_path(), mt.Checks()
-    if "--no-tetgen" in sys.argv:
-        print("bunny_drop_energy: msim was built without TetGen, which the bunny needs: nothing to check")
+    if mt.without_tetgen("bunny_drop_energy"):
         return 0
     tmp = tempfile.mkdtemp(prefix="msim_bunny_drop_energy_")
     for np_, (name, opts) in ((n, c) for n in mt.ranks() for c in SOLVERS):

@@ -30,8 +30,7 @@ TOL = 1e-8
 
 def main():
     exe, check = mt.msim_path(), mt.Checks()
-    if "--no-tetgen" in sys.argv:
-        print("contact_pd_ranks: msim was built without TetGen, which the bunny needs: nothing to check")
+    if mt.without_tetgen("contact_pd_ranks"):
         return 0
     tmp = tempfile.mkdtemp(prefix="msim_contact_pd_ranks_")
     for weight in ("1", "0"):

@@ -42,6 +42,15 @@ def msim_path(argv=None):
     return os.path.abspath(argv[1])
 
 
+def without_tetgen(script, needs="the bunny"):
+    """True, once said, where ctest passes --no-tetgen (msim built without TetGen, which meshes
+    the surface the test needs): the script has nothing to check"""
+    if "--no-tetgen" not in sys.argv:
+        return False
+    print(f"{script}: msim was built without TetGen, which {needs} needs: nothing to check")
+    return True
+
+
 def ranks(default=(1, 2), argv=None):
     """the rank counts a script runs msim at: `--np N` on its command line (ctest's per-rank tests,
     tests/CMakeLists.txt) gives [N], else the default"""
