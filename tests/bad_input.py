@@ -71,6 +71,9 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd", "-msim_psd", "0"], "-msim_psd with -snes_type anderson -npc_snes_type pd is not supported"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-msim_psd", "1"], "-msim_psd with -snes_type qn is not supported: it projects the Hessian's blocks, and this SNES assembles none (qn's Jacobian is the constant PD matrix unless a -pc_type is given)"),
     (["-msim_integrator", "implicit_euler", "-msim_psd_fallback"], "-msim_psd_fallback with -snes_type newtonls and -msim_psd 1 is not supported"),
+    # the PD factor takes the preconditioner's place: a -pc_type given with it went unused
+    (["-msim_integrator", "implicit_euler", "-ksp_type", "cg", "-pc_type", "jacobi", "-msim_pc_pd"], "-msim_pc_pd replaces the preconditioner: drop -pc_type jacobi or -msim_pc_pd"),
+    (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-pc_type", "lu", "-msim_pc_pd", "1"], "-msim_pc_pd replaces the preconditioner: drop -pc_type lu or -msim_pc_pd"),
     (["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-msim_check_saddle", "0"], "-msim_check_saddle with -snes_type pd is not supported here: it reads the inertia of Newton's factor"),
     # a type's own options (PETSc's and msim's) given for another type, or under -npc_ with no
     # nonlinear preconditioner: nothing read them
@@ -134,6 +137,7 @@ ACCEPTED = [
     ["-snes_type", "newtonls", "-npc_snes_type", "pd", "-npc_snes_pd_fixed", "-npc_snes_max_it", "1", "-msim_psd", "1", "-msim_pc_pd"],
     ["-snes_type", "ntr", "-msim_psd", "1", "-snes_ntr_eta", "0.1"],
     ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-msim_pc_pd", "1", "-snes_qn_m", "5"],
+    ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-pc_type", "jacobi"],
     ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_lbfgs_scale_max", "2", "-snes_pd_lbfgs_fused", "0"],
     ["-snes_type", "newtonls", "-msim_psd", "0", "-msim_psd_fallback", "0", "-msim_pc_pd", "0"],
     ["-snes_type", "newtonls", "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-msim_check_saddle", "0"],

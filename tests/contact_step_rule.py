@@ -30,7 +30,7 @@ import msimtest as mt
 MSIM = mt.msim_path()
 STEPS = 30
 NEWTON_CG = ["-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", "0.0333333333333333", "-msim_steps", str(STEPS),
-             "-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3",
+             "-snes_type", "newtonls", "-ksp_type", "cg", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3",
              "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]
 BALL = ["-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3"]
 

@@ -28,13 +28,13 @@ METHODS = [
     ("PETSc Anderson-PD, 10 iterations", "-snes_type anderson -snes_anderson_m 5 -npc_snes_type pd -npc_snes_max_it 1 -npc_snes_pd_fixed -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
     ("L-BFGS (PD Hessian), 10 iterations", "-snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 -snes_rtol 0 -snes_atol 0 -snes_stol 0 -snes_max_it 10"),
     ("Baraff-Witkin (MUMPS Cholesky)", "-snes_type ksponly -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps"),
-    ("Newton, |dx| < 1e-3 (at most 20), CG + PD factor, Eisenstat-Walker", "-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew -msim_step_atol 1e-3 -snes_rtol 0 -snes_atol 0 -snes_max_it 20"),
+    ("Newton, |dx| < 1e-3 (at most 20), CG + PD factor, Eisenstat-Walker", "-snes_type newtonls -ksp_type cg -msim_pc_pd -snes_ksp_ew -msim_step_atol 1e-3 -snes_rtol 0 -snes_atol 0 -snes_max_it 20"),
     ("Newton, |dx| < 1e-3 (at most 20), CG + ICC, Eisenstat-Walker", "-snes_type newtonls -ksp_type cg -pc_type icc -snes_ksp_ew -msim_step_atol 1e-3 -snes_rtol 0 -snes_atol 0 -snes_max_it 20"),
     ("Newton, |dx| < 1e-3 (at most 20), PSD Hessian, MUMPS Cholesky", "-snes_type newtonls -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -msim_step_atol 1e-3 -snes_rtol 0 -snes_atol 0 -snes_max_it 20"),
     ("Newton, |dx| < 1e-3 (at most 20), exact Hessian, MUMPS LDL^T", "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -msim_step_atol 1e-3 -snes_rtol 0 -snes_atol 0 -snes_max_it 20"),
     ("Newton to 1e-8, exact Hessian, MUMPS LDL^T", "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 200"),
     ("Newton to 1e-8, exact Hessian + inertia correction, MUMPS LDL^T", "-snes_type newtonls -msim_psd 0 -msim_inertia_correction -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 200"),
-    ("Newton to 1e-8, PSD Hessian, CG + PD factor", "-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 400"),
+    ("Newton to 1e-8, PSD Hessian, CG + PD factor", "-snes_type newtonls -ksp_type cg -msim_pc_pd -snes_ksp_ew -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 400"),
     ("Newton to 1e-8, trust region, exact Hessian, Steihaug CG + PD factor", "-snes_type ntr -snes_rtol 1e-8 -snes_atol 0 -snes_max_it 400"),
 ]
 

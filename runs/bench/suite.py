@@ -31,7 +31,7 @@ CLOTH_METHODS = [
     ("PD, 10 iterations", f"-msim_integrator implicit_euler -msim_dt {H} -snes_type pd -snes_max_it 10 -snes_pd_fixed", 20),
     ("PD + safeguarded Anderson, 10 iterations", f"-msim_integrator implicit_euler -msim_dt {H} -snes_type pd -snes_max_it 10 -snes_pd_fixed -snes_pd_anderson 5", 20),
     ("L-BFGS (PD Hessian), 10 iterations", f"-msim_integrator implicit_euler -msim_dt {H} -snes_type qn -snes_qn_scale_type jacobian -snes_qn_m 5 {LOOSE} -snes_max_it 10", 20),
-    ("Newton, |dx| < 1e-3, CG + PD factor (EW)", f"-msim_integrator implicit_euler -msim_dt {H} -snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew -msim_step_atol 1e-3 {LOOSE} -snes_max_it 20", 10),
+    ("Newton, |dx| < 1e-3, CG + PD factor (EW)", f"-msim_integrator implicit_euler -msim_dt {H} -snes_type newtonls -ksp_type cg -msim_pc_pd -snes_ksp_ew -msim_step_atol 1e-3 {LOOSE} -snes_max_it 20", 10),
     ("Baraff-Witkin (MUMPS Cholesky)", f"-msim_integrator implicit_euler -msim_dt {H} -snes_type ksponly -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps", 5),
 ]
 BOX_METHODS = [

@@ -31,7 +31,7 @@ from study import read_csv, run  # noqa: E402
 
 CENTRE, RADIUS = np.array([0.5, 0.5, -0.4]), 0.3
 PD = ["-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"]
-NEWTON = ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0",
+NEWTON = ["-snes_type", "newtonls", "-ksp_type", "cg", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0",
           "-snes_atol", "0", "-snes_max_it", "20"]
 BALL = ["-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3"]
 CONFIGS = {  # name: (solver options, contact options); BALL is added to all but "no obstacle"

@@ -189,7 +189,7 @@ def targets(a, tmp):
     ntri = sphere_obj(obj)
     cloth = ["-msim_cloth_n", a.bench_n, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", 1 / 30, "-msim_steps", "24", "-msim_friction", "0.3"]
     solvers = {"pd10": ["-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"],
-               "newton_cg": ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]}
+               "newton_cg": ["-snes_type", "newtonls", "-ksp_type", "cg", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]}
     obstacles = {"none": [], "sphere": ["-msim_contact_sphere", "0.5,0.5,-0.4,0.3"], f"mesh{ntri}": ["-msim_contact_mesh", obj]}
     rows = []
     for s, sopts in solvers.items():
@@ -236,7 +236,7 @@ def meshcheck(a, tmp):
     cloth = ["-msim_cloth_n", a.bench_n, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", 1 / 30, "-msim_steps", "24", "-msim_friction", "0.3",
              "-msim_contact_mesh", obj]
     solvers = {"pd10": ["-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"],
-               "newton_cg": ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]}
+               "newton_cg": ["-snes_type", "newtonls", "-ksp_type", "cg", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]}
     for s, sopts in solvers.items():
         if a.solvers and s not in a.solvers.split(","):
             continue
@@ -290,7 +290,7 @@ def newton(a, tmp):
     share counted from ntr's -info lines (trial steps cut by max_step over trial steps).
     --cases picks cases by name; --repeat R takes each CPU time as the min of R alternated runs"""
     cloth = ["-msim_cloth_n", a.bench_n, "-msim_fix", "none", "-msim_integrator", "implicit_euler", "-msim_dt", 1 / 30, "-msim_steps", "24"]
-    cg = ["-snes_type", "newtonls", "-ksp_type", "cg", "-pc_type", "none", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]
+    cg = ["-snes_type", "newtonls", "-ksp_type", "cg", "-msim_pc_pd", "-snes_ksp_ew", "-msim_step_atol", "1e-3", "-snes_rtol", "0", "-snes_atol", "0", "-snes_max_it", "20"]
     mumps = ["-msim_pc_pd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-snes_ksp_ew", "0"]
     ball = ["-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_friction", "0.3"]
     kappa10 = ["-msim_contact_kappa", str(10 * 30 ** 2 / 6.3863)]  # 10 x the default 1/(h^2 b''(dhat/2)), b''(dhat/2) = 2 ln 2 + 5

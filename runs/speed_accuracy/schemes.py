@@ -49,7 +49,7 @@ LOOSE = "-snes_rtol 0 -snes_atol 0 -snes_stol 0"
 # simulated second on this host: there the converged solver is Newton-CG on the PD factor with
 # Eisenstat-Walker to |dx| < 1e-4 m (2.7 mm from the tight solve at T = 0.2 s for implicit Euler in
 # trajectory.csv); --newton exact|cg chooses
-NEWTON_CG = f"-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew {LOOSE} -msim_step_atol 1e-4 -snes_max_it 30"
+NEWTON_CG = f"-snes_type newtonls -ksp_type cg -msim_pc_pd -snes_ksp_ew {LOOSE} -msim_step_atol 1e-4 -snes_max_it 30"
 # discrete_gradient's Newton: its Jacobian is not symmetric (a Cholesky factor would be wrong) and
 # PD / L-BFGS are refused (no objective): MUMPS LU
 DG_NEWTON = "-snes_type newtonls -ksp_type preonly -pc_type lu -pc_factor_mat_solver_type mumps -snes_rtol 1e-9 -snes_atol 1e-12 -snes_stol 0 -snes_max_it 100"

@@ -47,7 +47,7 @@ SCENES = {
 LOOSE = "-snes_rtol 0 -snes_atol 0 -snes_stol 0"
 NEWTON_EXACT = "-snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps -msim_check_saddle 0"
 TIGHT = f"{NEWTON_EXACT} -snes_rtol 1e-9 -snes_max_it 400"
-NEWTON_CG_PD = "-snes_type newtonls -ksp_type cg -pc_type none -msim_pc_pd -snes_ksp_ew"
+NEWTON_CG_PD = "-snes_type newtonls -ksp_type cg -msim_pc_pd -snes_ksp_ew"
 STEPS = (1, 10, 30, 60)
 PER_STEP = [
     ("PD", "-snes_type pd -snes_pd_fixed -snes_max_it 3000"),

@@ -294,7 +294,7 @@ static PetscErrorCode TestImplicitStable(void)
    factorizations and ICC only at one rank). */
 static PetscErrorCode TestLinearSolvers(void)
 {
-  const char *lin[] = {"-ksp_type cg -pc_type jacobi", "-ksp_type cg -pc_type gamg", "-ksp_type cg -pc_type hypre", "-ksp_type cg -pc_type none -msim_pc_pd",
+  const char *lin[] = {"-ksp_type cg -pc_type jacobi", "-ksp_type cg -pc_type gamg", "-ksp_type cg -pc_type hypre", "-ksp_type cg -msim_pc_pd",
                        "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps", "-ksp_type cg -pc_type icc",
                        "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type cholmod", "-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type petsc"};
   const int   nparallel = 5;

@@ -393,6 +393,15 @@ static PetscErrorCode SetUpJacobian(ImplicitData *ie, MSimSystem sys, KSP ksp)
     jacobian_pd = (PetscBool)(d.jacobian_pd && ie->pc_pd);
   }
   if (!uses) PetscFunctionReturn(PETSC_SUCCESS);
+  if (ie->pc_pd && has_pc) {
+    /* only a -msim_pc_pd the user gave gets here (the types' default gives way to a -pc_type):
+       the PD factor would take the PC's place, and the -pc_type asked for would go unused */
+    PC     pc;
+    PCType type;
+    PetscCall(KSPGetPC(ksp, &pc));
+    PetscCall(PCGetType(pc, &type));
+    SETERRQ(PetscObjectComm((PetscObject)ksp), PETSC_ERR_ARG_INCOMP, "-msim_pc_pd replaces the preconditioner: drop -pc_type %s or -msim_pc_pd", type);
+  }
   if (jacobian_pd) {
     /* L-BFGS with the PD matrix as initial Hessian: constant shell Jacobian, PD factor as PC */
     PetscCall(MSimImplicitPDCreateShell(ie->imp, &ie->J));
@@ -453,7 +462,7 @@ static PetscErrorCode ReadOptions(MSimIntegrator integ, ImplicitData *ie)
   PetscCall(PetscOptionsBool("-msim_inertia_correction", "Newton on the exact Hessian with MUMPS Cholesky (LDL^T): factor H + delta M with the least delta (0, then 1e-3 x 8^k) that leaves no negative pivot, so Newton converges to minima of Phi, not saddles", NULL, ie->inertia_correction, &ie->inertia_correction, NULL));
   PetscCall(MSimOptionsReal("-msim_step_atol", "Converged also once an iteration's step dx has |dx|_2 below this (m; 0: off), with a contact or inversion barrier only if also |g| <= free mass x this (a barrier's short steps hide its force): graphics codes' rule, absolute where -snes_stol is relative to |x| (newtonls, ntr, qn)", NULL, ie->step_atol, &ie->step_atol, NULL));
   PetscCheck(ie->step_atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_step_atol must be >= 0 (got %g)", (double)ie->step_atol);
-  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor (default for -snes_type qn and ntr)", NULL, ie->pc_pd, &ie->pc_pd, &ie->pc_pd_set));
+  PetscCall(PetscOptionsBool("-msim_pc_pd", "Precondition the SNES's linear solves with the constant PD factor in place of a -pc_type, so not with one (default for -snes_type qn and ntr when no -pc_type is given)", NULL, ie->pc_pd, &ie->pc_pd, &ie->pc_pd_set));
   PetscOptionsEnd();
   PetscFunctionReturn(PETSC_SUCCESS);
 }
