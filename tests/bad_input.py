@@ -138,6 +138,10 @@ ACCEPTED = [
     ["-snes_type", "ntr", "-msim_psd", "1", "-snes_ntr_eta", "0.1"],
     ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-msim_pc_pd", "1", "-snes_qn_m", "5"],
     ["-snes_type", "qn", "-snes_qn_scale_type", "jacobian", "-pc_type", "jacobi"],
+    # the discrete gradient's default direct solve (preonly) gives way to the PD factor's GMRES:
+    # preonly took one application of the factor for Newton's direction, and every step stopped at
+    # -snes_max_it 50
+    ["-msim_integrator", "discrete_gradient", "-msim_pc_pd", "-snes_max_it", "50"],
     ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_lbfgs_scale_max", "2", "-snes_pd_lbfgs_fused", "0"],
     ["-snes_type", "newtonls", "-msim_psd", "0", "-msim_psd_fallback", "0", "-msim_pc_pd", "0"],
     ["-snes_type", "newtonls", "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-msim_check_saddle", "0"],

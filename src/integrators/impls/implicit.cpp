@@ -529,7 +529,7 @@ static PetscErrorCode SetUpSemismooth(ImplicitData *ie, PetscMPIInt size, KSP ks
 /* The SNES with msim's defaults, which a user overrides with the usual options: Newton, msim's
    line search on Phi, CG with ICC (block Jacobi-ICC in parallel) on the PSD-projected Jacobian;
    for a scheme with no objective, no Phi: on one rank MUMPS LU on its nonsymmetric Jacobian unless
-   a -ksp_type or -pc_type is given, else GMRES with ILU (block Jacobi-ILU in parallel),
+   a -ksp_type, -pc_type or -msim_pc_pd is given, else GMRES with ILU (block Jacobi-ILU in parallel),
    and PETSc's l2 line search, which minimizes |r|^2 along the Newton step by secant steps (bt,
    backtracking on |r|^2, stalled at a local minimum of |r| where the Jacobian is nearly singular,
    step 103 of an 11 x 11 cloth at h = 1/30 s; l2 ran through). */
@@ -601,7 +601,7 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
   PetscCall(SetUpSemismooth(ie, sys->size, *ksp));
   if (!discrete && !ie->semismooth) PetscCall(SNESSetObjective(ie->snes, FormObjective, ie->imp));
 #if defined(PETSC_HAVE_MUMPS)
-  if (discrete && sys->size == 1 && !ie->ksp_type_set && !ie->pc_type_set) {
+  if (discrete && sys->size == 1 && !ie->ksp_type_set && !ie->pc_type_set && !ie->pc_pd) {
     /* the discrete gradient's Jacobian near the iterates its line search stops at is nearly
        singular (the 31 x 31 cloth at h = 1/30 s: Newton took 36-773 iterations a step), where
        GMRES with ILU left steps short and the energy drifted 1.76 J in 60 steps; MUMPS LU held it
@@ -610,7 +610,9 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
        there MUMPS took 4 x the CPU of GMRES with block Jacobi-ILU on the chain (2 ranks), which
        put tests/energy_conserving.py past its time limit. Set after the options so that -pc_type
        alone (ILU, ...) keeps GMRES; the PC's own options are read again for the factor
-       (-pc_factor_mat_solver_type, -mat_mumps_*). */
+       (-pc_factor_mat_solver_type, -mat_mumps_*). Not with -msim_pc_pd, whose factor takes the
+       PC's place (SetUpJacobian): preonly would take one application of it for Newton's direction
+       (50 iterations a step without converging, a 6 x 6 cloth), where GMRES solves with it. */
     PetscCall(KSPSetType(*ksp, KSPPREONLY));
     PetscCall(PCSetType(pc, PCLU));
     PetscCall(PCFactorSetMatSolverType(pc, MATSOLVERMUMPS));
