@@ -25,7 +25,7 @@
   the springs are far from linear, the two within 1e-8 m (each solved to |g| < 1e-13);
 - implicit midpoint on the undamped chain keeps its energy over 2000 steps of 5 ms: |E - E0| below
   0.5% of the largest kinetic energy, and no larger in the second half than 1.5 x the first half's,
-  where implicit Euler loses more than half of it;
+  where implicit Euler loses more than half of it within 200 steps;
 - -msim_step_atol with -snes_type pd (plain, Anderson, fixed count) or ksponly, which never test
   their step length, or ngmres, which hands the test a step length of 0, is refused in one line naming the option (it changed nothing there, and the
   unconverged-steps warning named the rule as if it had run)."""
@@ -134,17 +134,20 @@ def midpoint_vs_ts(np_, tmp):
 
 
 def energy(np_, tmp):
-    def run(s):
+    def run(s, steps):
         mon = os.path.join(tmp, f"energy_{s}.csv")
-        msim(np_, CHAIN + EXACT + ["-msim_integrator", s, "-msim_dt", "5e-3", "-msim_steps", "2000", "-msim_monitor_csv", mon])
+        msim(np_, CHAIN + EXACT + ["-msim_integrator", s, "-msim_dt", "5e-3", "-msim_steps", str(steps), "-msim_monitor_csv", mon])
         rows = mt.read_csv(mon)
         return np.array([float(r["total"]) for r in rows]), np.array([float(r["kinetic"]) for r in rows])
-    e, k = run("implicit_midpoint")
+    e, k = run("implicit_midpoint", 2000)
     dev, half = np.abs(e - e[0]), len(e) // 2
     check(dev.max() < 5e-3 * k.max() and dev[half:].max() <= 1.5 * dev[:half].max(),
           f"np={np_}: implicit midpoint keeps the undamped chain's energy over 2000 steps: max |E - E0| {dev[:half].max():.3e} J in the first half, {dev[half:].max():.3e} J in the second, largest kinetic energy {k.max():.3f} J")
-    e, k = run("implicit_euler")
-    check(e[0] - e[-1] > 0.5 * k.max(), f"np={np_}: implicit Euler loses energy on the same chain: E0 - E = {e[0] - e[-1]:.3f} J (largest kinetic energy {k.max():.3f} J)")
+    # the contrast needs only the first 200 steps: implicit Euler has lost 0.80 of the largest
+    # kinetic energy by then (0.52 at 100 steps, 1.21 at 2000), where midpoint's whole deviation
+    # is 0.3% of it
+    e, k = run("implicit_euler", 200)
+    check(e[0] - e[-1] > 0.5 * k.max(), f"np={np_}: implicit Euler loses energy on the same chain in 200 steps: E0 - E = {e[0] - e[-1]:.3f} J (largest kinetic energy {k.max():.3f} J)")
 
 
 def step_rule_refused(np_):
