@@ -2,7 +2,8 @@
 """No leak: PETSc's -malloc_debug -malloc_dump lists every block still allocated at PetscFinalize;
 runs that go through each part of msim (explicit and implicit integrators, PD, Newton with MUMPS
 and GAMG, SLEPc's spectrum, the .vtu and HDF5 series, monitors, checkpoint and restart, a Gmsh
-mesh, refinement) at 1 and 2 ranks must list none."""
+mesh, refinement) at 1 and 2 ranks must list none (or with `--np N` at N alone: ctest's leaks_np1
+and _np2, the 1-rank half beside other tests)."""
 import os
 import re
 import sys
@@ -25,7 +26,7 @@ LEAK = re.compile(r"^\[\s*\d+\]\s*\d+ bytes ", re.M)
 
 def main():
     check = mt.Checks()
-    for np in (1, 2):
+    for np in mt.ranks():
         with tempfile.TemporaryDirectory() as d:
             for name, args in RUNS.items():
                 r = mt.run(MSIM, args.format(d=d).split() + ["-malloc_debug", "-malloc_dump"], np)

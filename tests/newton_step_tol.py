@@ -12,7 +12,8 @@ iterations), with msim's default line search on Phi:
   whose short steps hide their force): examples/cloth_newton_fast.opts's free cloth made 1000 times
   stiffer still ends every step by the rule, before its 20 iterations (with |g| <= M d asked of
   it, 9 of 10 steps ran to the cap: what is left of |g| after a short step grows with stiffness).
-At 1 and 2 ranks, on a 31 x 31 cloth falling from two corners at h = 1/30 s (its springs compress
+At 1 and 2 ranks (or with `--np N` at N alone: ctest's newton_step_tol_np1 and _np2, the 1-rank
+half beside other tests), on a 31 x 31 cloth falling from two corners at h = 1/30 s (its springs compress
 and buckle: Phi is nonconvex, the case that needs a line search)."""
 import os
 import re
@@ -44,7 +45,7 @@ def main():
     check = mt.Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
-        for np_ in (1, 2):
+        for np_ in mt.ranks():
             _, its_ref, xref = run(np_, ["-snes_rtol", "1e-13", "-snes_atol", "0", "-snes_max_it", "200"], tmp, "ref")
             r, its_stol, _ = run(np_, ["-snes_stol", "1e-6"] + LOOSE + ["-snes_max_it", str(MAXIT)], tmp, "stol")
             _, its_bt, _ = run(np_, ["-snes_stol", "1e-6", "-snes_linesearch_type", "bt"] + LOOSE + ["-snes_max_it", str(MAXIT)], tmp, "bt")

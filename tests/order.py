@@ -6,7 +6,8 @@ the largest vertex distance at T from RK4 at h = 1e-5 (whose own error is far be
 measured). Observed order p = log2(e(h) / e(h/2)) for both pairs:
 explicit Euler 1, symplectic Euler 1, RK4 4, implicit Euler (solved to roundoff) 1, each within
 0.15. Symplectic Euler's energy error stays bounded over 10^4 steps (the last tenth of the run no
-worse than 1.5 x the first) and is first order in h. At 1 and 2 ranks."""
+worse than 1.5 x the first) and is first order in h. At 1 and 2 ranks, or with `--np N` at N alone
+(ctest's order_np1 and _np2: the 1-rank half runs beside other tests)."""
 import math
 import os
 import sys
@@ -52,7 +53,7 @@ def main():
     check = mt.Checks()
 
     with tempfile.TemporaryDirectory() as tmp:
-        for np_ in (1, 2):
+        for np_ in mt.ranks():
             ref = final(np_, "rk4", 1e-5, round(T / 1e-5), [], tmp)
             for integrator, order, hs, extra in CASES:
                 err = [float(np.abs(final(np_, integrator, h, round(T / h), extra, tmp) - ref).max()) for h in hs]

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Every integrator and implicit solver works on a tet solid unchanged: a 3 x 3 x 3 Kuhn box (E =
-1 MPa, 1000 kg/m^3) clamped at x = 0, under gravity, at 1 and 2 ranks.
+1 MPa, 1000 kg/m^3) clamped at x = 0, under gravity, at 1 and 2 ranks (or with `--np N` at N
+alone: ctest's tet_methods_np1 and _np2, the 1-rank half beside other tests).
 - Implicit Euler, 5 steps of h = 5 ms, solved to |g| <= 1e-10 |g0| by Newton (MUMPS Cholesky; CG +
   ICC or block Jacobi, GAMG, hypre's BoomerAMG), PD, PD + safeguarded Anderson, PETSc's Anderson with PD, L-BFGS with the PD
   Hessian, the trust region, PD with msim's parallel factor and with MUMPS: all reach the same
@@ -10,7 +11,7 @@
   implicit Euler at h = 1e-5 s stay within 1e-6 m of RK4 over 5 ms (a first-order method under
   gravity is off by about h g t / 2 = 2.5e-7 m there).
 - SLEPc's spectrum runs (-msim_spectrum), and the guard warns for symplectic Euler above 2/omega.
-Usage: tet_methods.py path/to/msim"""
+Usage: tet_methods.py path/to/msim [--np N]"""
 import sys
 import tempfile
 
@@ -44,7 +45,7 @@ def run(args, np_):
 
 def main():
     x0, _ = run(["-msim_steps", "1", "-msim_dt", "1e-12", "-msim_integrator", "implicit_euler"], 1)
-    for np_ in (1, 2):
+    for np_ in mt.ranks():
         ref = None
         for name, opts in IMPLICIT.items():
             x, err = run(["-msim_integrator", "implicit_euler", "-msim_dt", "0.005", "-msim_steps", "5"] + opts.split() + TIGHT, np_)
