@@ -126,3 +126,32 @@ typedef struct _n_MSimImplicitTerm *MSimImplicitTerm;
 /* The pairs within dhat at X (time t) that this rank computes, from the self-contact term's
    candidate list (collective: the surface's gather) */
 PetscErrorCode MSimSelfContactGetPairs(MSimImplicitTerm self_contact, PetscReal t, Vec X, std::vector<MSimSelfContactPair> &pairs);
+
+/* The pairs' 12 x 12 Hessian blocks into a Mat, each rank adding to the rows it owns only. A pair
+   is computed by one rank and its vertices' rows may be other ranks': PETSc's assembly would add
+   what several ranks send to one row in the order their messages arrive, so at 3 ranks two runs of
+   one scene differed in the last bits. Here the rows of a block that another rank owns go to it
+   point to point (over the neighbours of the scatter that brought the pair's positions: each free
+   vertex of a pair is a leaf of it, so its owner is one of its root ranks, and a rank that sends
+   here one of its leaf ranks), and the owner adds them after its own blocks, in the senders' rank
+   order and each sender's order: every entry's sum in one order, whatever the timing. Usage:
+   Begin, Add per block, End (collective: exchanges, adds, assembles). */
+typedef struct {
+  PetscInt    row, col[4]; /* a vertex's global free number; the block's vertices' (-1: fixed) */
+  PetscScalar v[36];       /* the vertex's 3 rows of the block */
+} MSimSelfRows;
+struct MSimSelfHessian {
+  MPI_Comm                  comm = MPI_COMM_NULL; /* PETSc's inner communicator, with two tags of its own */
+  PetscMPIInt               tag[2] = {0, 0}, rank = 0, size = 1;
+  MPI_Datatype              type = MPI_DATATYPE_NULL; /* one MSimSelfRows */
+  Mat                       J = NULL;
+  const PetscInt           *ranges = NULL; /* J's row ownership */
+  std::vector<MSimSelfRows> send, recv;    /* rows for other ranks (grouped by End) and from them */
+  std::vector<PetscMPIInt>  dest;          /* send's owners */
+};
+PetscErrorCode MSimSelfHessianCreate(MPI_Comm comm, MSimSelfHessian *h);
+PetscErrorCode MSimSelfHessianDestroy(MSimSelfHessian *h);
+PetscErrorCode MSimSelfHessianBegin(MSimSelfHessian *h, Mat J);
+/* gnum: the block's vertices' global free numbers (-1: fixed, no row or column) */
+PetscErrorCode MSimSelfHessianAdd(MSimSelfHessian *h, const PetscInt gnum[4], const PetscScalar H[144]);
+PetscErrorCode MSimSelfHessianEnd(MSimSelfHessian *h, VecScatter neighbours);

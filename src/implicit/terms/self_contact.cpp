@@ -30,7 +30,9 @@
    them as far as they must (FeasibleStart_Self). PD: the barrier's force in the right-hand side,
    as the obstacles'.
    The Hessian's blocks join vertices the springs do not: the system's matrix takes new entries
-   when self-contact is on (MSimSystemCreateMatrix), and its assembly map follows the pattern.
+   when self-contact is on (MSimSystemCreateMatrix), and its assembly map follows the pattern. A
+   pair's rows that other ranks own go to them over the halo scatter's neighbours and are added
+   there in rank order (MSimSelfHessian, msim/self_contact.h): runs repeat bit for bit at 3 ranks.
    The surface: a cloth's grid triangles, a surface mesh's triangles, a tet mesh's boundary faces
    (src/contact/self_surface.cpp). */
 #include <msim/implicit.h>
@@ -110,6 +112,7 @@ typedef struct {
   std::vector<PetscInt>                order;
   PetscBool                            once; /* -msim_self_contact_once */
   Vec                                  hz, hd; /* moving handles: the carried start and the motion from it (FeasibleStart_Self), made at the first step */
+  MSimSelfHessian                      hess;   /* the Hessian's rows to their owners (msim/self_contact.h) */
 } SelfData;
 
 /* f(ee, v[4]) for each pair this rank computes whose boxes overlap: within dhat of each other at
@@ -584,6 +587,7 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, 
   PetscCall(MSimSelfSurfaceGather(s, term->imp->step.tx, X, NULL, 0, sd->x, NULL));
   PetscCall(PetscLogEventBegin(MSIM_SelfNarrow, 0, 0, 0, 0));
   PetscCall(Collect(sd, PETSC_TRUE, (PetscBool)(psd && sd->once)));
+  PetscCall(MSimSelfHessianBegin(&sd->hess, J));
   /* A term's block, with its closest points held fixed and projected in closed form (the header):
      lambda (w w^T) kron (r r^T), lambda = C max(0, 4 b'' s + 2 b') / s, times the term's weight c.
      Without -msim_self_contact_once every weight is 1 and the sum of these blocks is PSD. With it,
@@ -604,16 +608,15 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, 
   const bool group = psd && sd->once;
   auto       block = [&](const SelfTerm &t, PetscReal lambda) {
     PetscReal   r[3] = {0, 0, 0};
-    PetscInt    idx[12];
+    PetscInt    gnum[4];
     PetscScalar H[144];
     if (lambda == 0 || ierr) return;
     for (int k = 0; k < 4; k++)
       for (int c = 0; c < 3; c++) r[c] += t.w[k] * sd->x[3 * t.v[k] + c];
-    for (int k = 0; k < 4; k++)
-      for (int c = 0; c < 3; c++) idx[3 * k + c] = s->gnum[t.v[k]] >= 0 ? 3 * s->gnum[t.v[k]] + c : -1;
+    for (int k = 0; k < 4; k++) gnum[k] = s->gnum[t.v[k]];
     for (int i = 0; i < 12; i++)
       for (int j = 0; j < 12; j++) H[12 * i + j] = lambda * t.w[i / 3] * t.w[j / 3] * r[i % 3] * r[j % 3];
-    ierr = MatSetValues(J, 12, idx, 12, idx, H, ADD_VALUES);
+    ierr = MSimSelfHessianAdd(&sd->hess, gnum, H);
   };
   auto lam = [&](const SelfTerm &t) {
     PetscReal b, db, d2b;
@@ -658,8 +661,7 @@ static PetscErrorCode Hessian_Self(MSimImplicitTerm term, Vec X, PetscBool psd, 
   }
   PetscCall(PetscLogEventEnd(MSIM_SelfNarrow, 0, 0, 0, 0));
   PetscCall(ierr);
-  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MSimSelfHessianEnd(&sd->hess, s->xscatter)); /* the pairs' free vertices are its leaves */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -788,6 +790,7 @@ static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
   PetscFunctionBeginUser;
   PetscCall(MSimSelfSurfaceDestroy(&sd->surf));
   PetscCall(MSimDestroy(&sd->hz, &sd->hd));
+  PetscCall(MSimSelfHessianDestroy(&sd->hess));
   delete sd;
   term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -807,6 +810,7 @@ PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
   sd->opt      = o;
   term->data   = sd;
   term->ops.destroy = Destroy_Self;
+  PetscCall(MSimSelfHessianCreate(sys->comm, &sd->hess));
   PetscCall(MSimSelfSurfaceCreate(sys, &o, &sd->surf));
   {
     const PetscReal s0 = 0.25 * sd->surf->dhat * sd->surf->dhat, dh2 = sd->surf->dhat * sd->surf->dhat, mbar = sys->total_mass / sys->nv;
@@ -858,5 +862,134 @@ PetscErrorCode MSimSelfContactGetPairs(MSimImplicitTerm term, PetscReal t, Vec X
     p.force = 2 * sd->C * PetscAbsReal(db) * d;
     pairs.push_back(p);
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSelfHessianCreate(MPI_Comm comm, MSimSelfHessian *h)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscCommDuplicate(comm, &h->comm, &h->tag[0]));
+  PetscCall(PetscCommGetNewTag(h->comm, &h->tag[1]));
+  PetscCallMPI(MPI_Comm_rank(comm, &h->rank));
+  PetscCallMPI(MPI_Comm_size(comm, &h->size));
+  PetscCallMPI(MPI_Type_contiguous((int)sizeof(MSimSelfRows), MPI_BYTE, &h->type));
+  PetscCallMPI(MPI_Type_commit(&h->type));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSelfHessianDestroy(MSimSelfHessian *h)
+{
+  PetscFunctionBeginUser;
+  if (h->type != MPI_DATATYPE_NULL) PetscCallMPI(MPI_Type_free(&h->type));
+  if (h->comm != MPI_COMM_NULL) PetscCall(PetscCommDestroy(&h->comm));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSelfHessianBegin(MSimSelfHessian *h, Mat J)
+{
+  PetscFunctionBeginUser;
+  h->J = J;
+  h->send.clear();
+  h->dest.clear();
+  PetscCall(MatGetOwnershipRanges(J, &h->ranges));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSelfHessianAdd(MSimSelfHessian *h, const PetscInt gnum[4], const PetscScalar H[144])
+{
+  const PetscInt lo = h->ranges[h->rank], hi = h->ranges[h->rank + 1];
+  PetscInt       row[12], col[12];
+
+  PetscFunctionBeginUser;
+  for (int q = 0; q < 4; q++) {
+    const bool mine = gnum[q] < 0 || (3 * gnum[q] >= lo && 3 * gnum[q] < hi);
+    for (int c = 0; c < 3; c++) {
+      col[3 * q + c] = gnum[q] >= 0 ? 3 * gnum[q] + c : -1;
+      row[3 * q + c] = mine ? col[3 * q + c] : -1; /* negative: left out */
+    }
+    if (mine) continue;
+    MSimSelfRows r;
+    r.row = gnum[q];
+    for (int k = 0; k < 4; k++) r.col[k] = gnum[k];
+    for (int k = 0; k < 36; k++) r.v[k] = H[12 * (3 * q + k / 12) + k % 12];
+    h->send.push_back(r);
+    h->dest.push_back((PetscMPIInt)(std::upper_bound(h->ranges, h->ranges + h->size + 1, 3 * gnum[q]) - h->ranges - 1));
+  }
+  PetscCall(MatSetValues(h->J, 12, row, 12, col, H, ADD_VALUES));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSelfHessianEnd(MSimSelfHessian *h, VecScatter neighbours)
+{
+  PetscFunctionBeginUser;
+  if (h->size > 1) {
+    PetscInt                 nto, nfrom;
+    const PetscMPIInt       *to, *from;
+    std::vector<PetscMPIInt> scount, rcount, order;
+    std::vector<PetscInt>    soff, roff;
+    std::vector<MSimSelfRows> sorted;
+    std::vector<MPI_Request> req;
+
+    PetscCall(PetscSFSetUp(neighbours));
+    PetscCall(PetscSFGetRootRanks(neighbours, &nto, &to, NULL, NULL, NULL));
+    PetscCall(PetscSFGetLeafRanks(neighbours, &nfrom, &from, NULL, NULL));
+    /* the rows grouped by owner (in to's order), each group in the order of Add */
+    scount.assign(nto, 0);
+    soff.assign(nto + 1, 0);
+    std::vector<PetscInt> at(h->dest.size());
+    for (size_t k = 0; k < h->dest.size(); k++) {
+      at[k] = (PetscInt)(std::find(to, to + nto, h->dest[k]) - to);
+      PetscCheck(at[k] < nto, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a pair's vertex is owned by rank %d, which the pairs' scatter does not reach", (int)h->dest[k]);
+      scount[at[k]]++;
+    }
+    for (PetscInt i = 0; i < nto; i++) soff[i + 1] = soff[i] + scount[i];
+    sorted.resize(h->send.size());
+    {
+      std::vector<PetscInt> next(soff.begin(), soff.end() - 1);
+      for (size_t k = 0; k < h->send.size(); k++) sorted[next[at[k]]++] = h->send[k];
+    }
+    /* the counts, then the rows (a zero count: no message) */
+    rcount.assign(nfrom, 0);
+    for (PetscInt i = 0; i < nfrom; i++)
+      if (from[i] != h->rank) {
+        req.emplace_back();
+        PetscCallMPI(MPI_Irecv(&rcount[i], 1, MPI_INT, from[i], h->tag[0], h->comm, &req.back()));
+      }
+    for (PetscInt i = 0; i < nto; i++)
+      if (to[i] != h->rank) {
+        req.emplace_back();
+        PetscCallMPI(MPI_Isend(&scount[i], 1, MPI_INT, to[i], h->tag[0], h->comm, &req.back()));
+      }
+    PetscCallMPI(MPI_Waitall((int)req.size(), req.data(), MPI_STATUSES_IGNORE));
+    req.clear();
+    roff.assign(nfrom + 1, 0);
+    for (PetscInt i = 0; i < nfrom; i++) roff[i + 1] = roff[i] + rcount[i];
+    h->recv.resize(roff[nfrom]);
+    for (PetscInt i = 0; i < nfrom; i++)
+      if (rcount[i]) {
+        req.emplace_back();
+        PetscCallMPI(MPI_Irecv(h->recv.data() + roff[i], rcount[i], h->type, from[i], h->tag[1], h->comm, &req.back()));
+      }
+    for (PetscInt i = 0; i < nto; i++)
+      if (scount[i]) {
+        req.emplace_back();
+        PetscCallMPI(MPI_Isend(sorted.data() + soff[i], scount[i], h->type, to[i], h->tag[1], h->comm, &req.back()));
+      }
+    PetscCallMPI(MPI_Waitall((int)req.size(), req.data(), MPI_STATUSES_IGNORE));
+    /* added after this rank's own blocks, by sender in rank order */
+    order.resize(nfrom);
+    for (PetscInt i = 0; i < nfrom; i++) order[i] = (PetscMPIInt)i;
+    std::sort(order.begin(), order.end(), [&](PetscMPIInt a, PetscMPIInt b) { return from[a] < from[b]; });
+    for (PetscMPIInt i : order)
+      for (PetscInt k = roff[i]; k < roff[i + 1]; k++) {
+        const MSimSelfRows &r = h->recv[k];
+        PetscInt            row[3], col[12];
+        for (int c = 0; c < 3; c++) row[c] = 3 * r.row + c;
+        for (int q = 0; q < 12; q++) col[q] = r.col[q / 3] >= 0 ? 3 * r.col[q / 3] + q % 3 : -1;
+        PetscCall(MatSetValues(h->J, 3, row, 12, col, r.v, ADD_VALUES));
+      }
+  }
+  PetscCall(MatAssemblyBegin(h->J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MatAssemblyEnd(h->J, MAT_FINAL_ASSEMBLY));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -15,7 +15,8 @@
    step (its Hessian exact), the approximation IPC makes; the lag is redone when the step changes
    (its start time or beta h^2: every step, a retry with a smaller h). The pairs' free vertices are read from X - x_n by a scatter
    of this term's own, made at each lag (the self-contact surface's local numbering may be
-   re-planned within a step), and the gradient goes back by its reverse (ADD_VALUES). PD: the
+   re-planned within a step), and the gradient goes back by its reverse (ADD_VALUES); the Hessian's
+   rows that other ranks own go to them over that scatter's neighbours (MSimSelfHessian). PD: the
    gradient at the current iterate in the right-hand side, as the barrier's. */
 #include <msim/implicit.h>
 #include <msim/contact.h>
@@ -38,6 +39,7 @@ typedef struct {
   VecScatter                       scatter; /* state Vec -> dl */
   Vec                              dl, D;  /* the slots' displacements; X - x_n */
   std::vector<PetscReal>           d, g;
+  MSimSelfHessian                  hess;   /* the Hessian's rows to their owners (msim/self_contact.h) */
 } FrictionData;
 
 static PetscErrorCode Lag(MSimImplicitTerm term, FrictionData *fd)
@@ -155,24 +157,21 @@ static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBo
   PetscFunctionBeginUser;
   /* a lagged pair may join vertices no barrier block joins now: the system's matrix takes new
      entries when self-contact is on, and matrix.cpp rebuilds its assembly map when they come */
+  PetscCall(MSimSelfHessianBegin(&fd->hess, J));
   PetscCall(ForEachSliding(term, fd, X, [&](size_t q, PetscReal lambda, const PetscReal *P, const PetscReal *u, PetscReal y) {
     const MSimSelfContactPair &p = fd->pairs[q];
-    PetscInt                   idx[12];
     PetscScalar                H[144];
     PetscReal                  M[9];
     const PetscReal a = MSimFrictionF1OverY(y, eps), c = MSimFrictionHessianUU(y, eps);
     if (ierr) return;
     for (int r = 0; r < 3; r++)
       for (int s = 0; s < 3; s++) M[3 * r + s] = w * lambda * (a * P[3 * r + s] + c * u[r] * u[s]);
-    for (int k = 0; k < 4; k++)
-      for (int r = 0; r < 3; r++) idx[3 * k + r] = p.gnum[k] >= 0 ? 3 * p.gnum[k] + r : -1;
     for (int i = 0; i < 12; i++)
       for (int j = 0; j < 12; j++) H[12 * i + j] = p.w[i / 3] * p.w[j / 3] * M[3 * (i % 3) + j % 3];
-    ierr = MatSetValues(J, 12, idx, 12, idx, H, ADD_VALUES);
+    ierr = MSimSelfHessianAdd(&fd->hess, p.gnum, H);
   }));
   PetscCall(ierr);
-  PetscCall(MatAssemblyBegin(J, MAT_FINAL_ASSEMBLY));
-  PetscCall(MatAssemblyEnd(J, MAT_FINAL_ASSEMBLY));
+  PetscCall(MSimSelfHessianEnd(&fd->hess, fd->scatter)); /* the pairs' free vertices are its leaves */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -193,6 +192,7 @@ static PetscErrorCode Destroy_SelfFriction(MSimImplicitTerm term)
   PetscCall(VecScatterDestroy(&fd->scatter));
   PetscCall(VecDestroy(&fd->dl));
   PetscCall(VecDestroy(&fd->D));
+  PetscCall(MSimSelfHessianDestroy(&fd->hess));
   delete fd;
   term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -226,5 +226,6 @@ PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
   fd->self         = self;
   term->data       = fd;
   term->ops        = SelfFrictionOps;
+  PetscCall(MSimSelfHessianCreate(imp->sys->comm, &fd->hess));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
