@@ -3,9 +3,11 @@
 PETSc's matrix assembly sums the entries that several ranks send to one row in the order the
 messages arrive, so at 3 ranks and more (a row can then hear from two others) two runs of one scene
 differed in the last bits (a 13 x 13 cloth with BDF2 and PD: two outcomes in about 1 run in 3; a
-4 x 4 x 4 tet box with the volume term and Newton-CG: 5 outcomes in 6 runs).
+4 x 4 x 4 tet box with the volume term and Newton-CG: 5 outcomes in 6 runs; the tet slab of
+tests/self_contact_mesh.py folding onto itself with self-contact and friction: 6 in 6).
 The springs' matrices and the volume term's Hessian are assembled by each rank into its own rows
-(the halo springs and halo tets give a boundary row its other ranks' blocks), so
+(the halo springs and halo tets give a boundary row its other ranks' blocks), and self-contact's
+and self-friction's rows that other ranks own are sent to them and added there in rank order, so
 - PETSc's -info says every assembly of the PD matrix and of Newton's Jacobian stashed 0 entries
   for other ranks, at 3 ranks;
 - runs of each at 3 ranks end bit for bit alike (4 runs of the PD case, 3 of the tets', 2 else).
@@ -16,6 +18,7 @@ import sys
 import tempfile
 
 import msimtest as mt
+import self_contact_mesh as scm
 
 MSIM = mt.msim_path()
 check = mt.Checks()
@@ -24,10 +27,16 @@ CLOTH = ["-msim_cloth_n", "13", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_
 TETS = ["-msim_scene", "box", "-msim_box_n", "4,4,4", "-msim_box_size", "0.1,0.1,0.1", "-msim_fix_plane", "x_min",
         "-msim_young", "5e4", "-msim_gravity", "0,-30,0", "-msim_dt", "0.01", "-msim_steps", "2", "-msim_volume", "1"]
 NEWTON_CG = ["-msim_integrator", "implicit_euler", "-snes_type", "newtonls", "-ksp_type", "cg"]
+# tests/self_contact_mesh.py's slab (Newton capped at 15 iterations a step) with steps twice as long:
+# it folds into self-contact within the 10
+SLAB = list(scm.SLAB) + ["-msim_self_contact", "-snes_type", "newtonls", "-ksp_type", "cg"]
+SLAB[SLAB.index("-msim_dt") + 1] = "0.04"
+SLAB[SLAB.index("-msim_steps") + 1] = "10"
 # name: (options, runs)
 CASES = {"cloth, BDF2 with PD": (CLOTH + ["-msim_integrator", "bdf2", "-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"], 4),
          "cloth, implicit Euler with Newton-CG": (CLOTH + NEWTON_CG + ["-msim_damping", "0.1"], 2),
-         "tet box with the volume term, Newton-CG": (TETS + NEWTON_CG + ["-snes_max_it", "10"], 3)}
+         "tet box with the volume term, Newton-CG": (TETS + NEWTON_CG + ["-snes_max_it", "10"], 3),
+         "tet slab folding in self-contact with friction, Newton-CG": (SLAB, 2)}
 
 
 def main():
