@@ -250,6 +250,16 @@ def main():
             lines = mt.lines(r.stderr)
             check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: -msim_stifness was set but never used"),
                   f"np={np} misspelled option: rc {r.returncode}, stderr {lines!r}")
+        # an option given on two lines of one options file keeps the last value only: named in one
+        # warning line (a list option's repeat is an error: the corpus); a file's option given
+        # again on the command line is PETSc's ordinary override, and says nothing
+        with open(os.path.join(tmp, "repeated_dt.opts"), "w") as f:
+            f.write("-msim_dt 0.001\n-msim_steps 2\n# a smaller step\n-msim_dt 0.0005\n")
+        for np in nps:
+            r = run(["-options_file", "repeated_dt.opts", "-msim_steps", "3"], tmp, np)
+            lines = mt.lines(r.stderr)
+            check(r.returncode == 0 and lines == ["msim: warning: repeated_dt.opts lines 1 and 4: -msim_dt is given twice; only the last, 0.0005 (line 4), counts"],
+                  f"np={np} an option repeated in an options file: rc {r.returncode}, stderr {lines!r}")
         # an implicit solve cut off by -snes_max_it before its tolerance: the run goes on, and one
         # warning line at its end says how many steps stopped short; a fixed count says nothing
         implicit = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "8", "-msim_dt", "0.0333", "-msim_steps", "4"]

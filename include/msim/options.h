@@ -1,5 +1,5 @@
-/* Reading msim's options (options.cpp, options_watch.cpp) and warning about those nobody read
-   (errors.cpp). */
+/* Reading msim's options (options.cpp), options files' repeats (options_file_repeats.cpp) and the
+   options nobody read (options_unread.cpp). */
 #pragma once
 #include <msim/petsc_compat.h>
 #include <string>
@@ -29,6 +29,12 @@ typedef struct {
 } MSimOptionsWatch;
 PetscErrorCode MSimOptionsWatchBegin(MSimOptionsWatch *watch);
 PetscErrorCode MSimOptionsWatchEnd(MSimOptionsWatch *watch, std::string &read);
+
+/* Collective, after PetscInitialize: each plain -options_file of the command line (and each it
+   includes) read again on rank 0 for an option given on two of its lines, which PETSc's database
+   keeps only the last of: an error for msim's list options (obstacles, vertex ids, ...), a warning
+   line for any other (options_file_repeats.cpp). */
+PetscErrorCode MSimCheckOptionsFileRepeats(MPI_Comm comm);
 
 /* Options set but never read (a misspelled name does nothing otherwise): one warning line each on
    stderr, unless -options_left asked PETSc to list them. */

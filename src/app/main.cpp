@@ -19,6 +19,7 @@ static PetscErrorCode MSimMain(void)
 
   PetscFunctionBeginUser;
   PetscCall(MSimInitialize());
+  PetscCall(MSimCheckOptionsFileRepeats(PETSC_COMM_WORLD));
   PetscCall(MSimSceneCreateFromOptions(PETSC_COMM_WORLD, &scene));
   PetscCall(MSimSystemCreate(PETSC_COMM_WORLD, scene, &sys));
   PetscCall(MSimSceneDestroy(&scene));
