@@ -24,12 +24,12 @@ import time
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.dirname(HERE)
 
-# tools/env.sh's settings and MSIM_TEST_ENV's yielding ranks (tests/CMakeLists.txt says why; ctest
-# sets the same): values already set win
+# tools/env.sh's settings and MSIM_TEST_ENV's yielding ranks and named pml (tests/CMakeLists.txt
+# says why; ctest sets the same): values already set win
 ENV = dict(os.environ)
 for _k, _v in (("OMPI_ALLOW_RUN_AS_ROOT", "1"), ("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1"),
                ("OMPI_MCA_rmaps_base_oversubscribe", "1"), ("OMPI_MCA_mpi_yield_when_idle", "1"),
-               ("OPENBLAS_NUM_THREADS", "1")):
+               ("OMPI_MCA_pml", "ob1"), ("OPENBLAS_NUM_THREADS", "1")):
     ENV.setdefault(_k, _v)
 
 
