@@ -30,7 +30,8 @@
   and a restart whose state is inside a (new) obstacle are one error line; with obstacles as VI
   bounds too, where a restart at rest on them (d = 0) is bit for bit. The 1e-6 dhat margin is the
   barrier's: a penalty or VI bounds start on an obstacle (d = 0, or a roundoff from it). Fixed
-  vertices are not checked: a cloth pinned by an edge inside a box runs, its free vertices outside.
+  vertices are not checked: a cloth pinned by an edge inside a box runs, its free vertices outside,
+  without a word; handles moved into a box are named in one warning line.
 Usage: contact.py path/to/msim [--np N]"""
 import math
 import os
@@ -281,8 +282,16 @@ def main():
             p, r = mt.final_positions(exe, pinned + args, np_, tmp, name="pinned")
             if check(p is not None, f"np {np_}: a cloth pinned by an edge inside a box, {label}: runs"):
                 d, fixed = box_distance(p, table), p[:, 0] == 0
-                check(fixed.sum() == 5 and (d[fixed] < 0).all() and (outside is None or d[~fixed].min() >= outside),
-                      f"np {np_}: pinned inside a box, {label}: the 5 fixed vertices inside (distance {d[fixed].max():.3g}), the free ones outside (least {d[~fixed].min():.3g})")
+                check(fixed.sum() == 5 and (d[fixed] < 0).all() and (outside is None or d[~fixed].min() >= outside) and not r.stderr.strip(),
+                      f"np {np_}: pinned inside a box, {label}: the 5 fixed vertices inside (distance {d[fixed].max():.3g}), the free ones outside (least {d[~fixed].min():.3g}), nothing said ({r.stderr.strip()[-300:]!r})")
+        # handles moving into an obstacle (at x = -0.1, step 5, past the box's face at -0.09) go on
+        # inside it, as no obstacle acts on a prescribed vertex: one warning line says so, naming
+        # the first vertex, the obstacle and the step (the run went on without a word)
+        r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_dt", "0.02", "-msim_steps", "8", "-msim_cloth_n", "5", "-msim_fix_box", "-1,0.05,-1,2,-1,1",
+                         "-msim_contact_box", "-0.5,-0.09,-0.5,1.5,-0.5,0.5", "-msim_fix_velocity", "-1,0,0"], np_)
+        lines = mt.lines(r.stderr)
+        check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: fixed vertex 0 enters obstacle 0 (-msim_contact_box) at step 5: obstacles do not act on prescribed vertices"),
+              f"np {np_}: handles driven into a box: one warning line ({lines!r})")
         # pd as newtonls's nonlinear preconditioner is the one composition allowed with a barrier
         # (its steps stay feasible): the cloth lands on a plane and stays out of it
         p, r = mt.final_positions(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "20",

@@ -96,6 +96,15 @@ PetscErrorCode MSimContactCheckRestart(MSimSystem sys, PetscReal t, Vec X, Petsc
 /* *speed = the fastest obstacle's speed (-msim_contact_velocity; 0 without obstacles): a moving
    obstacle gives the scene kinetic energy, which the divergence check's energy scale counts */
 PetscErrorCode MSimContactObstacleSpeed(MSimSystem sys, PetscReal *speed);
+/* Fixed vertices are not unknowns, and no obstacle acts on them: one that moves into an obstacle
+   (-msim_fix_velocity, or an obstacle's -msim_contact_velocity) stays inside it while the free
+   vertices are kept out. Watch notes, with no communication, the first fixed vertex of this rank
+   outside (or on) an obstacle at t0 and inside it at t1, the end of step `step`; nothing where
+   neither the handles nor any obstacle moves (a vertex pinned inside a static obstacle is a valid
+   scene). Warn (collective, at the run's end) says which vertex entered which obstacle first, in
+   one warning line. Nothing without obstacles. */
+PetscErrorCode MSimContactWatchHandles(MSimSystem sys, PetscInt step, PetscReal t0, PetscReal t1);
+PetscErrorCode MSimContactWarnHandles(MSimSystem sys);
 /* Signed distance of x to obstacle o (positive outside), its gradient n (unit) and, when H is
    not NULL, its Hessian (3 x 3, row major; zero for planes and box faces). */
 PetscReal MSimObstacleDistance(const MSimObstacle *o, const PetscReal x[3], PetscReal n[3], PetscReal H[9]);

@@ -386,6 +386,62 @@ PetscErrorCode MSimContactCheckBarrierStart(MSimSystem sys)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* the obstacles as -msim_scene_view numbers them: all in the barrier's list, or all in the VI
+   bounds' (which took every one of them, contact_bounds.cpp) */
+static const std::vector<MSimObstacle> &Obstacles(MSimContact ct)
+{
+  return ct->obs.empty() ? ct->bounds : ct->obs;
+}
+
+PetscErrorCode MSimContactWatchHandles(MSimSystem sys, PetscInt step, PetscReal t0, PetscReal t1)
+{
+  const PetscReal *w = sys->fix_velocity;
+  MSimContact      ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Query(sys, &ct));
+  /* the first entry on this rank is known once seen: the later steps' come after it */
+  if (!ct || ct->handle_step >= 0 || sys->nat_fixed.empty() || (w[0] == 0 && w[1] == 0 && w[2] == 0 && !ct->moving)) PetscFunctionReturn(PETSC_SUCCESS);
+  const std::vector<MSimObstacle> &obs = Obstacles(ct);
+  /* the block's fixed vertices, each held by one rank (the natural layout's), at b0 + t w */
+  for (size_t f = 0; f < sys->nat_fixed.size(); f++) {
+    PetscReal x0[3], x1[3], n[3];
+    for (int c = 0; c < 3; c++) {
+      x0[c] = sys->nat_b0[3 * f + c] + t0 * w[c];
+      x1[c] = sys->nat_b0[3 * f + c] + t1 * w[c];
+    }
+    for (size_t k = 0; k < obs.size(); k++)
+      if (MSimObstacleDistanceAt(&obs[k], t1, x1, n, NULL) < 0 && MSimObstacleDistanceAt(&obs[k], t0, x0, n, NULL) >= 0) {
+        const PetscInt v  = sys->nat_fixed[f];
+        ct->handle_step     = step;
+        ct->handle_id       = sys->nat_file_id.empty() || sys->nat_file_id[v] < 0 ? sys->dir.Start(sys->rank) + v : sys->nat_file_id[v];
+        ct->handle_obstacle = (PetscInt)k;
+        PetscFunctionReturn(PETSC_SUCCESS);
+      }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactWarnHandles(MSimSystem sys)
+{
+  MSimContact           ct;
+  std::vector<PetscInt> all(3 * sys->size);
+
+  PetscFunctionBeginUser;
+  PetscCall(Query(sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  const PetscInt mine[3] = {ct->handle_step, ct->handle_id, ct->handle_obstacle};
+  PetscCallMPI(MPI_Allgather(mine, 3, MPIU_INT, all.data(), 3, MPIU_INT, sys->comm));
+  PetscInt first = -1; /* the rank whose entry came first (the least step, then the least rank) */
+  for (PetscMPIInt r = 0; r < sys->size; r++)
+    if (all[3 * r] >= 0 && (first < 0 || all[3 * r] < all[3 * first])) first = r;
+  if (first < 0) PetscFunctionReturn(PETSC_SUCCESS);
+  const PetscInt k = all[3 * first + 2];
+  PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: fixed vertex %" PetscInt_FMT " enters obstacle %" PetscInt_FMT " (%s) at step %" PetscInt_FMT ": obstacles do not act on prescribed vertices, so it goes on along its path inside the obstacle\n", all[3 * first + 1], k,
+                         KindOption(Obstacles(ct)[k].kind), all[3 * first]));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimContactObstacleSpeed(MSimSystem sys, PetscReal *speed)
 {
   MSimContact ct;

@@ -25,6 +25,9 @@ struct _n_MSimContact {
   PetscInt                  pd_refactor_selective; /* at such a refactorization only the vertices off by more than sqrt(r) take their current weight while at most this many do (PD's own steps; 0: every vertex always) */
   PetscBool                 pc_pd_weight; /* the PD factor as Newton's preconditioner includes the contact weights */
   PetscBool                 pd_bound; /* PD: the global step's length from the contact terms' change alone (pd_gap), no Phi pass */
+  /* the first fixed vertex this rank saw enter an obstacle (MSimContactWatchHandles): the step
+     (-1: none yet), its input id and the obstacle's index */
+  PetscInt                  handle_step = -1, handle_id = 0, handle_obstacle = 0;
   /* friction's last step (set by its term at every evaluation, non-owning): x_n, the step's start
      and unknown's times and h, so that the output's force at the step's result includes friction */
   Vec                       fr_xn;
