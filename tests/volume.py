@@ -6,6 +6,9 @@ volume_ratio field), at the rank count given:
   frame; without it some frames have inverted tets (so the check can fail); the same with the
   barrier alone (-msim_volume_stiffness 0, whose passes skip tets), with Newton and with PD; with
   PD, Phi (evaluated in full under -info) does not rise at any step PD's bound on Phi accepted;
+- moving handles: a box pressed down onto a floor, or lifted through its bottom layer in one step,
+  with PD, its accelerations and Newton: no frame with an inverted tet, or one line naming the
+  handles and -msim_dt (moving_handles);
 - the bunny (examples/bunny.opts, PD with Anderson, 12 steps: the springs alone invert tets from
   step 9 on): the same two checks;
 - at 2 ranks a box bent by 15 g with the barrier acting (J < 0.9) ends where 1 rank's does, to
@@ -20,6 +23,7 @@ volume_ratio field), at the rank count given:
 Usage: volume.py path/to/msim [--no-tetgen] [--np N]"""
 import os
 import re
+import shutil
 import sys
 import tempfile
 
@@ -77,6 +81,36 @@ def bound_rises(name, args, np_):
     check(off.returncode == 0 and n_off == 0, f"np={np_} {name}: -msim_volume_pd_bound 0 leaves the bound out ({n_off} bound lines; rc {off.returncode})")
 
 
+def moving_handles(np_, tmp):
+    """Moving handles (-msim_fix_velocity) and the barrier alone (the bunny's settings): a box's top
+    face pressed down at 0.5 m/s onto a floor, with PD, PD + Anderson, PD + L-BFGS and Newton,
+    either runs through or stops in one line naming the handles (a step whose start they invert);
+    no frame has an inverted tet (plain PD and PD + Anderson wrote the handles' step through the
+    tets under them as their result: J down to -1.6). Handles rising at 5 m/s through the bottom
+    layer (3.3 cm) in one step: one line naming them and -msim_dt, with Newton (was a bare
+    DIVERGED_LINE_SEARCH) and PD (was 5 inverted frames, then "diverged"), the last finite state
+    written."""
+    base = ["-msim_scene", "box", "-msim_box_n", "3,3,3", "-msim_box_size", "0.1,0.1,0.1", "-msim_density", "1000",
+            "-msim_young", "1e4", "-msim_gravity", "0,0,0", "-msim_dt", "0.01", "-msim_integrator", "implicit_euler",
+            "-msim_volume", "-msim_volume_stiffness", "0"]
+    squash = base + ["-msim_fix_plane", "z_max", "-msim_fix_velocity", "0,0,-0.5", "-msim_contact_plane", "0,0,1,-0.005", "-msim_steps", "19"]
+    rise = base + ["-msim_fix_plane", "z_min", "-msim_fix_velocity", "0,0,5", "-msim_steps", "3"]
+    pd = ["-snes_type", "pd", "-snes_max_it", "50", "-snes_pd_fixed"]
+    for name, args, must_stop in [("squash, PD", squash + ["-snes_type", "pd", "-snes_max_it", "500"], False),
+                                  ("squash, PD + Anderson", squash + pd + ["-snes_pd_anderson", "5"], False),
+                                  ("squash, PD + L-BFGS", squash + pd + ["-snes_pd_lbfgs", "5"], False),
+                                  ("squash, Newton", squash, False),
+                                  ("rise, Newton", rise, True), ("rise, PD", rise + pd, True)]:
+        out = os.path.join(tmp, "handles")
+        r = mt.run(MSIM, args + ["-msim_output", out, "-msim_output_every", "1"], np_)
+        err = [l for l in mt.lines(r.stderr) if "error" in l]
+        named = len(err) == 1 and "moving handles" in err[0] and "-msim_dt" in err[0]
+        inverted = [int((J <= 0).sum()) for _, J in tetcheck.ratios(os.path.join(out, "series.pvd"))]
+        ok = (r.returncode == 0 and not err and not must_stop) or (r.returncode != 0 and named and os.path.exists(os.path.join(out, "last_finite.vtu")))
+        check(ok and max(inverted) == 0, f"np={np_} moving handles, {name}: rc {r.returncode}, inverted tets per frame {inverted}, error {err}")
+        shutil.rmtree(out)
+
+
 def guard_limit(extra, np_):
     r = mt.run(MSIM, BOX + ["-msim_integrator", "symplectic_euler", "-msim_steps", "1", "-msim_dt", "0.01"] + extra, np_)
     m = re.search(r"stability limit h <= (\S+)", r.stderr)
@@ -85,6 +119,7 @@ def guard_limit(extra, np_):
 
 for np_ in mt.ranks():
     with tempfile.TemporaryDirectory() as tmp:
+        moving_handles(np_, tmp)
         solid("squashed box", BOX + NEWTON, np_, tmp, 2)
         # the barrier alone (kv 0: its passes skip the tets the safe radii prove above jhat), with
         # Newton and with PD (the bunny's solver); the squash without the term inverts (above)

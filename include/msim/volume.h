@@ -34,5 +34,9 @@ PetscErrorCode MSimSystemVolumeHessian(MSimSystem sys, PetscReal t, Vec X, Petsc
 PetscErrorCode MSimSystemVolumeMaxStep(MSimSystem sys, PetscReal t, Vec X, Vec Y, PetscReal *alpha, PetscBool *barrier);
 /* ksum's free slots += each vertex's sum over its tets of ||D^2 E_ij|| at rest (Gershgorin) */
 PetscErrorCode MSimSystemVolumeRowSums(MSimSystem sys, PetscScalar *floc);
+/* Moving handles (-msim_fix_velocity): the tets inverted or flat (J <= 0) at X with the handles
+   at tx, summed over ranks, and the worst one's centroid (handles at t) and fraction a of the handles' move from
+   t to tx at which it flattens (+inf where none). Collective. */
+PetscErrorCode MSimSystemVolumeHandleStart(MSimSystem sys, PetscReal t, PetscReal tx, Vec X, PetscInt *ninv, PetscReal *a, PetscReal where[3]);
 /* inverted tets (J <= 0) at X, summed over ranks */
 PetscErrorCode MSimSystemVolumeCountInverted(MSimSystem sys, PetscReal t, Vec X, PetscInt *n);

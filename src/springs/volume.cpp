@@ -136,12 +136,60 @@ PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal modulus)
 PetscErrorCode MSimSystemVolumeCountInverted(MSimSystem sys, PetscReal t, Vec X, PetscInt *n)
 {
   PetscInt        local = 0;
+  MSimTets       &T = sys->tets;
+  const bool      refresh = T.refresh;
 
   PetscFunctionBeginUser;
+  /* where the passes may skip, so may the count: the tets the reference proves above jhat are
+     upright. A count is no pass of the term's: it leaves the reference's renewal to them */
   PetscCall(ForEachTet(sys, t, X, [&](size_t c, const double *const x[4]) {
     if (!(msim::TetSignedVolume(x[0], x[1], x[2], x[3]) > 0)) local++;
-  }));
+  }, CanSkip(sys)));
+  T.refresh = refresh;
   PetscCallMPI(MPI_Allreduce(&local, n, 1, MPIU_INT, MPI_SUM, sys->comm));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The handles' move over a step (-msim_fix_velocity w, from t to tx) with the free vertices at X:
+   each tet inverted or flat at (X, b(tx)) is flattened somewhere along that move, at the first
+   zero a of its volume along (X + w dt, b(tx)) - a (w dt on the free slots), a in [0, 1]: the
+   configuration at a = 0 is (X, b(t)) moved rigidly. The least such a over the ranks and that
+   tet's centroid at (X, b(t)) name the worst one. */
+PetscErrorCode MSimSystemVolumeHandleStart(MSimSystem sys, PetscReal t, PetscReal tx, Vec X, PetscInt *ninv, PetscReal *a, PetscReal where[3])
+{
+  const MSimTets        &T = sys->tets;
+  const PetscInt         nfree = sys->nown + sys->nghost; /* local slots below it are free */
+  const PetscReal        dt = tx - t, *w = sys->fix_velocity;
+  PetscInt               local = 0;
+  PetscReal              mine[4] = {PETSC_INFINITY, 0, 0, 0};
+  std::vector<PetscReal> all(4 * sys->size);
+
+  PetscFunctionBeginUser;
+  PetscCall(ForEachTet(sys, tx, X, [&](size_t c, const double *const x[4]) {
+    if (msim::TetSignedVolume(x[0], x[1], x[2], x[3]) > 0) return;
+    const PetscInt *q4 = T.slot.data() + 4 * c;
+    double          xs[4][3], ys[4][3];
+    for (int q = 0; q < 4; q++)
+      for (int k = 0; k < 3; k++) {
+        ys[q][k] = q4[q] < nfree ? w[k] * dt : 0.0;
+        xs[q][k] = x[q][k] + ys[q][k];
+      }
+    const double *xp[4] = {xs[0], xs[1], xs[2], xs[3]}, *yp[4] = {ys[0], ys[1], ys[2], ys[3]};
+    const double  z     = msim::TetFirstZero(T.V0[c], xp, yp, 1.0);
+    local++;
+    if (z < mine[0]) {
+      mine[0] = z;
+      for (int k = 0; k < 3; k++) mine[1 + k] = 0.25 * (xs[0][k] + xs[1][k] + xs[2][k] + xs[3][k]) - w[k] * dt; /* at (X, b(t)) */
+    }
+  }));
+  PetscCallMPI(MPI_Allreduce(&local, ninv, 1, MPIU_INT, MPI_SUM, sys->comm));
+  PetscCallMPI(MPI_Allgather(mine, 4, MPIU_REAL, all.data(), 4, MPIU_REAL, sys->comm));
+  *a = PETSC_INFINITY;
+  for (PetscMPIInt r = 0; r < sys->size; r++)
+    if (all[4 * r] < *a) {
+      *a = all[4 * r];
+      for (int k = 0; k < 3; k++) where[k] = all[4 * r + 1 + k];
+    }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

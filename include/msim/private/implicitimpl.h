@@ -249,6 +249,10 @@ struct _n_MSimImplicit {
      pass of MSimImplicitObjective instead of a local step (rejections come in runs) */
   PetscBool        pd_rejected  = PETSC_FALSE;
   MSimPDProblem pd;
+  /* a term's reason that the step has no feasible start (its feasible_start, where carrying
+     vertices cannot help: the tets' barrier under moving handles); empty: none. The integrator
+     fails the step with it, unsolved, as a failed solve (the last finite state kept) */
+  char             refused[512] = "";
 };
 
 /* For the schemes' begin_step: what the terms measure from (imp->step.xref, tref) and when the

@@ -189,6 +189,31 @@ static PetscErrorCode PDGap_Volume(MSimImplicitTerm term, Vec X0, Vec D, PetscIn
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Moving handles (-msim_fix_velocity): x_n, feasible at t_n, need not be at tx, where the
+   handles have moved by w h while the free vertices have not; a tet between them that is thinner
+   than that move along w is inverted there, the barrier infinite, and no solver can start: plain
+   PD's max_step was 0 from there and each step wrote that start, inverted, as its result (a 3 x 3
+   x 3 box whose top face pressed down at 0.5 m/s left the tets under it 0.3 mm thin after 9 steps,
+   then inverted them by 5 mm a step). Carrying the free vertices with the handles, as
+   self-contact's start does (FeasibleStart_Self), cannot help in general: what the handles push
+   is what the tets hold up (the box's floor). So the step is refused (imp->refused) with the
+   worst tet, the handles' move and the step that tet allows. A holds the other terms' start. */
+static PetscErrorCode FeasibleStart_Volume(MSimImplicitTerm term, Vec A)
+{
+  MSimImplicit    imp = term->imp;
+  MSimSystem      sys = imp->sys;
+  const PetscReal h = imp->step.tx - imp->step.t, *w = sys->fix_velocity, move = h * PetscSqrtReal(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+  PetscInt        n;
+  PetscReal       a, c[3];
+
+  PetscFunctionBeginUser;
+  imp->refused[0] = 0;
+  PetscCall(MSimSystemVolumeHandleStart(sys, imp->step.t, imp->step.tx, A, &n, &a, c));
+  if (!n) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(PetscSNPrintf(imp->refused, sizeof(imp->refused), "the moving handles (-msim_fix_velocity) invert %" PetscInt_FMT " tet(s): they move %g m in one step, and the worst tet, near (%g, %g, %g) m, flattens after %g m of it (the inversion barrier of -msim_volume is infinite at the step's start, where no solver can begin; reduce -msim_dt below %g s)", n, (double)move, (double)c[0], (double)c[1], (double)c[2], (double)(a * move), (double)(a * h)));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Destroy_Volume(MSimImplicitTerm term)
 {
   VolumeData *vd = (VolumeData *)term->data;
@@ -224,7 +249,11 @@ PetscErrorCode MSimImplicitTermCreate_Volume(MSimImplicitTerm term)
     term->ops.pd_check = NULL;
     term->ops.pd_gap   = NULL;
     term->ops.destroy  = NULL;
-  } else term->data = new VolumeData{PETSC_TRUE, 1, 0, 0, {}};
+  } else {
+    const PetscReal *w = term->imp->sys->fix_velocity;
+    term->data         = new VolumeData{PETSC_TRUE, 1, 0, 0, {}};
+    if (term->imp->sys->nfix_global && (w[0] != 0 || w[1] != 0 || w[2] != 0)) term->ops.feasible_start = FeasibleStart_Volume;
+  }
   /* Teschner's quadratic (kv > 0) is lagged too, over every tet: no pd_gap (PD halves on Phi) */
   if (T.kv != 0 || !T.pd_bound) term->ops.pd_gap = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

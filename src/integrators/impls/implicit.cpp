@@ -9,6 +9,7 @@
 #include <msim/implicit.h>
 #include <msim/convergence.h>
 #include <msim/contact_bounds.h>
+#include <msim/volume.h>
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
@@ -878,6 +879,12 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   if (ie->bounds) PetscCall(MSimContactBoundsBeginStep(ie->bounds, X)); /* from x_n */
   if (integ->step == 1) PetscCall(BarrierEnergy(ie, X, &integ->barrier_energy0)); /* at x_0, after BeginStep set the barriers up; a restart has it in its E0 */
   PetscCall(MSimImplicitGuess(ie->imp, V, X));
+  if (ie->imp->refused[0]) { /* no feasible start (a term's feasible_start said why): nothing to solve */
+    integ->failed      = PETSC_TRUE;
+    integ->failed_what = ie->imp->refused;
+    integ->failure[0]  = 0;
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
   ie->ls_cut = 1;
   PetscCall(SNESSolve(ie->snes, NULL, X));
   PetscCall(SNESGetConvergedReason(ie->snes, &reason));
@@ -937,6 +944,18 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
     else PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: %s)", type, SNESConvergedReasons[reason]));
   }
   if (PetscIsInfOrNanReal(integ->residual)) integ->failed = PETSC_TRUE;
+  if (!integ->failed && ie->imp->sys->tets.ntet && ie->imp->sys->tets.kappa > 0) {
+    /* the inversion barrier's promise, whatever the solver: its feasible set is kept by the
+       searches that ask max_step (PD's global step, the energy line search, ntr), not by every
+       SNES type (ksponly, PETSc's qn or ngmres take whole steps); a result with an inverted tet
+       fails the step instead of being written */
+    PetscInt bad;
+    PetscCall(MSimSystemVolumeCountInverted(ie->imp->sys, ie->imp->step.tx, X, &bad));
+    if (bad) {
+      integ->failed = PETSC_TRUE;
+      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: its result has %" PetscInt_FMT " inverted tet(s), where the inversion barrier of -msim_volume is infinite: a solver that keeps its feasible set, e.g. newtonls or pd)", type, bad));
+    }
+  }
   PetscCall(MSimImplicitEndStep(ie->imp, X, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
