@@ -37,13 +37,13 @@ PetscErrorCode MSimAndersonReset(MSimAnderson *aa)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accelerated)
+PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, Vec y, PetscBool *accelerated)
 {
   PetscFunctionBeginUser;
   *accelerated = PETSC_FALSE;
-  /* x <- f = g - x (x is overwritten below anyway) */
-  PetscCall(VecAYPX(x, -1.0, g));
-  Vec f = x;
+  /* y <- f = g - x (y is overwritten below anyway) */
+  PetscCall(VecWAXPY(y, -1.0, x, g));
+  Vec f = y;
   if (aa->m > 0 && aa->have_prev) {
     const PetscInt p = aa->next;
     PetscCall(VecWAXPY(aa->dF[p], -1.0, aa->f_prev, f));
@@ -61,7 +61,7 @@ PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accele
     aa->have_prev = PETSC_TRUE;
   }
   if (aa->count == 0) {
-    PetscCall(VecCopy(g, x));
+    PetscCall(VecCopy(g, y));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   /* normal equations of the small least-squares problem, regularized for near-dependence */
@@ -76,12 +76,12 @@ PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accele
   G.diagonal().array() += 1e-12 * G.diagonal().maxCoeff() + 1e-300;
   Eigen::VectorXd theta = G.ldlt().solve(b);
   if (!theta.allFinite()) {
-    PetscCall(VecCopy(g, x));
+    PetscCall(VecCopy(g, y));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   for (PetscInt i = 0; i < n; i++) col[i] = -theta(i);
-  PetscCall(VecCopy(g, x));
-  PetscCall(VecMAXPY(x, n, col.data(), aa->dG.data()));
+  PetscCall(VecCopy(g, y));
+  PetscCall(VecMAXPY(y, n, col.data(), aa->dG.data()));
   *accelerated = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

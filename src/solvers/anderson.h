@@ -16,6 +16,7 @@ typedef struct {
 PetscErrorCode MSimAndersonCreate(Vec tmpl, PetscInt m, MSimAnderson *aa);
 PetscErrorCode MSimAndersonDestroy(MSimAnderson *aa);
 PetscErrorCode MSimAndersonReset(MSimAnderson *aa);
-/* Record f = g - x and g; write the mixed iterate into x (x = g when there is no history yet).
-   *accelerated tells whether mixing was used. */
-PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, PetscBool *accelerated);
+/* Record f = g - x and g; write the mixed iterate into y (y = g when there is no history yet),
+   x untouched: the caller checks the way from x to y before it takes y. *accelerated tells
+   whether mixing was used. */
+PetscErrorCode MSimAndersonMix(MSimAnderson *aa, Vec x, Vec g, Vec y, PetscBool *accelerated);

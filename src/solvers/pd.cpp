@@ -4,8 +4,9 @@
    anderson, ngmres or qn (which share the DM). PD is block coordinate descent on Phi: Phi never
    increases. Options: -snes_max_it (10 is Liu et al.'s setting), -snes_atol/-snes_rtol on |g|,
    -snes_pd_fixed to run exactly max_it iterations without evaluating g, -snes_pd_anderson m for
-   Anderson acceleration with an energy safeguard (Peng et al. 2018): PETSc's own
-   -snes_type anderson -npc_snes_type pd composes too, but has no safeguard, so its Phi can rise.
+   Anderson acceleration with an energy safeguard (Peng et al. 2018) and the feasible sets' check
+   (max_step) on its mixed iterate: PETSc's own -snes_type anderson -npc_snes_type pd composes
+   too, but has neither, so its Phi can rise and its iterates can leave a feasible set.
    -snes_pd_lbfgs m: L-BFGS with the PD matrix as its initial Hessian (Liu et al. 2017), fused with
    PD's steps so that an iteration costs a PD iteration and a product with A (pd_lbfgs.cpp). */
 #include <msim/solvers.h>
@@ -167,9 +168,9 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes)
 static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
 {
   MSimPDProblem      *pd;
-  Vec                 F, rhs, G = NULL;
+  Vec                 F, rhs, G = NULL, Y = NULL, D = NULL;
   PetscReal           atol, rtol, stol, fnorm = 0, fnorm0 = 0, phi = 0, phi_new;
-  PetscInt            maxit, maxf, k, m, lm, fallbacks = 0;
+  PetscInt            maxit, maxf, k, m, lm, fallbacks = 0, cut = 0;
   PetscBool           fixed, accelerated;
   SNESPDOptions      *opts;
   SNESConvergedReason reason = SNES_CONVERGED_ITERATING;
@@ -203,6 +204,8 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   }
   if (m > 0) {
     PetscCall(VecDuplicate(X, &G));
+    PetscCall(VecDuplicate(X, &Y));
+    PetscCall(VecDuplicate(X, &D));
     PetscCall(MSimAndersonCreate(X, m, &aa));
   }
   if (lm > 0) {
@@ -250,12 +253,28 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
       PetscCall((*pd->rhs)(pd->ctx, X, rhs, NULL));      /* local step */
       PetscCall((*pd->global_solve)(pd->ctx, rhs, X, X)); /* global step */
     } else {
-      /* Anderson on the PD map, with Peng et al.'s energy safeguard: keep the mixed iterate only
-         if it lowers Phi below the current iterate's; otherwise take the plain PD step (which never
-         raises Phi) and restart the history */
+      /* Anderson on the PD map, with Peng et al.'s energy safeguard: keep the mixed iterate Y only
+         if the straight way to it from X stays inside every term's feasible set (max_step: the
+         contact barriers' CCD, the inversion barrier) and it lowers Phi below X's; otherwise take
+         the plain PD step G (whose global step keeps the feasible set and never raises Phi) and
+         restart the history. Phi alone cannot tell: Y mixes earlier iterates, so it can lie past
+         a barrier, where the barrier is zero again and Phi lower: the 13 x 13 fold (BDF2) passed
+         an edge through a triangle at step 42, handles pushing a sheet passed through it
+         (tests/self_contact.py, tests/self_contact_mesh.py). Like L-BFGS's step (pd_lbfgs.cpp),
+         Y is not shortened: the plain step holds near vertices by the barrier's weights */
       PetscCall((*pd->global_solve)(pd->ctx, rhs, X, G));
-      PetscCall(MSimAndersonMix(&aa, X, G, &accelerated));
-      PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi_new));
+      PetscCall(MSimAndersonMix(&aa, X, G, Y, &accelerated));
+      PetscReal t = 1;
+      if (accelerated && pd->max_step) {
+        PetscCall(VecWAXPY(D, -1.0, Y, X)); /* Y = X - D */
+        PetscCall((*pd->max_step)(pd->ctx, X, D, &t));
+        if (t < 1) cut++;
+      }
+      if (t < 1) phi_new = phi; /* not evaluated: the fallback below */
+      else {
+        PetscCall(VecCopy(Y, X));
+        PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi_new));
+      }
       if (accelerated && !(phi_new < phi)) {
         fallbacks++;
         PetscCall(VecCopy(G, X));
@@ -284,9 +303,11 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
   if (reason == SNES_CONVERGED_ITERATING) reason = fixed ? SNES_CONVERGED_ITS : SNES_DIVERGED_MAX_IT;
   PetscCall(SNESSetConvergedReason(snes, reason));
   if (m > 0) {
-    PetscCall(PetscInfo(snes, "pd: Anderson(%" PetscInt_FMT ") so far: fell back to the plain PD step %" PetscInt_FMT " times\n", m, fallbacks));
+    PetscCall(PetscInfo(snes, "pd: Anderson(%" PetscInt_FMT "): fell back to the plain PD step %" PetscInt_FMT " times, %" PetscInt_FMT " of them for mixed iterates leaving a feasible set\n", m, fallbacks, cut));
     PetscCall(MSimAndersonDestroy(&aa));
     PetscCall(VecDestroy(&G));
+    PetscCall(VecDestroy(&Y));
+    PetscCall(VecDestroy(&D));
   }
   if (lm > 0) {
     PetscCall(PetscInfo(snes, "pd: L-BFGS(%" PetscInt_FMT ") so far: fell back to the plain PD step %" PetscInt_FMT " times, %" PetscInt_FMT " of them for steps leaving a feasible set, %" PetscInt_FMT " by a backtrack, %" PetscInt_FMT " pairs of negative curvature skipped\n", lm, lbp->fallbacks, lbp->cut, lbp->backtracks, lbp->lb.skipped));
