@@ -12,7 +12,8 @@
   left to run are refused with one line, and no output directory is made;
 - BDF2 restarted at another -msim_dt starts up again, saying so once;
 - the clock through a restart at another -msim_dt and a second restart from that run's
-  checkpoint: the monitor's t runs on, and moving handles end at x0 + v T."""
+  checkpoint: the monitor's t runs on, and moving handles end at x0 + v T;
+- a restart's monitor file written by another run is refused and left as it was."""
 import os
 import random
 import shutil
@@ -216,6 +217,22 @@ def main():
             ends = [[0.1, 0, 0.2], [1.1, 0, 0.2]]
             err = max(abs(x[i][j] - ends[k][j]) for k, i in enumerate((0, 5)) for j in range(3)) if ok else float("nan")
             check(err < 1e-12, f"np={np}: the handles end at x0 + v T, T = 0.2 s (off by {err:.2e} m)")
+        # a restart's -msim_monitor_csv that another run wrote (here a cloth's, at 0.01 s a step,
+        # or a chain's that stopped before the checkpoint's step) is refused and left as it is;
+        # its rows were kept and the restart's appended to them (rows of t = 0.01 k, then 0.55 s)
+        chain = ["-msim_scene", "chain", "-msim_chain_n", "5", "-msim_integrator", "implicit_euler", "-msim_dt", "0.05"]
+        ck = os.path.join(tmp, "foreign.ck")
+        run(1, chain + ["-msim_steps", "10", "-msim_checkpoint", ck], tmp)
+        for np, first in ((1, ["-msim_cloth_n", "6", "-msim_integrator", "implicit_euler", "-msim_dt", "0.01", "-msim_steps", "20"]),
+                          (2, chain + ["-msim_steps", "5"])):
+            mon, out = os.path.join(tmp, f"foreign_{np}.csv"), os.path.join(tmp, f"foreign_{np}")
+            run(1, first + ["-msim_monitor_csv", mon], tmp)
+            before = open(mon, "rb").read() if os.path.exists(mon) else None
+            r = run(np, chain + ["-msim_steps", "20", "-msim_restart", ck, "-msim_monitor_csv", mon, "-msim_output", out], tmp)
+            lines = mt.lines(r.stderr)
+            check(before is not None and r.returncode != 0 and len(lines) == 1 and "another run's monitor" in lines[0]
+                  and open(mon, "rb").read() == before and not os.path.exists(out),
+                  f"np={np}: a restart onto another run's monitor file is refused, the file untouched ({lines[:2]})")
     return check.exit_code()
 
 

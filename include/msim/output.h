@@ -86,11 +86,14 @@ PetscErrorCode MSimProgressBegin(MSimProgress *p, PetscInt first);
 PetscErrorCode MSimProgressUpdate(MSimProgress *p, PetscInt step, PetscReal t);
 
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon);
-/* resume_step >= 0: a restarted run, keeping an existing file's rows up to that step */
-PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step);
+/* resume_step >= 0: a restarted run, keeping an existing file's rows up to that step if they end
+   with it at time resume_t (the checkpoint's), refusing the file otherwise */
+PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step, PetscReal resume_t);
 /* Rank 0: a CSV file whose rows start with their step keeps its header and its rows up to step
-   `last` (the tail cut off in place); *kept: whether it existed with a header */
-PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept);
+   `last` (the tail cut off in place); *kept: whether it existed with a header. t_last (or NULL):
+   the time the row of step `last` must have; where it has not (or there is none) *foreign is set,
+   *row_t is that row's time (NaN: none) and the file is left untouched */
+PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, const PetscReal *t_last, PetscBool *kept, PetscBool *foreign, PetscReal *row_t);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
 /* phi: the implicit step's incremental potential at its result (0 for explicit methods); contact
    (or NULL: zeros): the obstacles' total force x, y, z and vertices in contact (msim/contact_force.h) */

@@ -114,7 +114,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   integ->first_step = step0 + 1;
   {
     PetscErrorCode merr = MSimCheckpointCheckWritable(ck); /* first: a refusal leaves no file behind */
-    if (!merr) merr = MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1);
+    if (!merr) merr = MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1, t_ck);
     if (!merr && integ->ops.openfiles) merr = integ->ops.openfiles(integ);
     if (merr) { /* refused before anything is written: the new output directory goes again */
       PetscCall(MSimOutputRemoveIfUnused(out));

@@ -72,7 +72,7 @@ PetscErrorCode MSimConvergenceMonitorOpen(MSimConvergenceMonitor mon, PetscInt f
   if (!mon || mon->opened) PetscFunctionReturn(PETSC_SUCCESS);
   if (mon->sys->rank == 0) {
     PetscBool kept = PETSC_FALSE;
-    if (first_step > 1) PetscCall(MSimCSVKeepSteps(mon->path, first_step - 1, &kept));
+    if (first_step > 1) PetscCall(MSimCSVKeepSteps(mon->path, first_step - 1, NULL, &kept, NULL, NULL));
     mon->fp = fopen(mon->path, kept ? "a" : "w");
     ok      = mon->fp && (kept || (fprintf(mon->fp, "step,iteration,wall_s,phi,gnorm\n") > 0 && fflush(mon->fp) == 0));
   }

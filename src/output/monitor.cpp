@@ -4,6 +4,7 @@
 #include <msim/private/systemimpl.h>
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <string>
@@ -26,39 +27,51 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
 /* Opens the CSV; collective, so a file that cannot be written is an error on every rank. Rows are
    written and flushed as they are made, so a run that is killed keeps every step before its last
    (at most the line being written is cut). */
-PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step)
+PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume_step, PetscReal resume_t)
 {
   PetscMPIInt rank;
-  int         ok = 1;
+  int         ok    = 1;
+  PetscReal   row_t = 0;
 
   PetscFunctionBeginUser;
   if (!mon->csv_path[0]) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCallMPI(MPI_Comm_rank(comm, &rank));
   if (rank == 0) {
-    /* a restarted run keeps the rows up to its checkpoint and goes on from there */
-    PetscBool kept = PETSC_FALSE;
-    if (resume_step >= 0) PetscCall(MSimCSVKeepSteps(mon->csv_path, resume_step, &kept));
-    mon->csv = fopen(mon->csv_path, kept ? "a" : "w");
-    if (mon->csv && !kept) ok = fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s\n") > 0 && fflush(mon->csv) == 0;
-    else ok = mon->csv != NULL;
+    /* a restarted run keeps the rows up to its checkpoint and goes on from there, if they are the
+       checkpoint's run's: a file another run wrote (another scene, another step size) is left
+       as it is and the run refused, not spliced onto */
+    PetscBool kept = PETSC_FALSE, foreign = PETSC_FALSE;
+    if (resume_step >= 0) PetscCall(MSimCSVKeepSteps(mon->csv_path, resume_step, &resume_t, &kept, &foreign, &row_t));
+    if (foreign) ok = -1;
+    else {
+      mon->csv = fopen(mon->csv_path, kept ? "a" : "w");
+      if (mon->csv && !kept) ok = fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s\n") > 0 && fflush(mon->csv) == 0;
+      else ok = mon->csv != NULL;
+    }
   }
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
+  PetscCallMPI(MPI_Bcast(&row_t, 1, MPIU_REAL, 0, comm));
+  PetscCheck(ok != -1 || !PetscIsNanReal(row_t), comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_monitor_csv %s: another run's monitor (no row for the checkpoint's step %" PetscInt_FMT "): name another file or remove it", mon->csv_path, resume_step);
+  PetscCheck(ok != -1, comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_monitor_csv %s: another run's monitor (its step %" PetscInt_FMT " is at t = %g s, the checkpoint's at %g s): name another file or remove it", mon->csv_path, resume_step, (double)row_t, (double)resume_t);
   PetscCheck(ok, comm, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s", mon->csv_path);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 /* Rank 0: PATH keeps its header and its rows whose first field (the step) is <= last; *kept:
-   whether PATH existed with its header. Rows come in step order, so the rows to drop are the
+   whether PATH existed with its header. With t_last, the rows must end with step `last` at time
+   *t_last (the second field, to its printed 10 digits); otherwise *foreign is set, *row_t is that
+   row's time (NaN: no row for step `last`) and PATH is left untouched. Rows come in step order, so the rows to drop are the
    file's tail: it is read backward from the end, as far as the last row to keep (a checkpoint's
    interval of rows, not a 10-hour run's whole history), and cut there with one ftruncate, which a
    kill either does whole or not at all. A row cut short by a kill, the last one, goes too. */
-PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kept)
+PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, const PetscReal *t_last, PetscBool *kept, PetscBool *foreign, PetscReal *row_t)
 {
   FILE *fp = fopen(path, "r+b");
   char  head[4096];
 
   PetscFunctionBeginUser;
   *kept = PETSC_FALSE;
+  if (foreign) *foreign = PETSC_FALSE;
   if (!fp) PetscFunctionReturn(PETSC_SUCCESS);
   const bool header = fgets(head, sizeof(head), fp) && head[0] && head[strlen(head) - 1] == '\n';
   const long first  = header ? ftell(fp) : -1;
@@ -81,17 +94,29 @@ PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, PetscBool *kep
     }
     return io ? tail[(size_t)(p - from)] : '\n';
   };
-  long end = size; /* rows [first, end) stay */
+  long      end = size; /* rows [first, end) stay */
+  PetscBool at_last = PETSC_FALSE; /* the last row kept is step `last`'s */
+  PetscReal t_row   = PETSC_MAX_REAL;
   while (end > first && at(end - 1) != '\n') end--; /* a row cut by a kill */
   while (end > first && io) {
     long start = end - 1;
     while (start > first && at(start - 1) != '\n') start--;
     std::string row;
-    for (long p = start; p < end - 1 && row.size() < 24; p++) row += at(p);
+    for (long p = start; p < end - 1 && row.size() < 64; p++) row += at(p);
     char      *stop;
     const long step = strtol(row.c_str(), &stop, 10);
-    if (stop != row.c_str() && *stop == ',' && step <= last) break;
+    if (stop != row.c_str() && *stop == ',' && step <= last) {
+      at_last = (PetscBool)(step == last);
+      t_row   = strtod(stop + 1, NULL);
+      break;
+    }
     end = start;
+  }
+  if (t_last && io && !(at_last && PetscAbsReal(t_row - *t_last) <= 1e-9 * PetscAbsReal(*t_last))) {
+    fclose(fp); /* not the checkpoint's run's rows: left as they are */
+    *foreign = PETSC_TRUE;
+    *row_t   = at_last ? t_row : NAN;
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
   const bool cut = io && (end == size || ftruncate(fileno(fp), end) == 0);
   fclose(fp);
