@@ -44,6 +44,7 @@ under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each r
   failed step does, its last finite state kept (the latter was an error from inside the step)."""
 import math
 import os
+import subprocess
 import sys
 import tempfile
 
@@ -197,7 +198,49 @@ def main():
                 noted = "linearised scheme" in r.stderr
                 check(len(res) == 3 and all(lo < v < hi for v in res) and noted == (snes_type == "ksponly"),
                       f"np={np_}: -snes_type {snes_type}: the monitor's residual is |F| ({res}, in ({lo}, {hi})), a note for the linearised scheme: {noted} (exit {r.returncode})")
+            tolerance_tied(check, np_, tmp)
+            stage_failures_capped(check, np_, tmp)
     return check.exit_code()
+
+
+def tolerance_tied(check, np_, tmp):
+    """An adaptive TS's stage solves meet -ts_atol/-ts_rtol where -snes_* tolerances are unset: on a
+    damped, dragged chain with a moving handle the error against RK4 (h = 1e-5) falls as the TS's
+    tolerance tightens (alpha2 at 1e-6 and 1e-7 was 1.4e-7, then 2.9e-6 m: the stages' default
+    -snes_rtol 1e-8 set the error); a -snes_rtol looser than the tolerance needs is one warning."""
+    chain = ["-msim_scene", "chain", "-msim_chain_n", "3", "-msim_fix", "edge", "-msim_mass", "3", "-msim_stiffness", "50",
+             "-msim_prestretch", "1.05", "-msim_damping", "0.3", "-msim_drag", "0.2", "-msim_wind", "0.5,0,0",
+             "-msim_fix_velocity", "0,0.4,0.2", "-msim_spectrum_check", "0"]
+    t_end, dt = 0.2, 0.04
+    ref, _ = mt.final_positions(MSIM, chain + ["-msim_integrator", "rk4", "-msim_dt", "1e-5", "-msim_steps", str(round(t_end / 1e-5))], np_, tmp, "tied_ref")
+    for ts_type in ("alpha2", "cn"):
+        e = []
+        for tol in ("1e-6", "1e-7"):
+            x, _ = mt.final_positions(MSIM, chain + ["-msim_integrator", "ts", "-ts_type", ts_type, "-ts_adapt_type", "basic", "-ts_atol", tol, "-ts_rtol", tol,
+                                                     "-msim_dt", repr(dt), "-msim_steps", str(round(t_end / dt))], np_, tmp, f"tied_{ts_type}_{tol}")
+            e.append(float(np.abs(x - ref).max()) if x is not None and ref is not None else float("nan"))
+        check(e[1] < 0.3 * e[0], f"np={np_}: adaptive {ts_type}: error {e[0]:.2e} at -ts_atol/-ts_rtol 1e-6, {e[1]:.2e} at 1e-7 (falls with the tolerance)")
+    r = mt.run(MSIM, chain + ["-msim_integrator", "ts", "-ts_type", "alpha2", "-ts_adapt_type", "basic", "-ts_atol", "1e-7", "-ts_rtol", "1e-7",
+                              "-snes_rtol", "1e-8", "-msim_dt", repr(dt), "-msim_steps", "1"], np_)
+    warned = [l for l in mt.lines(r.stderr) if "-snes_rtol" in l and "warning" in l]
+    check(r.returncode == 0 and len(warned) == 1, f"np={np_}: -snes_rtol 1e-8 with -ts_atol/-ts_rtol 1e-7: one warning line (exit {r.returncode}, {warned})")
+
+
+def stage_failures_capped(check, np_, tmp):
+    """A fixed-step TS whose stage solves keep failing (beuler, a box landing hard with -msim_volume)
+    retried each at a quarter of the step, down to 1e-11 s, for 11+ minutes inside one -msim_dt (up
+    to -msim_ts_max_substeps 100000): its default cap of 20 ends the run in one line."""
+    box = ["-msim_scene", "box", "-msim_box_n", "3,3,3", "-msim_box_size", "0.1,0.1,0.1", "-msim_density", "1000", "-msim_young", "1e4",
+           "-msim_fix", "none", "-msim_gravity", "0,0,-200", "-msim_contact_plane", "0,0,1,-0.1", "-msim_integrator", "ts", "-ts_type", "beuler",
+           "-msim_volume", "-msim_volume_stiffness", "0", "-msim_dt", "0.01", "-msim_steps", "6"]
+    try:  # a guard against the old endless retries, not a timing check
+        r = mt.run(MSIM, box, np_, timeout=600)
+    except subprocess.TimeoutExpired:
+        check(False, f"np={np_}: beuler's failing stages on the box landing end the run (still running after 600 s)")
+        return
+    lines = mt.lines(r.stderr)
+    check(r.returncode != 0 and len(lines) == 1 and "-msim_ts_max_substeps 20" in lines[0] and "stage solves kept failing" in lines[0] and "last finite state is step" in lines[0],
+          f"np={np_}: beuler's failing stages on the box landing end the run in one line at 20 internal steps (exit {r.returncode}, {lines[-1:]})")
 
 
 if __name__ == "__main__":

@@ -15,3 +15,6 @@ PetscErrorCode MSimStopSignalBegin(MPI_Comm comm, MSimStopSignal *s);
 /* after each step: *signal_seen is SIGINT or SIGTERM when every rank is to stop now (collective) */
 PetscErrorCode MSimStopSignalPoll(MSimStopSignal *s, int *signal_seen);
 PetscErrorCode MSimStopSignalEnd(MSimStopSignal *s); /* handlers restored; safe to call twice */
+/* inside a step that can run long (an integrator's own inner steps): *signal_seen is the signal any
+   rank of comm noted so far, 0 if none (collective, blocking) */
+PetscErrorCode MSimStopSignalPending(MPI_Comm comm, int *signal_seen);

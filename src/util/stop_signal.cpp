@@ -58,3 +58,12 @@ PetscErrorCode MSimStopSignalEnd(MSimStopSignal *s)
   s->active = PETSC_FALSE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+PetscErrorCode MSimStopSignalPending(MPI_Comm comm, int *signal_seen)
+{
+  int local = (int)msim_signal_seen;
+
+  PetscFunctionBeginUser;
+  PetscCall(MPIU_Allreduce(&local, signal_seen, 1, MPI_INT, MPI_MAX, comm));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -23,6 +23,7 @@
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
 #include <msim/destroy.h>
+#include <msim/signals.h>
 
 typedef enum { TS_FORM_EXPLICIT, TS_FORM_FIRST_ORDER, TS_FORM_SECOND_ORDER } TSForm;
 
@@ -36,6 +37,9 @@ typedef struct {
   PetscReal   h_next;          /* the step the TS proposed last (adaptive) */
   PetscBool   adaptive;        /* the TS's error control chooses its steps (-ts_adapt_type not none) */
   PetscInt    max_substeps;    /* -msim_ts_max_substeps: internal steps allowed per -msim_dt */
+  PetscBool   max_substeps_set; /* given by the user (else a fixed-step TS gets its own, smaller default) */
+  PetscReal   stage_atol, stage_rtol; /* an adaptive TS's -ts_atol, -ts_rtol, for StageConverged */
+  PetscReal   stage_fprev;     /* the stage solve's |F| at the iteration before (StageConverged) */
   PetscInt    substeps, nrejected; /* internal steps and rejections in the run so far */
   Vec         H;               /* the checkpoint's history: h_next in every entry */
   PetscReal   fnorm0, fnorm;   /* the current stage solve's first and latest |F| (StageMonitor) */
@@ -168,6 +172,51 @@ static PetscErrorCode CheckStage(TSAdapt adapt, TS ts, PetscReal t, Vec Y, Petsc
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The stage solves' convergence test under an adaptive TS whose -snes_atol/-snes_rtol/-snes_stol
+   the user left alone: PETSc's default test stops at |F| <= 1e-8 |F0|, which is not in the units of
+   -ts_atol/-ts_rtol, and the error control then measures the solves' error, not the scheme's
+   (alpha2 on a damped chain: 1.4e-7 m off at -ts_atol/-ts_rtol 1e-6, 2.9e-6 m at 1e-7, more
+   steps for a worse answer). A relative stop is accepted only once the last step of the solve is
+   below a tenth of the TS's tolerance on the unknowns (positions for alpha2; positions and
+   velocities for the first-order types), or once |F| no longer halves (roundoff: at -ts_atol
+   1e-14 on a cloth no step gets that short); Newton's next correction is then far smaller still. */
+static PetscErrorCode StageConverged(SNES snes, PetscInt it, PetscReal xnorm, PetscReal snorm, PetscReal fnorm, SNESConvergedReason *reason, void *ctx)
+{
+  TSInteg *d = (TSInteg *)ctx;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESConvergedDefault(snes, it, xnorm, snorm, fnorm, reason, NULL));
+  if ((*reason == SNES_CONVERGED_FNORM_RELATIVE || *reason == SNES_CONVERGED_SNORM_RELATIVE) && snorm > 0.1 * (d->stage_atol + d->stage_rtol * xnorm) && fnorm < 0.5 * d->stage_fprev) *reason = SNES_CONVERGED_ITERATING;
+  d->stage_fprev = fnorm;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* An adaptive TS with nonlinear stages: the stage solves tied to -ts_atol/-ts_rtol where the user
+   set none of -snes_atol/-snes_rtol/-snes_stol (StageConverged); where -snes_rtol was set above a
+   hundredth of the TS's tolerance (alpha2's 1e-8 at 1e-7: 29 x the tolerance off), one warning */
+static PetscErrorCode SetStageTolerance(MSimIntegrator integ, TSInteg *d, SNES snes, TSType type)
+{
+  const char *prefix;
+  PetscBool   atol_set, rtol_set, stol_set;
+  PetscReal   atol, rtol, stol, tol;
+  PetscInt    maxit, maxf;
+
+  PetscFunctionBeginUser;
+  PetscCall(TSGetTolerances(d->ts, &d->stage_atol, NULL, &d->stage_rtol, NULL));
+  PetscCall(SNESGetOptionsPrefix(snes, &prefix));
+  PetscCall(PetscOptionsHasName(NULL, prefix, "-snes_atol", &atol_set));
+  PetscCall(PetscOptionsHasName(NULL, prefix, "-snes_rtol", &rtol_set));
+  PetscCall(PetscOptionsHasName(NULL, prefix, "-snes_stol", &stol_set));
+  if (!atol_set && !rtol_set && !stol_set) {
+    PetscCall(SNESSetConvergenceTest(snes, StageConverged, d, NULL));
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
+  tol = d->stage_atol > 0 && d->stage_rtol > 0 ? PetscMin(d->stage_atol, d->stage_rtol) : PetscMax(d->stage_atol, d->stage_rtol);
+  if (rtol > 1e-2 * tol) PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: adaptive -ts_type %s: the stage solves stop at -snes_rtol %g of their first residual, looser than the error control's tolerance %g needs (1e-2 of it), so the solves' error can exceed the scheme's and a tighter -ts_atol/-ts_rtol give a worse answer; lower -snes_rtol, or leave -snes_atol/-snes_rtol/-snes_stol unset and msim ties the stage solves to -ts_atol/-ts_rtol\n", type, (double)rtol, (double)tol));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* Whether type is one of types */
 static PetscBool TypeIn(TSType type, std::initializer_list<TSType> types)
 {
@@ -235,7 +284,7 @@ static PetscErrorCode SetFromOptions_TS(MSimIntegrator integ)
 
   PetscFunctionBeginUser;
   PetscOptionsBegin(integ->comm, NULL, "msim ts integrator", NULL);
-  PetscCall(MSimOptionsInt("-msim_ts_max_substeps", "An adaptive TS: most internal steps it may take within one -msim_dt before the run stops as diverged", NULL, d->max_substeps, &d->max_substeps, NULL));
+  PetscCall(MSimOptionsInt("-msim_ts_max_substeps", "Most internal steps the TS may take within one -msim_dt before the run stops as diverged (default 100000 for an adaptive TS; 20 for a fixed-step one, whose extra steps are retries of failed stage solves at a quarter of the step)", NULL, d->max_substeps, &d->max_substeps, &d->max_substeps_set));
   PetscOptionsEnd();
   PetscCheck(d->max_substeps >= 1, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_ts_max_substeps must be >= 1 (got %" PetscInt_FMT ")", d->max_substeps);
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -323,7 +372,12 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       PetscCall(SNESMonitorSet(snes, StageMonitor, d, NULL));
       PetscCall(TSSetApplicationContext(d->ts, integ));
       PetscCall(TSAdaptSetCheckStage(adapt, CheckStage));
+      if (d->adaptive && strcmp(type, TSROSW)) PetscCall(SetStageTolerance(integ, d, snes, type)); /* rosw's stages are linear solves */
     }
+    /* a fixed-step TS takes one step per -msim_dt unless a stage solve fails, each failure
+       retrying at a quarter of the step: a box landing with -msim_volume under beuler shrank its
+       steps to 1e-11 s and ran for 11+ minutes in one interval at the default 100000 */
+    if (!d->adaptive && !d->max_substeps_set) d->max_substeps = 20;
   }
   /* an adaptive TS's first internal step (a fixed-step one always takes -msim_dt): -ts_dt where
      given, else -msim_dt, except for beuler, theta or cn: their error estimate needs the previous
@@ -391,12 +445,24 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   PetscCall(TSGetStepRejections(d->ts, &rej0));
   PetscCall(TSSetTime(d->ts, t));
   while (tend - tcur > eps) {
+    if (n > 0) { /* SIGINT or SIGTERM: the time loop polls after each step, which may never end here */
+      int sig;
+      PetscCall(MSimStopSignalPending(integ->comm, &sig));
+      if (sig) {
+        TSType type;
+        PetscCall(TSGetType(d->ts, &type));
+        integ->failed      = PETSC_TRUE;
+        integ->failed_what = sig == SIGINT ? "stopped by SIGINT" : "stopped by SIGTERM";
+        PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " inside the step (-ts_type %s: %" PetscInt_FMT " internal steps reached t = %g of %g, the last of h = %g; no checkpoint of a state between intervals)", type, n, (double)tcur, (double)tend, (double)d->h_next));
+        break;
+      }
+    }
     if (n >= d->max_substeps) { /* stops as a failed step does, the last finite state kept (was an error from inside the step: no such state, no frame of it) */
       TSType type;
       PetscCall(TSGetType(d->ts, &type));
       integ->failed      = PETSC_TRUE;
       integ->failed_what = "the TS ran out of internal steps";
-      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g reached t = %g of %g, the last proposing h = %g: raise it, or loosen -ts_atol/-ts_rtol)", type, d->max_substeps, (double)integ->dt, (double)tcur, (double)tend, (double)d->h_next));
+      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g reached t = %g of %g, the last proposing h = %g: %s)", type, d->max_substeps, (double)integ->dt, (double)tcur, (double)tend, (double)d->h_next, d->adaptive ? "raise it, or loosen -ts_atol/-ts_rtol" : "stage solves kept failing, each retried at a quarter step: lower -msim_dt"));
       break;
     }
     h = PetscMin(d->h_next, tend - tcur);
