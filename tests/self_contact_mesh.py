@@ -15,6 +15,11 @@ runs/self_contact/volume/tetcheck.py; no msim code), at the rank count given:
 - at ranks > 1, the slab with -msim_self_contact_halo 0 (other ranks' elements left out) has
   intersecting pairs where the fold crosses the partition (the halo matters; the test can fail):
   there this run stands for the slab's run without the feature, which runs at 1 rank only;
+- a 7 x 7 sheet (0.5 m) of handles 4 cm above a free 11 x 11 sheet (1 m), moved down at 5 m/s
+  (5 cm a step: past the free sheet's plane within the first), with PD + Anderson: no
+  intersecting pair in any frame and the free sheet under the handles ends below them, pushed
+  along (a frame check alone could miss a sheet passing through between frames). Anderson's
+  mixed iterates, unchecked by CCD, let the handles pass through (72 pairs from step 2);
 - a scene with no surface (a chain) is refused in one line naming -msim_self_contact.
 Usage: self_contact_mesh.py path/to/msim [--np N]"""
 import os
@@ -56,6 +61,24 @@ def write_sheet(path, n):
         f.writelines(f"3 {t[0]} {t[1]} {t[2]}\n" for t in tris)
 
 
+def write_sheets(path):
+    """a free 11 x 11 sheet of 1 m at z = 0 (vertices 0-120) and a 7 x 7 sheet of 0.5 m at z = 0.04
+    above its middle (121-169), both centred on the z axis; returns the upper sheet's ids"""
+    x, tris = [], []
+    for n, size, z in ((11, 1.0, 0.0), (7, 0.5, 0.04)):
+        off = len(x)
+        x += [(size * (i / (n - 1) - 0.5), size * (j / (n - 1) - 0.5), z) for j in range(n) for i in range(n)]
+        for j in range(n - 1):
+            for i in range(n - 1):
+                a = off + j * n + i
+                tris += [(a, a + 1, a + n + 1), (a, a + n + 1, a + n)]
+    with open(path, "w") as f:
+        f.write(f"OFF\n{len(x)} {len(tris)} 0\n")
+        f.writelines(f"{p[0]:.17g} {p[1]:.17g} {p[2]:.17g}\n" for p in x)
+        f.writelines(f"3 {t[0]} {t[1]} {t[2]}\n" for t in tris)
+    return list(range(121, len(x)))
+
+
 def frames(out):
     """per frame: intersecting pairs of the surface, and the inverted tets (None for a surface)"""
     pairs, inverted, V0 = [], [], None
@@ -84,6 +107,11 @@ def main():
     sheet = os.path.join(tmp, "sheet.off")
     write_sheet(sheet, 11)
     SHEET = COMMON + UP_Y + ["-msim_scene", "mesh", "-msim_mesh_file", sheet]
+    sheets = os.path.join(tmp, "sheets.off")
+    handles = write_sheets(sheets)
+    PUSH = ["-msim_scene", "mesh", "-msim_mesh_file", sheets, "-msim_fix", "list", "-msim_fix_list", ",".join(map(str, handles)),
+            "-msim_fix_velocity", "0,0,-5", "-msim_gravity", "0,0,0", "-msim_self_contact", "-msim_dt", "0.01", "-msim_steps", "3",
+            "-msim_integrator", "implicit_euler", "-snes_type", "pd", "-snes_pd_anderson", "5", "-snes_max_it", "20", "-snes_pd_fixed"]
     for np_ in mt.ranks():
         for name, args in (("sheet", SHEET), ("slab", SLAB)):
             off = None
@@ -102,6 +130,15 @@ def main():
             nohalo, _ = run(exe, check, SLAB + ["-msim_self_contact", "-msim_self_contact_halo", "0"], np_, os.path.join(tmp, f"nohalo_{np_}"), "the slab without the halo")
             if nohalo is not None:
                 check(max(nohalo) > 0, f"np {np_}: without the halo the slab's fold across ranks is missed (pairs per frame {nohalo}): the halo test can fail")
+        out = os.path.join(tmp, f"push_{np_}")
+        r = mt.run(exe, PUSH + ["-msim_output", out, "-msim_output_every", "1"], np_)
+        if check(r.returncode == 0, f"np {np_}: handles pushing a sheet with PD + Anderson run ({r.stderr.strip()[-400:]})"):
+            push, _ = frames(out)
+            x = vtu.read_vtu(vtu.read_pvd(os.path.join(out, "series.pvd"))[-1][1])["points"]
+            under = [v for v in range(handles[0]) if abs(x[v, 0]) <= 0.25 and abs(x[v, 1]) <= 0.25]
+            top, low = float(x[under, 2].max()), float(x[handles, 2].min())
+            check(len(push) == 4 and max(push) == 0 and top < low,
+                  f"np {np_}: handles pushing a sheet with PD + Anderson: no intersecting pair in any of {len(push)} frames ({push}), the free sheet under them ends below them (highest z {top:.4f} < the handles' {low:.4f})")
         r = mt.run(exe, ["-msim_scene", "chain", "-msim_integrator", "implicit_euler", "-msim_steps", "1", "-msim_self_contact"], np_)
         lines = [l for l in mt.lines(r.stderr) if "-msim_self_contact" in l]
         check(r.returncode != 0 and len(lines) == 1, f"np {np_}: a chain (no surface) refuses -msim_self_contact in one line ({lines})")
