@@ -262,7 +262,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   if (integ->stalled_steps)
     PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, integ->steps - step0, integ->stall));
   if (integ->barrier_energy0 > scale - integ->barrier_energy0)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: the contact barriers held %g J at the start, %g x the scene's energy scale %g J: elements that start within the contact distance (-msim_self_contact_start_gap below it, or a vertex near an obstacle) spring apart and turn it into kinetic energy; a start resting in contact needs its gaps near that distance, or a smaller -msim_self_contact_distance\n", (double)integ->barrier_energy0, (double)(integ->barrier_energy0 / (scale - integ->barrier_energy0)), (double)(scale - integ->barrier_energy0)));
+    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: the contact barriers held %g J at the start, %g x the scene's energy scale %g J: elements that start within the contact distance (-msim_self_contact_start_gap below it, a vertex near an obstacle, or moving handles whose first step brings elements that near) spring apart and turn it into kinetic energy; a start resting in contact needs its gaps near that distance, or a smaller -msim_self_contact_distance\n", (double)integ->barrier_energy0, (double)(integ->barrier_energy0 / (scale - integ->barrier_energy0)), (double)(scale - integ->barrier_energy0)));
   PetscCall(MSimContactWarnHandles(sys));
   PetscCall(MSimViewFinal(sys, info->t, X));
   PetscCall(MSimMonitorDestroy(sys->comm, &mon));
