@@ -120,6 +120,19 @@ CASES = [
     (["-msim_integrator", "symplectic_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_bounds"], "-msim_contact_bounds with -msim_integrator symplectic_euler is not supported"),
     (["-msim_integrator", "ts", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_bounds"], "-msim_contact_bounds with -msim_integrator ts is not supported"),
     (["-msim_contact_plane", "0,0,1,-1", "-msim_contact_thickness", "0.01"], "-msim_contact_thickness 0.01 acts on mesh obstacles (-msim_contact_mesh) only"),
+    # physics the scene or the integrator cannot take, and options that refine a flag not given:
+    # read, they escaped the unused-option warning and did nothing
+    (["-msim_volume"], "-msim_volume needs tets: use it with -msim_scene tet or box (scene 'cloth' has none)"),
+    (["-msim_volume_stiffness", "5"], "-msim_volume_stiffness has no effect without -msim_volume"),
+    (["-msim_scene", "box", "-msim_volume_kappa", "5"], "-msim_volume_kappa has no effect without -msim_volume"),
+    (["-msim_self_contact_distance", "0.01"], "-msim_self_contact_distance has no effect without -msim_self_contact"),
+    (["-msim_scene", "box", "-msim_volume", "-msim_volume_kappa", "-5"], "-msim_volume_kappa must be >= 0 Pa, or -1 for its default"),
+    (["-msim_scene", "box", "-msim_volume", "-msim_volume_stiffness", "-3"], "-msim_volume_stiffness must be >= 0 Pa, or -1 for its default"),
+    (["-msim_scene", "box", "-msim_volume", "-msim_integrator", "symplectic_euler"], "-msim_volume's inversion barrier with -msim_integrator symplectic_euler is not supported"),
+    (["-msim_integrator", "discrete_gradient", "-msim_psd", "0"], "-msim_psd with -msim_integrator discrete_gradient is not supported"),
+    # theta 0 failed at the first solve (a NaN residual), after the output was made
+    (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "0"], "-ts_theta_theta must be in (0, 1] (got 0.)"),
+    (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "1.5"], "-ts_theta_theta must be in (0, 1]"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),

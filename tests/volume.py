@@ -13,13 +13,12 @@ volume_ratio field), at the rank count given:
   step 9 on): the same two checks;
 - at 2 ranks a box bent by 15 g with the barrier acting (J < 0.9) ends where 1 rank's does, to
   roundoff (not the axial squash: a buckling problem, where the ranks' roundoff picks the side);
-- explicit integrators get the term's force and stiffness: the Gershgorin limit the stability guard
-  prints is lower with the term; symplectic Euler at half that limit runs through the squash and
-  its inverted tets per frame are reported: the barrier guarantees nothing with explicit steps
-  (there it inverts tets, and at 0.9 x the rest-state limit it diverges: the barrier's stiffness
-  grows without bound as J -> 0, past any limit computed at rest);
+- explicit integrators get the term's force and stiffness without the barrier (-msim_volume_kappa
+  0; the barrier, clamped in explicit steps, could not keep tets from inverting, and is refused
+  there): the Gershgorin limit the stability guard prints is lower with the term; symplectic Euler
+  at half that limit runs through the squash and its inverted tets per frame are reported;
 - bad input: -msim_volume_jhat out of (0, 1) is one error line; implicit_midpoint with the barrier
-  is refused.
+  is refused (explicit integrators with it: tests/bad_input.py).
 Usage: volume.py path/to/msim [--no-tetgen] [--np N]"""
 import os
 import re
@@ -137,10 +136,10 @@ for np_ in mt.ranks():
             ok = x1 is not None and xn is not None
             d = float(np.abs(x1 - xn).max()) if ok else float("nan")
             check(ok and d <= 1e-9, f"np={np_}: the bent box's final positions with the term equal 1 rank's (max difference {d:.1e} m)")
-        h_on, h_off = guard_limit(["-msim_volume", "1"], np_), guard_limit(["-msim_volume", "0"], np_)
+        h_on, h_off = guard_limit(["-msim_volume", "1", "-msim_volume_kappa", "0"], np_), guard_limit(["-msim_volume", "0"], np_)
         check(h_on is not None and h_off is not None and h_on < h_off, f"np={np_}: the explicit guard's Gershgorin limit counts the term: h <= {h_on} with it, {h_off} without")
         if h_on:
-            ex = inverted_frames(BOX + ["-msim_integrator", "symplectic_euler", "-msim_dt", f"{0.5 * h_on:.6g}", "-msim_steps", f"{int(0.2 / (0.5 * h_on))}", "-msim_volume", "1"], np_, os.path.join(tmp, "explicit"), 10)
+            ex = inverted_frames(BOX + ["-msim_integrator", "symplectic_euler", "-msim_dt", f"{0.5 * h_on:.6g}", "-msim_steps", f"{int(0.2 / (0.5 * h_on))}", "-msim_volume", "1", "-msim_volume_kappa", "0"], np_, os.path.join(tmp, "explicit"), 10)
             check(ex is not None, f"np={np_}: symplectic Euler with the term runs through the squash at half its limit")
             print(f"np={np_}: symplectic Euler on the squash with the term (no guarantee): inverted tets per frame {ex}")
         r = mt.run(MSIM, BOX + NEWTON + ["-msim_volume_jhat", "1.5"], np_)

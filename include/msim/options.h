@@ -20,6 +20,12 @@ PetscErrorCode MSimOptionsIntArray_Private(PetscOptionItems *, const char[], con
 PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, const char name[], const char help[], PetscReal v[3], PetscBool *set);
 #define MSimOptionsVec3(name, help, v, set) MSimOptionsVec3_Private(PetscOptionsObject, name, help, v, set)
 
+/* Options that refine a flag option (-msim_volume_kappa of -msim_volume), read with their set
+   flags: one set while the flag is not given at all is refused in one line naming both (read, it
+   would escape the unused-option warning and do nothing). The flag given as 0 lets them be: it
+   turns off what an options file set up with them. */
+PetscErrorCode MSimOptionsRefuseWithout(MPI_Comm comm, const char parent[], PetscInt n, const char *const names[], const PetscBool set[]);
+
 /* Which of the options the user set some code reads: Begin notes the msim_ options set and not
    read yet; End gives those of them read since, one "-name value" line each ("-name" for a flag),
    sorted. An option read before Begin is not seen (it is no longer unread), so a watch covers the

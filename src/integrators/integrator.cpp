@@ -117,10 +117,15 @@ PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ)
   PetscFunctionBeginUser;
   if (integ->setupcalled) PetscFunctionReturn(PETSC_SUCCESS);
   if (!integ->type[0]) PetscCall(MSimIntegratorSetType(integ, MSIMSYMPLECTICEULER));
-  if (!integ->help_listing) { /* self-contact needs an implicit scheme's feasible line search */
-    PetscBool implicit;
+  if (!integ->help_listing) { /* self-contact and the tets' inversion barrier need an implicit scheme's feasible line search */
+    PetscBool        implicit;
+    const MSimTets  &T = integ->sys->tets;
     PetscCall(MSimImplicitSchemeIsRegistered(integ->type, &implicit));
     PetscCall(MSimSelfContactCheckIntegrator(integ->sys, integ->type, implicit));
+    /* explicit steps take the barrier's force clamped (finite at J <= 0): it cannot keep a tet
+       from inverting there (the schemes without a barrier refuse it themselves; ts's implicit
+       stages fail where it blocks them, and stop at -msim_ts_max_substeps, tests/ts_implicit.py) */
+    PetscCheck(implicit || !strcmp(integ->type, MSIMTS) || !T.ntet || T.kappa == 0, integ->comm, PETSC_ERR_SUP, "-msim_volume's inversion barrier with -msim_integrator %s is not supported: only an implicit scheme's line search keeps tets from inverting; use implicit_euler or bdf2, or -msim_volume_kappa 0 (the volume term without the barrier)", integ->type);
   }
   if (integ->ops.setup) PetscCall((*integ->ops.setup)(integ));
   integ->setupcalled = PETSC_TRUE;

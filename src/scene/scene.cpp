@@ -138,6 +138,7 @@ PetscErrorCode MSimSceneCreateFromOptions(MPI_Comm comm, MSimScene *scene)
   PetscCall(PetscLogStagePush(MSIM_StageRead));
   PetscCall((*gen)(comm, &S));
   PetscCall(PetscLogStagePop());
+  PetscCheck(!S.volume || S.cell_size == 4, comm, PETSC_ERR_ARG_WRONG, "-msim_volume needs tets: use it with -msim_scene tet or box (scene '%s' has none)", type);
   if (S.cell_size != 4) {
     /* Young's modulus sets the springs of solids only: said to be irrelevant here, not applied to
        a surface's triangles */

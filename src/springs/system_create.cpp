@@ -15,6 +15,9 @@
 
 static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_partition, PetscInt *order)
 {
+  static const char *const volume_options[] = {"-msim_volume_stiffness", "-msim_volume_kappa", "-msim_volume_jhat", "-msim_volume_pd_bound"};
+  PetscBool                volume_set[4];
+
   PetscFunctionBeginUser;
   sys->gravity[0] = sys->gravity[1] = 0.0;
   sys->gravity[2]                   = -9.81;
@@ -29,10 +32,10 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_part
   sys->tets.kv    = -1;
   sys->tets.kappa = -1;
   sys->tets.jhat  = 0.2;
-  PetscCall(MSimOptionsReal("-msim_volume_stiffness", "Tet scenes: volume stiffness kv of -msim_volume, Pa (default: a tenth of the springs' Young's modulus; 0: the inversion barrier alone, whose passes skip the tets that cannot reach it)", NULL, sys->tets.kv, &sys->tets.kv, NULL));
-  PetscCall(MSimOptionsReal("-msim_volume_kappa", "Tet scenes: stiffness of -msim_volume's inversion barrier, Pa (default: kv, or a tenth of the springs' Young's modulus where kv is 0; 0: no barrier)", NULL, sys->tets.kappa, &sys->tets.kappa, NULL));
-  PetscCall(MSimOptionsReal("-msim_volume_jhat", "Tet scenes: the inversion barrier acts on tets compressed below this fraction of their rest volume", NULL, sys->tets.jhat, &sys->tets.jhat, NULL));
-  PetscCall(PetscOptionsBool("-msim_volume_pd_bound", "Tet scenes, PD with the inversion barrier alone: take the global step's length from a bound on Phi that needs only the barrier's change (no pass over the springs); 0: halve until Phi, evaluated in full, does not rise", NULL, sys->tets.pd_bound, &sys->tets.pd_bound, NULL));
+  PetscCall(MSimOptionsReal("-msim_volume_stiffness", "Tet scenes: volume stiffness kv of -msim_volume, Pa (default: a tenth of the springs' Young's modulus; 0: the inversion barrier alone, whose passes skip the tets that cannot reach it)", NULL, sys->tets.kv, &sys->tets.kv, &volume_set[0]));
+  PetscCall(MSimOptionsReal("-msim_volume_kappa", "Tet scenes: stiffness of -msim_volume's inversion barrier, Pa (default: kv, or a tenth of the springs' Young's modulus where kv is 0; 0: no barrier)", NULL, sys->tets.kappa, &sys->tets.kappa, &volume_set[1]));
+  PetscCall(MSimOptionsReal("-msim_volume_jhat", "Tet scenes: the inversion barrier acts on tets compressed below this fraction of their rest volume", NULL, sys->tets.jhat, &sys->tets.jhat, &volume_set[2]));
+  PetscCall(PetscOptionsBool("-msim_volume_pd_bound", "Tet scenes, PD with the inversion barrier alone: take the global step's length from a bound on Phi that needs only the barrier's change (no pass over the springs); 0: halve until Phi, evaluated in full, does not rise", NULL, sys->tets.pd_bound, &sys->tets.pd_bound, &volume_set[3]));
   PetscCall(PetscOptionsBool("-msim_partition_view", "Print the scene's counts, the edge cut, ghosts per rank and the load balance", NULL, *view_partition, view_partition, NULL));
   {
     const char *orders[] = {"auto", "input", "morton"};
@@ -40,6 +43,9 @@ static PetscErrorCode MSimSystemReadPhysics(MSimSystem sys, PetscBool *view_part
   }
   PetscOptionsEnd();
   PetscCheck(sys->drag >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_drag must be >= 0 N s/m (got %g)", (double)sys->drag);
+  PetscCall(MSimOptionsRefuseWithout(sys->comm, "-msim_volume", 4, volume_options, volume_set));
+  PetscCheck(sys->tets.kv >= 0 || sys->tets.kv == -1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_volume_stiffness must be >= 0 Pa, or -1 for its default (got %g)", (double)sys->tets.kv);
+  PetscCheck(sys->tets.kappa >= 0 || sys->tets.kappa == -1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_volume_kappa must be >= 0 Pa, or -1 for its default (got %g)", (double)sys->tets.kappa);
   PetscCheck(sys->tets.jhat > 0 && sys->tets.jhat < 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_volume_jhat must be in (0, 1) (got %g)", (double)sys->tets.jhat);
   PetscCheck(sys->damping >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_damping must be >= 0 N s/m (got %g)", (double)sys->damping);
   PetscCheck(sys->drag > 0 || (sys->wind[0] == 0 && sys->wind[1] == 0 && sys->wind[2] == 0), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_wind acts through air drag: set -msim_drag > 0");

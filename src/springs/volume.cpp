@@ -122,7 +122,6 @@ PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal modulus)
   if (T.kv < 0) T.kv = 0.1 * modulus;
   /* the barrier alone (kv = 0) keeps the stiffness kv would have had by default */
   if (T.kappa < 0) T.kappa = T.kv > 0 ? T.kv : 0.1 * modulus;
-  PetscCheck(T.kv >= 0 && T.kappa >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_volume_stiffness and -msim_volume_kappa must be >= 0 Pa (got %g, %g)", (double)T.kv, (double)T.kappa);
   if (T.kv == 0 && T.kappa == 0) {
     T.ntet = 0; /* nothing to compute */
     PetscFunctionReturn(PETSC_SUCCESS);

@@ -112,3 +112,13 @@ PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, con
   if (set) *set = flg;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
+
+PetscErrorCode MSimOptionsRefuseWithout(MPI_Comm comm, const char parent[], PetscInt n, const char *const names[], const PetscBool set[])
+{
+  PetscBool given;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscOptionsHasName(NULL, NULL, parent, &given));
+  for (PetscInt k = 0; k < n; k++) PetscCheck(given || !set[k], comm, PETSC_ERR_ARG_WRONG, "%s has no effect without %s", names[k], parent);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}

@@ -718,6 +718,8 @@ static PetscErrorCode RefuseUnread(MSimIntegrator integ, ImplicitData *ie)
   if (ie->J) PetscCall(PetscObjectTypeCompare((PetscObject)ie->J, MATSHELL, &shell));
   const PetscBool hessian = (PetscBool)(ie->J && !shell); /* the springs' Hessian assembled (not L-BFGS's constant PD matrix) */
   PetscCheck(!ie->pc_pd_set || uses, integ->comm, PETSC_ERR_SUP, "-msim_pc_pd with %s is not supported: it preconditions the SNES's linear solves, and this one solves none (newtonls, ntr, ksponly, the VI types and qn with -snes_qn_scale_type jacobian do)", types);
+  /* a discrete gradient's Jacobian is the terms' exact discrete_jacobian, which nothing projects */
+  PetscCheck(!ie->psd_set || !ie->imp->scheme->no_objective, integ->comm, PETSC_ERR_SUP, "-msim_psd with -msim_integrator %s is not supported: it projects the blocks of Phi's Hessian, and %s", integ->type, ie->imp->scheme->no_objective);
   PetscCheck(!ie->psd_set || hessian, integ->comm, PETSC_ERR_SUP, "-msim_psd with %s is not supported: it projects the Hessian's blocks, and this SNES assembles none (%s)", types,
              uses ? "qn's Jacobian is the constant PD matrix unless a -pc_type is given" : "newtonls, ntr, ksponly, the VI types and qn with -snes_qn_scale_type jacobian and a -pc_type do");
   PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESNEWTONLS, &newton));

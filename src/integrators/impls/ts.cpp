@@ -318,6 +318,13 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
   PetscCall(TSGetType(d->ts, &type));
   PetscCall(ClassifyType(type, &d->form, &known));
   PetscCheck(known, integ->comm, PETSC_ERR_SUP, "-ts_type %s: msim's ts integrator has no analytic form for this type; use an explicit type (euler, rk, ssp, basicsymplectic), a first-order implicit one (beuler, theta, cn, bdf, rosw, arkimex, alpha) or alpha2", type);
+  if (!strcmp(type, TSTHETA)) {
+    PetscReal theta;
+    PetscCall(TSThetaGetTheta(d->ts, &theta));
+    /* theta 0 is forward Euler written implicitly: its stage Jacobian's shift 1/(theta h) is
+       infinite (a NaN residual at the first solve); past 1 the scheme leaves its family */
+    PetscCheck(theta > 0 && theta <= 1, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_theta_theta must be in (0, 1] (got %g)", (double)theta);
+  }
   PetscCall(SetStabilityLimit(integ, d, type));
   PetscCall(CheckAlphaContact(integ, d->ts, type));
   switch (d->form) {
