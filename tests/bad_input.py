@@ -129,6 +129,7 @@ CASES = [
     (["-msim_scene", "box", "-msim_volume", "-msim_volume_kappa", "-5"], "-msim_volume_kappa must be >= 0 Pa, or -1 for its default"),
     (["-msim_scene", "box", "-msim_volume", "-msim_volume_stiffness", "-3"], "-msim_volume_stiffness must be >= 0 Pa, or -1 for its default"),
     (["-msim_scene", "box", "-msim_volume", "-msim_integrator", "symplectic_euler"], "-msim_volume's inversion barrier with -msim_integrator symplectic_euler is not supported"),
+    (["-msim_scene", "box", "-msim_volume", "-msim_integrator", "ts", "-ts_type", "beuler"], "-msim_volume's inversion barrier with -msim_integrator ts is not supported"),
     (["-msim_integrator", "discrete_gradient", "-msim_psd", "0"], "-msim_psd with -msim_integrator discrete_gradient is not supported"),
     # theta 0 failed at the first solve (a NaN residual), after the output was made
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "0"], "-ts_theta_theta must be in (0, 1] (got 0.)"),
