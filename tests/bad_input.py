@@ -274,6 +274,12 @@ def main():
             lines = mt.lines(r.stderr)
             check(r.returncode == 0 and lines == ["msim: warning: repeated_dt.opts lines 1 and 4: -msim_dt is given twice; only the last, 0.0005 (line 4), counts"],
                   f"np={np} an option repeated in an options file: rc {r.returncode}, stderr {lines!r}")
+        # the command line's -msim_dt after the file is the value that counts: the file's repeat is
+        # not named (the warning said 0.0005 counted where 0.0002 did)
+        r = run(["-options_file", "repeated_dt.opts", "-msim_dt", "0.0002", "-msim_monitor_csv", "dt.csv"], tmp, 1)
+        t = [float(row["t"]) for row in mt.read_csv(os.path.join(tmp, "dt.csv"))] if r.returncode == 0 else []
+        check(r.returncode == 0 and not mt.lines(r.stderr) and t and abs(t[-1] - 0.0004) < 1e-12,
+              f"an options file's repeated option overridden on the command line: no warning ({mt.lines(r.stderr)!r}), t = {t[-1:]} (want 0.0004)")
         # an implicit solve cut off by -snes_max_it before its tolerance: the run goes on, and one
         # warning line at its end says how many steps stopped short; a fixed count says nothing
         implicit = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "8", "-msim_dt", "0.0333", "-msim_steps", "4"]

@@ -5,8 +5,8 @@
    on rank 0, after PetscInitialize has read them (its syntax errors come first, in its words).
    An option whose value is a list of items is refused, naming the file and the lines; any other
    option repeated gets one warning line saying which value is used. A command-line option that
-   overrides a file's is PETSc's ordinary rule and is left alone, and so is an option repeated
-   across two files. */
+   overrides a file's (given after it) is PETSc's ordinary rule and is left alone, with the file's
+   repeats of it, and so is an option repeated across two files. */
 #include <msim/errors.h>
 #include <msim/options.h>
 #include <algorithm>
@@ -14,6 +14,7 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 #include <vector>
 
@@ -46,8 +47,9 @@ static bool IsYAML(const std::string &f)
 /* One plain options file, read as PetscOptionsInsertFile does (PETSc 3.18): '#' starts a comment
    anywhere on a line; a line holds one option and its value, or "alias -new -old"; -prefix_push P
    and -prefix_pop change the names that follow; -options_file F reads F, checked on its own. Names
-   compare without regard to case, as in PETSc's database. The warnings are added to warnings. */
-static PetscErrorCode CheckFile(const std::string &file, std::string &warnings)
+   compare without regard to case, as in PETSc's database. The warnings are added to warnings.
+   later: the names the command line gives after this file, whose values replace the file's. */
+static PetscErrorCode CheckFile(const std::string &file, const std::set<std::string> &later, std::string &warnings)
 {
   struct Given {
     std::string      typed, value;
@@ -106,7 +108,7 @@ static PetscErrorCode CheckFile(const std::string &file, std::string &warnings)
   std::vector<const Given *> repeated;
   for (const std::string &name : order) {
     auto it = given.find(name);
-    if (it == given.end() || it->second.lines.size() < 2) continue;
+    if (it == given.end() || it->second.lines.size() < 2 || later.count(name)) continue; /* the command line's value counts */
     const Given &g = it->second;
     const bool list = std::any_of(std::begin(kListOptions), std::end(kListOptions), [&](const char *o) { return name == o; });
     PetscCheck(!list, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "%s lines %s: %s is given %s, and only the last would be used: give all of them in one %s, comma-separated", file.c_str(), LineList(g.lines).c_str(), g.typed.c_str(), Times(g.lines).c_str(), g.typed.c_str());
@@ -115,7 +117,7 @@ static PetscErrorCode CheckFile(const std::string &file, std::string &warnings)
   for (const Given *g : repeated)
     warnings += "msim: warning: " + file + " lines " + LineList(g->lines) + ": " + g->typed + " is given " + Times(g->lines) + "; only the last, " + (g->value.empty() ? "without a value" : g->value) + " (line " + std::to_string(g->lines.back()) + "), counts\n";
   for (const std::string &f : nested)
-    if (!IsYAML(f)) PetscCall(CheckFile(f, warnings));
+    if (!IsYAML(f)) PetscCall(CheckFile(f, later, warnings));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -129,8 +131,17 @@ PetscErrorCode MSimCheckOptionsFileRepeats(MPI_Comm comm)
   PetscCall(MSimCallOnRankZero(comm, [&]() -> PetscErrorCode {
     std::string warnings; /* said once every file has passed: a refusal is the run's one line */
     PetscFunctionBeginUser;
-    for (int a = 1; a + 1 < argc; a++)
-      if (!strcasecmp(argv[a], "-options_file") && !IsYAML(argv[a + 1])) PetscCall(CheckFile(argv[a + 1], warnings));
+    for (int a = 1; a + 1 < argc; a++) {
+      if (strcasecmp(argv[a], "-options_file") || IsYAML(argv[a + 1])) continue;
+      std::set<std::string> later; /* PETSc inserts the arguments in order: those after the file replace its values */
+      for (int b = a + 2; b < argc; b++)
+        if (argv[b][0] == '-' && !isdigit((unsigned char)argv[b][1]) && argv[b][1] != '.') {
+          std::string name(argv[b] + 1);
+          std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+          later.insert(name);
+        }
+      PetscCall(CheckFile(argv[a + 1], later, warnings));
+    }
     PetscCall(PetscFPrintf(PETSC_COMM_SELF, PETSC_STDERR, "%s", warnings.c_str()));
     PetscFunctionReturn(PETSC_SUCCESS);
   }));
