@@ -382,7 +382,8 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       if (d->adaptive && strcmp(type, TSROSW)) PetscCall(SetStageTolerance(integ, d, snes, type)); /* rosw's stages are linear solves */
     }
     /* a fixed-step TS takes one step per -msim_dt unless a stage solve fails, each failure
-       retrying at a quarter of the step: a box landing with -msim_volume under beuler shrank its
+       retrying at a quarter of the step: a box landing with -msim_volume under beuler (a scene ts
+       now refuses; tests/ts_implicit.py fails stages by Newton's iteration limit) shrank its
        steps to 1e-11 s and ran for 11+ minutes in one interval at the default 100000 */
     if (!d->adaptive && !d->max_substeps_set) d->max_substeps = 20;
   }
