@@ -15,6 +15,15 @@
   refused with -msim_self_contact_distance 0.2 ("vertex 4 is 0.1 m from triangle (0, 1, 2)"), runs
   with 0.05 (the start gap follows the contact distance); a start gap above the contact distance
   is refused (the barrier acts only within it, and the halo holds other ranks' elements that far);
+- a restart (-msim_restart) is checked at the checkpoint's state, not at the scene's start: the
+  vertical triangle starts 0.2 m above the square (held by its corners) and falls through it
+  under gravity in a run without self-contact; restarted with -msim_self_contact from its
+  checkpoint at step 15 (vertex 4 0.27 m below the square, edges (4, 5) and (4, 6) through
+  triangle (0, 1, 2)) it is refused in one line naming the checkpoint's state, its file and step,
+  and the crossing (before the fix every restart ran, locked through itself); from step 5 (vertex 4
+  0.14 m above the square) with -msim_self_contact_distance 0.2 it is refused with
+  -msim_self_contact_start_gap 0.2 and runs without (a checkpoint of a run with self-contact
+  rests in contact within dhat: at a restart the gap is 0 by default, tests/self_contact_restart.py);
 - a stall is reported: the 41 x 41 cloth with the start check off (-msim_self_contact_start_check
   0, a switch for this test) stays locked through itself; every step's CCD cuts Newton's step to
   nothing with |g| far above its tolerance, and msim must warn that the steps did not converge
@@ -35,6 +44,30 @@ import vtu  # noqa: E402
 
 FOLD = ["-options_file", os.path.join(mt.ROOT, "examples", "cloth_fold.opts"), "-msim_cloth_n", "41"]
 SQUARE = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+
+
+def restarts(check, exe, tmp, np_):
+    """the falling triangle's checkpoints, written without self-contact, restarted with it"""
+    fall = os.path.join(tmp, "fall.off")
+    write_off(fall, 0.2)
+    scene = ["-msim_scene", "mesh", "-msim_mesh_file", fall, "-msim_fix", "list", "-msim_fix_list", "0,1,2,3", "-msim_gravity", "0,0,-9.81",
+             "-msim_integrator", "implicit_euler", "-msim_dt", "0.02"]
+    for step in (5, 15):
+        ck = os.path.join(tmp, f"fall_{step}_{np_}.ck")
+        r = mt.run(exe, scene + ["-msim_steps", str(step), "-msim_checkpoint", ck], np_)
+        if not check(r.returncode == 0 and os.path.exists(ck), f"np {np_}: the triangle falls {step} steps without self-contact ({r.stderr.strip()[-300:]})"):
+            return
+        restart = scene + ["-msim_steps", "20", "-msim_restart", ck, "-msim_self_contact"]
+        state = f"in the checkpoint's state (-msim_restart {ck}: step {step}, t = "
+        if step == 15:
+            refused(check, exe, restart, np_, os.path.join(tmp, f"restart_cross_{np_}"),
+                    ["-msim_self_contact: the surface passes through itself " + state, "edge (4, 5) passes through triangle (0, 1, 2)"], "restart through the square")
+            continue
+        restart += ["-msim_self_contact_distance", "0.2"]
+        refused(check, exe, restart + ["-msim_self_contact_start_gap", "0.2"], np_, os.path.join(tmp, f"restart_touch_{np_}"),
+                ["-msim_self_contact: the surface touches itself " + state, "vertex 4 is 0.14", "m from triangle (0, 1, 2)", "-msim_self_contact_start_gap 0.2"], "restart near the square")
+        r = mt.run(exe, restart, np_)
+        check(r.returncode == 0, f"np {np_}: the same restart without a start gap runs ({r.stderr.strip()[-300:]})")
 
 
 def write_off(path, z0):
@@ -101,6 +134,7 @@ def main():
             e, t = first_crossing[:2], first_crossing[2:]
             refused(check, exe, FOLD + ["-msim_steps", "1"], np_, os.path.join(tmp, f"cloth_{np_}"),
                     ["passes through itself at the start", f"edge ({e[0]}, {e[1]}) passes through triangle ({t[0]}, {t[1]}, {t[2]})"], "41 x 41 cloth")
+        restarts(check, exe, tmp, np_)
         # the stall report
         r = mt.run(exe, FOLD + ["-msim_self_contact_start_check", "0", "-msim_steps", "2"], np_)
         err = mt.lines(r.stderr)

@@ -17,6 +17,10 @@ volume_ratio field), at the rank count given:
   0; the barrier, clamped in explicit steps, could not keep tets from inverting, and is refused
   there): the Gershgorin limit the stability guard prints is lower with the term; symplectic Euler
   at half that limit runs through the squash and its inverted tets per frame are reported;
+- a restart with the barrier from a checkpoint written without the term (the squashed box, 48
+  tets inverted at step 3 at 1 rank) is refused in one line naming the checkpoint's state, file
+  and step, with nothing written (before, the start check ran at the scene's start only, and the
+  restart failed its first step's line search after writing its output);
 - bad input: -msim_volume_jhat out of (0, 1) is one error line; implicit_midpoint with the barrier
   is refused (explicit integrators with it: tests/bad_input.py).
 Usage: volume.py path/to/msim [--no-tetgen] [--np N]"""
@@ -110,6 +114,19 @@ def moving_handles(np_, tmp):
         shutil.rmtree(out)
 
 
+def restart_inverted(np_, tmp):
+    """the squashed box's checkpoint at step 3 without the term, restarted with the barrier"""
+    ck, out = os.path.join(tmp, "squash.ck"), os.path.join(tmp, "squash_restart")
+    solver = NEWTON[:2] + NEWTON[4:]  # without its -msim_steps
+    r = mt.run(MSIM, BOX + solver + ["-msim_steps", "3", "-msim_volume", "0", "-msim_checkpoint", ck], np_)
+    if not check(r.returncode == 0, f"np={np_}: the squashed box without the term runs 3 steps ({r.stderr[-300:]})"):
+        return
+    r = mt.run(MSIM, BOX + solver + ["-msim_steps", "5", "-msim_volume", "1", "-msim_restart", ck, "-msim_output", out], np_)
+    err = mt.lines(r.stderr)
+    named = f"tets are inverted or flat in the checkpoint's state (-msim_restart {ck}: step 3, t = 0.03 s)"
+    check(r.returncode != 0 and len(err) == 1 and named in err[0] and not os.path.exists(out), f"np={np_}: a restart with the barrier from its inverted tets is refused in one line naming the checkpoint, nothing written ({err[-2:]})")
+
+
 def guard_limit(extra, np_):
     r = mt.run(MSIM, BOX + ["-msim_integrator", "symplectic_euler", "-msim_steps", "1", "-msim_dt", "0.01"] + extra, np_)
     m = re.search(r"stability limit h <= (\S+)", r.stderr)
@@ -119,6 +136,7 @@ def guard_limit(extra, np_):
 for np_ in mt.ranks():
     with tempfile.TemporaryDirectory() as tmp:
         moving_handles(np_, tmp)
+        restart_inverted(np_, tmp)
         solid("squashed box", BOX + NEWTON, np_, tmp, 2)
         # the barrier alone (kv 0: its passes skip the tets the safe radii prove above jhat), with
         # Newton and with PD (the bunny's solver); the squash without the term inverts (above)

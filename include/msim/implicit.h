@@ -75,6 +75,9 @@ PetscErrorCode MSimImplicitJacobian(MSimImplicit imp, Vec X, Mat J);
 PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal delta, Mat J);
 /* the largest alpha in (0, 1] for which X - alpha Y is feasible for every term (1 today) */
 PetscErrorCode MSimImplicitMaxStep(MSimImplicit imp, Vec X, Vec Y, PetscReal *alpha);
+/* Refuses (one line, collective) a start state X at time t outside a term's feasible set (each
+   term's check_start); restart: NULL for the scene's start, else the checkpoint's, in words */
+PetscErrorCode MSimImplicitCheckStart(MSimImplicit imp, PetscReal t, Vec X, const char *restart);
 /* Newton with inertia correction (-msim_inertia_correction): the exact Hessian H, or H + delta M
    with the least delta of a geometric sequence for which the LDL^T in the KSP's Cholesky PC
    (MUMPS) has no negative pivot, so every Newton direction descends and Newton converges to

@@ -19,6 +19,11 @@ PetscErrorCode MSimIntegratorSetType(MSimIntegrator integ, const char type[]);
 PetscErrorCode MSimIntegratorSetFromOptions(MSimIntegrator integ);
 PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ);
 PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec V);
+/* Refuses (one line, collective) the state X at time t that a run starts from, the scene's start
+   or a checkpoint's, where the integrator's terms cannot begin a step (self-contact's surface
+   through itself, an inverted tet under the inversion barrier); restart: NULL for the scene's
+   start, else the checkpoint's in words (MSimCheckpointRestartState). After MSimIntegratorSetUp. */
+PetscErrorCode MSimIntegratorCheckStart(MSimIntegrator integ, PetscReal t, Vec X, const char *restart);
 PetscErrorCode MSimIntegratorView(MSimIntegrator integ, PetscViewer viewer);
 PetscErrorCode MSimIntegratorDestroy(MSimIntegrator *integ);
 /* What callers need of the body: */

@@ -66,6 +66,9 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
    time, step size and initial energy it was written at (*restarted: whether it did) */
 PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, Vec V, PetscInt *step, PetscReal *t, PetscReal *dt, PetscReal *E0, PetscBool *restarted);
 PetscErrorCode MSimCheckpointPath(MSimCheckpoint ck, char buf[], size_t len);
+/* the state a restart read, in words for a refusal that names it: "the checkpoint's state
+   (-msim_restart F: step 12, t = 0.24 s)" */
+PetscErrorCode MSimCheckpointRestartState(MSimCheckpoint ck, PetscInt step, PetscReal t, char buf[], size_t len);
 /* refuses, in one line, a checkpoint path that cannot be written (before any step) */
 PetscErrorCode MSimCheckpointCheckWritable(MSimCheckpoint ck);
 /* the integrator whose history (ops.get_history) checkpoints carry, under its type name; set

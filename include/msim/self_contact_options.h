@@ -12,7 +12,7 @@ typedef struct {
   PetscReal stiffness = 1;           /* -msim_self_contact_stiffness: multiplies the default barrier weight */
   PetscReal ccd_s     = 0.1;         /* -msim_self_contact_ccd_fraction: ACCD keeps this fraction of the gap */
   PetscBool halo      = PETSC_TRUE;  /* -msim_self_contact_halo (testing: 0 leaves other ranks' elements out) */
-  PetscReal start_gap   = -1;         /* -msim_self_contact_start_gap (-1: dhat): closer at the start is refused */
+  PetscReal start_gap   = -1;         /* -msim_self_contact_start_gap (-1: dhat, 0 at a restart): closer at the start is refused */
   PetscBool start_check = PETSC_TRUE; /* -msim_self_contact_start_check (0: no start check, for the stall report's test) */
   PetscBool once        = PETSC_FALSE; /* -msim_self_contact_once: each contact counted once (the term's feature weights) */
 } MSimSelfContactOptions;

@@ -16,7 +16,8 @@
 #pragma once
 #include <msim/system.h>
 
-/* After the distribution: kv's default, the start state's check (every tet positive). Collective. */
+/* After the distribution: kv's and kappa's defaults (the start state's check, every tet positive
+   under the barrier, is the implicit term's, on the state a run starts from). Collective. */
 PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal kv_default);
 /* F += w grad E (w = -1: the force) on owned rows, and *e += this rank's E (w not applied; e may
    be NULL; F may be NULL). X at time t (fixed slots from b(t)). Collective when F is given. With

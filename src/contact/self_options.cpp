@@ -25,7 +25,7 @@ PetscErrorCode MSimSelfContactGetOptions(MPI_Comm comm, MSimSelfContactOptions *
   PetscCall(MSimOptionsReal("-msim_self_contact_stiffness", "Self-contact: factor on the barrier's weight (1: a pair's stiffness at dhat/2 equals a mean vertex's mass term)", NULL, o->stiffness, &o->stiffness, &set[1]));
   PetscCall(MSimOptionsReal("-msim_self_contact_ccd_fraction", "Self-contact: additive CCD stops a step where a pair's gap falls to this fraction of its start (0 < s < 1)", NULL, o->ccd_s, &o->ccd_s, &set[2]));
   PetscCall(PetscOptionsBool("-msim_self_contact_halo", "Self-contact: include neighbouring ranks' elements (0 only to test that the halo matters)", NULL, o->halo, &o->halo, &set[3]));
-  PetscCall(MSimOptionsReal("-msim_self_contact_start_gap", "Self-contact: refuse a start whose vertex-disjoint surface elements are closer than this, m (-1: the contact distance dhat; 0: refuse only elements that cross or touch; a start resting in contact gives its gap)", NULL, o->start_gap, &o->start_gap, &set[4]));
+  PetscCall(MSimOptionsReal("-msim_self_contact_start_gap", "Self-contact: refuse a start whose vertex-disjoint surface elements are closer than this, m (-1: the contact distance dhat, and 0 at a restart's checkpoint, which may rest in contact; 0: refuse only elements that cross or touch; a start resting in contact gives its gap)", NULL, o->start_gap, &o->start_gap, &set[4]));
   /* off by default: the weighted energy is not C1 where two edges lie parallel and overlap (an
      edge-edge pair then has two closest vertex-edge features at once but is counted in the weights
      of both, so the energy there is the max of the two vertices' barriers, not their sum), and a

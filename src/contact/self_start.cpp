@@ -6,8 +6,13 @@
    the CCD cuts every Newton step to nothing (examples/cloth_fold.opts at 41 x 41 with its 1 cm
    perturbation: 6 crossing triangle pairs and a vertex 2.3e-6 m from a triangle, dhat 1.8e-3 m;
    every step stalled after one iteration with the cloth frozen).
-   Each rank checks the pairs its surface plan holds (own triangles and halo) at the scene's start
-   X0 under the term's rule (a pair with a free vertex, computed by the rank whose block holds its
+   The check is on the state the run starts from: the scene's start X0, or a restart's checkpoint,
+   where one written without self-contact can hold a surface folded through itself (such a
+   restart ran on, locked through itself). A checkpoint of a run with self-contact rests in
+   contact within dhat wherever its surfaces touch, so at a restart the gap is 0 by default
+   (crossing or touching elements only): a given -msim_self_contact_start_gap still applies.
+   Each rank checks the pairs its surface plan holds (own triangles and halo; re-planned at the
+   state first) under the term's rule (a pair with a free vertex, computed by the rank whose block holds its
    least input id, whose elements it always sees: src/contact/self_surface.cpp), and the worst
    offender over all ranks (a crossing first, then the smallest distance; ties by input ids) is
    named, so the line is the same at any rank count. Run once: a plain hash grid of its own. */
@@ -51,18 +56,21 @@ bool Crosses(const PetscReal *p, const PetscReal *q, const PetscReal *a, const P
 }
 } // namespace
 
-PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContactOptions *o)
+PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContactOptions *o, PetscReal t, Vec X, const char *restart)
 {
-  MSimSystem                sys = s->sys;
-  const std::vector<PetscReal> &x = s->xplan; /* the plan made at X0, t = 0 */
-  const PetscInt            nt = (PetscInt)s->tri.size() / 3, ne = (PetscInt)s->edge.size() / 2;
-  const PetscReal           gap = o->start_gap < 0 ? s->dhat : o->start_gap, dh2 = gap * gap;
-  Offence                   worst;
+  MSimSystem             sys = s->sys;
+  const PetscReal        gap = o->start_gap >= 0 ? o->start_gap : restart ? 0.0 : s->dhat, dh2 = gap * gap;
+  std::vector<PetscReal> x;
+  Offence                worst;
 
   PetscFunctionBeginUser;
   /* beyond dhat the barrier does not act, and the halo holds other ranks' elements only that far
      (plus a margin): a larger gap would be checked at one rank and not at several */
   PetscCheck(gap <= s->dhat, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_self_contact_start_gap %g m is above the contact distance %g m (-msim_self_contact_distance): the barrier acts only within it", (double)gap, (double)s->dhat);
+  /* the local vertices at X, re-planned where X is far from the plan (X0's), so that the halo
+     holds the elements near X */
+  PetscCall(MSimSelfSurfaceGather(s, t, X, NULL, 0, x, NULL));
+  const PetscInt nt = (PetscInt)s->tri.size() / 3, ne = (PetscInt)s->edge.size() / 2;
   /* the term's rule: some vertex free, the least input id in this rank's block */
   auto mine = [&](const PetscInt *v, int n) {
     PetscInt low = PETSC_MAX_INT;
@@ -150,9 +158,15 @@ PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContac
   if (worst.kind == 0) PetscCall(PetscSNPrintf(what, sizeof(what), "edge (%" PetscInt_FMT ", %" PetscInt_FMT ") passes through triangle (%" PetscInt_FMT ", %" PetscInt_FMT ", %" PetscInt_FMT ")", name[0], name[1], name[2], name[3], name[4]));
   else if (!worst.ee) PetscCall(PetscSNPrintf(what, sizeof(what), "vertex %" PetscInt_FMT " is %g m from triangle (%" PetscInt_FMT ", %" PetscInt_FMT ", %" PetscInt_FMT ")", name[0], (double)worst.d, name[1], name[2], name[3]));
   else PetscCall(PetscSNPrintf(what, sizeof(what), "edge (%" PetscInt_FMT ", %" PetscInt_FMT ") is %g m from edge (%" PetscInt_FMT ", %" PetscInt_FMT ")", name[0], name[1], (double)worst.d, name[2], name[3]));
-  char line[640];
-  if (worst.kind == 0) PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface passes through itself at the start: %s (vertex ids of the input); the barrier would keep them locked through each other: separate them (e.g. a smaller -msim_perturb)", what));
-  else PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface touches itself at the start: %s (vertex ids of the input), closer than -msim_self_contact_start_gap %g m (by default the contact distance, -msim_self_contact_distance): separate them (e.g. a smaller -msim_perturb), or for a start resting in contact give a smaller gap", what, (double)gap));
+  /* where, and what separates them: the scene's start, or a checkpoint's state (one written
+     without self-contact, or at a larger distance than this run's start gap) */
+  char where[PETSC_MAX_PATH_LEN + 128], line[PETSC_MAX_PATH_LEN + 768];
+  if (restart) PetscCall(PetscSNPrintf(where, sizeof(where), "in %s", restart));
+  else PetscCall(PetscStrncpy(where, "at the start", sizeof(where)));
+  const char *apart = restart ? "restart from a state where they are apart" : "separate them (e.g. a smaller -msim_perturb)";
+  if (worst.kind == 0) PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface passes through itself %s: %s (vertex ids of the input); the barrier would keep them locked through each other: %s", where, what, apart));
+  else if (!restart) PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface touches itself %s: %s (vertex ids of the input), closer than -msim_self_contact_start_gap %g m (by default the contact distance, -msim_self_contact_distance): %s, or for a start resting in contact give a smaller gap", where, what, (double)gap, apart));
+  else PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface touches itself %s: %s (vertex ids of the input), closer than -msim_self_contact_start_gap %g m (0 by default at a restart): %s, or give a smaller gap", where, what, (double)gap, apart));
   PetscCall(MSimCollectiveCheck(sys->comm, PETSC_FALSE, line));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

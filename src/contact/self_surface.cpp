@@ -305,7 +305,6 @@ PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOption
   s->margin0 = s->margin = 4 * s->dhat;
   if (sys->size > 1) PetscCall(Replan(s, 0));
   *out = s;
-  if (o->start_check) PetscCall(MSimSelfSurfaceCheckStart(s, o)); /* after *out: a refusal leaves it to the caller's destroy */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

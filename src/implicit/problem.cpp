@@ -363,6 +363,14 @@ PetscErrorCode MSimImplicitJacobianShifted(MSimImplicit imp, Vec X, PetscReal de
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimImplicitCheckStart(MSimImplicit imp, PetscReal t, Vec X, const char *restart)
+{
+  PetscFunctionBeginUser;
+  for (PetscInt k = 0; k < imp->nterms; k++)
+    if (imp->terms[k]->ops.check_start) PetscCall(imp->terms[k]->ops.check_start(imp->terms[k], t, X, restart));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimImplicitMaxStep(MSimImplicit imp, Vec X, Vec Y, PetscReal *alpha)
 {
   PetscFunctionBeginUser;

@@ -134,6 +134,13 @@ PetscErrorCode MSimIntegratorSetUp(MSimIntegrator integ)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimIntegratorCheckStart(MSimIntegrator integ, PetscReal t, Vec X, const char *restart)
+{
+  PetscFunctionBeginUser;
+  if (integ->ops.check_start) PetscCall((*integ->ops.check_start)(integ, t, X, restart));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 {
   PetscFunctionBeginUser;

@@ -107,6 +107,14 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(MSimImplicitSchemeIsRegistered(integ->type, &barrier));
     PetscCall(MSimContactCheckRestart(sys, t_ck, X, barrier));
   }
+  {
+    /* the state the steps start from, the scene's or the checkpoint's: a checkpoint written
+       without self-contact or the inversion barrier can hold a surface through itself or an
+       inverted tet, which the barrier would keep so (a restart from a crossing state ran on) */
+    char ckstate[PETSC_MAX_PATH_LEN + 96];
+    if (restarted) PetscCall(MSimCheckpointRestartState(ck, step0, t_ck, ckstate, sizeof(ckstate)));
+    PetscCall(MSimIntegratorCheckStart(integ, restarted ? t_ck : 0.0, X, restarted ? ckstate : NULL));
+  }
   /* all input is valid from here on: create the output directory (a monitor file may live in
      it), then open the monitor files */
   PetscCall(MSimOutputSetUp(out));

@@ -319,6 +319,13 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimCheckpointRestartState(MSimCheckpoint ck, PetscInt step, PetscReal t, char buf[], size_t len)
+{
+  PetscFunctionBeginUser;
+  PetscCall(PetscSNPrintf(buf, len, "the checkpoint's state (-msim_restart %s: step %" PetscInt_FMT ", t = %g s)", ck->restart, step, (double)t));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* for a message after an interrupted run: what was kept and how to go on */
 PetscErrorCode MSimCheckpointPath(MSimCheckpoint ck, char buf[], size_t len)
 {

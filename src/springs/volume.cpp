@@ -112,7 +112,6 @@ static PetscErrorCode ForEachTet(MSimSystem sys, PetscReal t, Vec X, F &&f, bool
 PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal modulus)
 {
   MSimTets &T = sys->tets;
-  PetscInt  bad;
 
   PetscFunctionBeginUser;
   if (!T.ntet) PetscFunctionReturn(PETSC_SUCCESS);
@@ -127,8 +126,6 @@ PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal modulus)
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   PetscCall(VecDuplicate(sys->xloc, &T.yloc));
-  PetscCall(MSimSystemVolumeCountInverted(sys, 0.0, sys->X0, &bad));
-  PetscCheck(!bad || T.kappa == 0, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_volume: %" PetscInt_FMT " tets are inverted or flat at the start (-msim_perturb or -msim_prestretch?): the inversion barrier needs every tet positive (-msim_volume_kappa 0 turns it off)", bad);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -133,6 +133,12 @@ typedef struct {
      vertices it must so that A is feasible at step.tx (MSimImplicitGuess pulls the first iterate
      back towards A instead of x_n) */
   PetscErrorCode (*feasible_start)(MSimImplicitTerm, Vec A) = NULL;
+  /* optional: refuses (one line, collective) the state X at time t a run starts from where the
+     term's feasible set does not hold it (self-contact: a surface through itself or closer than
+     its start gap; the inversion barrier: an inverted tet), so that no step begins outside it.
+     restart: NULL for the scene's start, else the checkpoint it was read from, in words
+     (MSimCheckpointRestartState), as the line names it */
+  PetscErrorCode (*check_start)(MSimImplicitTerm, PetscReal t, Vec X, const char *restart) = NULL;
   /* for a scheme whose residual is not Phi's gradient (scheme->no_objective): G += the term's
      part of that residual at X, its discrete gradient between imp->Xn and X (times step.h2) with
      its dissipation; and that part's exact Jacobian, blocks added into the assembled J

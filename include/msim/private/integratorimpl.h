@@ -16,6 +16,9 @@ typedef struct {
      a checkpoint writes; history_loaded: a restart filled them, the next step uses them */
   PetscErrorCode (*get_history)(MSimIntegrator, PetscInt *n, Vec **history) = NULL;
   PetscErrorCode (*history_loaded)(MSimIntegrator) = NULL;
+  /* optional: refuses the state (X at t) the run starts from where the integrator cannot step
+     from it (MSimIntegratorCheckStart) */
+  PetscErrorCode (*check_start)(MSimIntegrator, PetscReal t, Vec X, const char *restart) = NULL;
   PetscErrorCode (*destroy)(MSimIntegrator) = NULL;
 } MSimIntegratorOps;
 

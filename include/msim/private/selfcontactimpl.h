@@ -43,10 +43,11 @@ PetscErrorCode MSimSelfSurfaceTriangles(MPI_Comm comm, const MSimSceneData &S, s
 
 PetscErrorCode MSimSelfSurfaceCreate(MSimSystem sys, const MSimSelfContactOptions *o, MSimSelfSurface *s);
 PetscErrorCode MSimSelfSurfaceDestroy(MSimSelfSurface *s);
-/* Refuses (one line, collective) a start state X0 whose surface crosses itself or has
-   vertex-disjoint elements closer than -msim_self_contact_start_gap (dhat by default;
-   src/contact/self_start.cpp); called by MSimSelfSurfaceCreate. */
-PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContactOptions *o);
+/* Refuses (one line, collective) the state X at time t a run starts from where its surface
+   crosses itself or has vertex-disjoint elements closer than -msim_self_contact_start_gap (dhat
+   by default, 0 at a restart; src/contact/self_start.cpp); restart: NULL for the scene's start X0, else the
+   checkpoint's state in words. Re-plans where X is far from the plan (a checkpoint's state). */
+PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContactOptions *o, PetscReal t, Vec X, const char *restart);
 /* The positions of the local vertices at X (time t: the handles' b(t)) into x (3 per local
    vertex), and, when Y is not NULL, those of -Y into u (the line search's motion X - a Y is x + a
    u); re-plans first when any vertex (also at x + a u) would be further than margin/2 from its

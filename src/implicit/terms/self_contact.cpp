@@ -796,7 +796,16 @@ static PetscErrorCode Destroy_Self(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps SelfOps = {.energy = MSimTermSummedEnergy<LocalEnergy>, .gradient = MSimTermGradient<AddGradient>, .hessian = Hessian_Self, .pd_rhs = MSimTermPDRHS<LocalEnergy, AddGradient>, .max_step = MaxStep_Self, .view = View_Self, .destroy = Destroy_Self};
+static PetscErrorCode CheckStart_Self(MSimImplicitTerm term, PetscReal t, Vec X, const char *restart)
+{
+  SelfData *sd = (SelfData *)term->data;
+
+  PetscFunctionBeginUser;
+  if (sd->opt.start_check) PetscCall(MSimSelfSurfaceCheckStart(sd->surf, &sd->opt, t, X, restart));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static const MSimImplicitTermOps SelfOps = {.energy = MSimTermSummedEnergy<LocalEnergy>, .gradient = MSimTermGradient<AddGradient>, .hessian = Hessian_Self, .pd_rhs = MSimTermPDRHS<LocalEnergy, AddGradient>, .max_step = MaxStep_Self, .check_start = CheckStart_Self, .view = View_Self, .destroy = Destroy_Self};
 
 PetscErrorCode MSimImplicitTermCreate_SelfContact(MSimImplicitTerm term)
 {

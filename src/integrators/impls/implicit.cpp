@@ -1057,8 +1057,17 @@ PetscErrorCode MSimIntegratorRegisterImplicit(void)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static PetscErrorCode CheckStart_Implicit(MSimIntegrator integ, PetscReal t, Vec X, const char *restart)
+{
+  ImplicitData *ie = (ImplicitData *)integ->data;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitCheckStart(ie->imp, t, X, restart));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static const MSimIntegratorOps ImplicitOps = {.setfromoptions = SetFromOptions_Implicit, .setup = Setup_Implicit, .step = Step_Implicit, .view = View_Implicit,
-                                              .openfiles = OpenFiles_Implicit, .get_history = GetHistory_Implicit, .history_loaded = HistoryLoaded_Implicit, .destroy = Destroy_Implicit};
+                                              .openfiles = OpenFiles_Implicit, .get_history = GetHistory_Implicit, .history_loaded = HistoryLoaded_Implicit, .check_start = CheckStart_Implicit, .destroy = Destroy_Implicit};
 
 PetscErrorCode MSimIntegratorCreate_Implicit(MSimIntegrator integ)
 {
