@@ -134,6 +134,8 @@ CASES = [
     # theta 0 failed at the first solve (a NaN residual), after the output was made
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "0"], "-ts_theta_theta must be in (0, 1] (got 0.)"),
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "1.5"], "-ts_theta_theta must be in (0, 1]"),
+    # a negative tolerance turned bdf's error control off in effect (one internal step per -msim_dt)
+    (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_atol", "-1"], "-ts_atol must be >= 0 (got -1.)"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),

@@ -325,6 +325,18 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
        infinite (a NaN residual at the first solve); past 1 the scheme leaves its family */
     PetscCheck(theta > 0 && theta <= 1, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_theta_theta must be in (0, 1] (got %g)", (double)theta);
   }
+  {
+    /* the adaptive error control divides each unknown's error by atol + rtol |u|, which PETSc
+       takes as given: on a 7 x 7 cloth under bdf (9 internal steps in 5 -msim_dt, 2 rejected, at
+       the default), -ts_atol -1 took one internal step per -msim_dt, none rejected (the control
+       off in effect), -ts_atol -1e-4 ended in a NaN stage, and both 0 (a division by zero) again
+       took one step per -msim_dt */
+    PetscReal atol, rtol;
+    PetscCall(TSGetTolerances(d->ts, &atol, NULL, &rtol, NULL));
+    PetscCheck(atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_atol must be >= 0 (got %g)", (double)atol);
+    PetscCheck(rtol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_rtol must be >= 0 (got %g)", (double)rtol);
+    PetscCheck(atol > 0 || rtol > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_atol and -ts_rtol are both 0: the error control's tolerance atol + rtol |u| must be > 0");
+  }
   PetscCall(SetStabilityLimit(integ, d, type));
   PetscCall(CheckAlphaContact(integ, d->ts, type));
   switch (d->form) {
