@@ -96,13 +96,13 @@ static PetscErrorCode TryUpdate(PC pc, PC_LLT *ctx, const std::vector<int> &aptr
       if (dv == 0) continue;
       const PetscInt i = (PetscInt)(std::upper_bound(aptr.begin(), aptr.end(), (int)e) - aptr.begin()) - 1; /* e's row */
       if (acol[e] != i) noff++;
-      else if (dv < 0 && -dv > 1e3 * aval[e]) nlarge++; /* C = 1/d + (B^-1)_jj cancels: about eps |d| / a_jj lost */
+      else if (dv < 0 ? -dv > 1e3 * aval[e] : dv > 1e6 * ctx->aval[e]) nlarge++; /* d < 0: C = 1/d + (B^-1)_jj cancels, about eps |d| / a_jj lost; d > 0: the right-hand side's (b_jj + d) x_j goes through B^-1 and the correction cancels all but x_j, about eps d / b_jj |x| lost (PD's contact weight 1e15 x the base's put every vertex's global step 20 m off; up to 1e6, 1e-10 |x|: the default contact distance's drapes stay below 6.4e5) */
       else if (++ndiag <= ctx->update_max_rank) ch.emplace_back(ctx->perm[i], dv);
     }
   }
   diagonal = !noff && !nlarge && ndiag <= ctx->update_max_rank;
   if (!diagonal) {
-    PetscCall(PetscInfo(pc, "msimllt: %ld diagonal and %ld off-diagonal entries changed since the last factorization (at most %" PetscInt_FMT " diagonal ones for an update), %ld diagonal ones lowered by over 1e3 x their new value: refactoring\n", ndiag + nlarge, noff, ctx->update_max_rank, nlarge));
+    PetscCall(PetscInfo(pc, "msimllt: %ld diagonal and %ld off-diagonal entries changed since the last factorization (at most %" PetscInt_FMT " diagonal ones for an update), %ld diagonal ones lowered by over 1e3 x their new value or raised by over 1e6 x their old one: refactoring\n", ndiag + nlarge, noff, ctx->update_max_rank, nlarge));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
   std::sort(ch.begin(), ch.end());
