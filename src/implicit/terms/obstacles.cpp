@@ -62,6 +62,9 @@ typedef struct {
      Jacobian, where PD's own steps (also PD as another SNES's preconditioner) take them once a
      time step */
   PetscBool              at_jacobian = PETSC_FALSE;
+  /* a global step was cut at a vertex whose factored weight is too low for its distance there
+     (BlockerStale): the next local step takes the weights again, within the time step */
+  PetscBool              stale = PETSC_FALSE;
   /* per owned vertex, where its distances were last computed (anchor, 3 coordinates) and its
      least distance to the obstacles there less dhat and a roundoff margin (ex; <= 0: none). The
      distance is 1-Lipschitz in x, so at any x with |x - anchor| <= ex every obstacle is beyond
@@ -461,8 +464,9 @@ static PetscErrorCode PDReweight_Obstacles(MSimImplicitTerm term, Vec X, PetscBo
      (runs/contact/README.md). Newton's preconditioner (-msim_contact_pc_pd_weight) takes them at
      every Jacobian instead: taken once per step, at the first iterate, they left CG's directions
      so poor that the 101 x 101 drape diverged at step 20 */
-  if (pw->t == term->imp->step.t && !pw->at_jacobian) PetscFunctionReturn(PETSC_SUCCESS);
-  pw->t = term->imp->step.t;
+  if (pw->t == term->imp->step.t && !pw->at_jacobian && !pw->stale) PetscFunctionReturn(PETSC_SUCCESS);
+  pw->t     = term->imp->step.t;
+  pw->stale = PETSC_FALSE;
   std::vector<PetscReal> &w = pw->next; /* its storage kept from step to step (a vector made and zeroed per step was 0.1 M instructions) */
   w.assign(sys->nown, 0.0);
   const PetscReal        h2k = term->imp->step.h2 * ct->kappa;
@@ -905,6 +909,52 @@ static void ClampMoveMask(PetscInt nown, const PetscReal *__restrict an, const P
   }
 }
 
+/* Whether vertex v, which cut a PD global step from x (its safe step along the step set alpha),
+   has a factored weight too low for its distance there, by -msim_contact_pd_refactor's rule (its
+   wanted diagonal above r x A's; r = 0: a weight where it has none), at a distance that roundoff
+   threatens: below sqrt(eps) |x_v|_1, where the coordinates' roundoff is over 1e-8 of it. The
+   weights are taken once a time step, at its first local step, so a vertex that comes within dhat
+   later in the step, or nearer than it was there, has a weight in A far below its barrier's
+   curvature b'' ~ dhat^2/d^2; its global step then overshoots into the obstacle, max_step stops
+   the whole cloth at 0.8 of the vertex's hit time and leaves it at a fifth of its distance, where
+   its weight is 25 x further off. At -msim_contact_distance 1e-5 (PD-10 on a ball, h = 0.02) a
+   vertex fell from 6.6e-9 to 5e-12 m in the iterations of two steps, the cloth's steps cut to
+   alpha ~1e-6 meanwhile, and at 1e-12 m the coordinates' roundoff is 1e-5 of the distance: 1 and 2
+   ranks drifted 8 mm apart in 20 steps (3e-7 m with the weights taken again at the next local
+   step, which stops the fall where it starts). Above sqrt(eps) |x| the rule per time step stands:
+   there the same fall (to 7e-4 dhat at the default dhat) is harmless, and every PD contact run
+   keeps its bits. PD's own steps alone (Newton's preconditioner takes them at every Jacobian). */
+static PetscErrorCode BlockerStale(MSimImplicitTerm term, MSimContact ct, PDWeights *pw, PetscInt v, const PetscScalar *x, PetscBool *stale)
+{
+  const PetscScalar *m;
+  PetscReal          wv = 0, want;
+  PetscScalar        have;
+  const PetscInt     row = term->imp->sys->rstart + v;
+  PetscReal          dmin = PETSC_MAX_REAL;
+  const PetscReal    size = PetscAbsScalar(x[3 * v]) + PetscAbsScalar(x[3 * v + 1]) + PetscAbsScalar(x[3 * v + 2]);
+
+  PetscFunctionBeginUser;
+  *stale = PETSC_FALSE;
+  if (!term->imp->A || !ct->pd_weight || pw->at_jacobian || term->imp->pd_pc || (PetscInt)pw->w.size() != term->imp->sys->nown) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(term->imp->sys->mass, &m));
+  const PetscReal h2km = term->imp->step.h2 * ct->kappa * PetscRealPart(m[3 * v]);
+  PetscCall(VecRestoreArrayRead(term->imp->sys->mass, &m));
+  for (const MSimObstacle &o : ct->obs)
+    MSimObstacleContacts(o, v, x + 3 * v, term->imp->step.tx, ct->dhat, PETSC_FALSE, [&](PetscReal d, const PetscReal *, const PetscReal *) {
+      PetscReal b, db, d2b;
+      MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &b, &db, &d2b);
+      wv += h2km * d2b;
+      dmin = PetscMin(dmin, d);
+    });
+  if (!(dmin < PETSC_SQRT_MACHINE_EPSILON * size)) PetscFunctionReturn(PETSC_SUCCESS);
+  if (ct->pd_refactor > 0) {
+    PetscCall(MatGetValues(term->imp->A, 1, &row, 1, &row, &have));
+    want   = PetscRealPart(have) - pw->w[v] + wv;
+    *stale = (PetscBool)(want > ct->pd_refactor * PetscRealPart(have));
+  } else *stale = (PetscBool)(wv > 0 && pw->w[v] == 0);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimSystem         sys = term->imp->sys;
@@ -961,7 +1011,8 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
       AnchorMoveMask(nown, pw->anchor.data(), pw->ex.data(), dhat, x, y, a2, pw->work.data(), mv);
     }
   }
-  const unsigned char *move = pw->move.data();
+  const unsigned char *move    = pw->move.data();
+  PetscInt             blocker = -1; /* the vertex that set this rank's alpha */
   for (PetscInt v = NextFlagged(move, 0, sys->nown, 1); v < sys->nown; v = NextFlagged(move, v + 1, sys->nown, 1)) {
     const PetscReal u[3] = {-y[3 * v], -y[3 * v + 1], -y[3 * v + 2]};
     if (u[0] == 0 && u[1] == 0 && u[2] == 0) continue;
@@ -974,13 +1025,25 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     }
     for (const MSimObstacle &o : ct->obs) {
       const PetscReal t = SafeStep(o, term->imp->step.tx, v, x + 3 * v, u, a);
-      if (t < a) a = t;
+      if (t < a) {
+        a       = t;
+        blocker = v;
+      }
     }
+  }
+  /* with the step's alpha, whether the weights are to be taken again (the same on every rank: one
+     reduction of both) */
+  PetscReal red[2] = {a, 1};
+  if (blocker >= 0) {
+    PetscBool stale;
+    PetscCall(BlockerStale(term, ct, pw, blocker, x, &stale));
+    if (stale) red[1] = 0;
   }
   PetscCall(VecRestoreArrayRead(Y, &y));
   PetscCall(VecRestoreArrayRead(X, &x));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &a, 1, MPIU_REAL, MPIU_MIN, sys->comm));
-  *alpha = a;
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, red, 2, MPIU_REAL, MPIU_MIN, sys->comm));
+  *alpha = red[0];
+  if (red[1] == 0) pw->stale = PETSC_TRUE;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -1,0 +1,64 @@
+#!/usr/bin/env python3
+"""PD with a small contact distance drapes as at the default one: the 11 x 11 cloth (9.81 N) falls
+onto a ball off its centre with PD-10 (-snes_pd_fixed) at -msim_contact_distance 1e-5, at 1 and 2
+ranks. It froze at 1 rank from step 8 on (kinetic energy 1e-28 J, one vertex 5.55e-17 m, one ulp,
+from the ball carrying 3.2e5 N, exit 0) while 2 ranks draped: PD's contact weight for a vertex that
+near, 1e17 x its diagonal in A, went into msimllt's low-rank update (serial only), whose Woodbury
+correction cancels the right-hand side's w x part and left every vertex's global step ~20 m off,
+so max_step cut the whole cloth's step to alpha ~1e-17 (src/solvers/pc_llt.cpp now refactors
+there). And a vertex coming within dhat mid-step, with no weight or too low a one in A, was cut to
+a fifth of its distance iteration after iteration, to 5e-12 m, where the coordinates' roundoff is
+1e-5 of the distance: 1 and 2 ranks were 3e-2 m apart after 20 steps (the weights are now taken
+again where such a vertex cut a step, src/implicit/terms/obstacles.cpp's BlockerStale).
+Checks at each rank count: the cloth keeps moving after it lands (kinetic energy over steps 8-40
+above 1e-5 J; it was 1e-30 J), no vertex ends inside the ball or at roundoff from it (least
+distance above 1e-13 m; it was 5.55e-17 m), and the ball carries about the cloth's weight (mean
+contact_fz of the last 10 steps within 0.5-3 m g: PD-10's steps end at |g| ~1e-2 against this stiff
+barrier, so the force swings from step to step, 5-27 N; it was 3.2e5 N). Then 1 and 2 ranks agree
+after 20 steps to 1e-5 m (measured 2.9e-7 m; 3.1e-2 m before). Past that the fixed iterations
+amplify the partition's roundoff at distances of 1e-10 m (1.3e-2 m apart after 30 steps), so the
+comparison stops there.
+Usage: contact_pd_small_dhat.py path/to/msim"""
+import sys
+import tempfile
+
+import numpy as np
+
+import msimtest as mt
+
+BALL = (np.array([0.43, 0.52, -0.35]), 0.3)
+ARGS = ["-msim_cloth_n", "11", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_integrator", "implicit_euler",
+        "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_contact_distance", "1e-5",
+        "-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"]
+MG = 9.81  # N: the cloth's weight (1 kg)
+
+
+def least_distance(x):
+    return float((np.linalg.norm(x - BALL[0], axis=1) - BALL[1]).min())
+
+
+def main():
+    exe, check = mt.msim_path(), mt.Checks()
+    tmp = tempfile.mkdtemp(prefix="msim_contact_pd_small_dhat_")
+    for np_ in (1, 2):
+        mon = f"{tmp}/monitor_{np_}.csv"
+        x, r = mt.final_positions(exe, ARGS + ["-msim_steps", "40", "-msim_monitor_csv", mon], np_, tmp, "drape")
+        if not check(x is not None, f"np {np_}: runs"):
+            continue
+        rows = mt.read_csv(mon)
+        ke = min(float(row["kinetic"]) for row in rows if int(row["step"]) >= 8)
+        fz = float(np.mean([float(row["contact_fz"]) for row in rows[-10:]]))
+        check(ke > 1e-5, f"np {np_}: the cloth moves after landing, least kinetic energy of steps 8-40 {ke:.3g} J (> 1e-5)")
+        check(least_distance(x) > 1e-13, f"np {np_}: no vertex inside the ball or at roundoff from it, least distance {least_distance(x):.3g} m (> 1e-13)")
+        check(0.5 * MG < fz < 3 * MG, f"np {np_}: mean contact force of the last 10 steps {fz:.4g} N, about m g = {MG} N (0.5-3 m g)")
+    x = {}
+    for np_ in (1, 2):
+        x[np_], r = mt.final_positions(exe, ARGS + ["-msim_steps", "20"], np_, tmp, "twenty")
+    if check(x[1] is not None and x[2] is not None, "20 steps at 1 and 2 ranks: run"):
+        d = float(np.abs(x[1] - x[2]).max())
+        check(d < 1e-5, f"1 and 2 ranks agree after 20 steps, max |x1 - x2| = {d:.3g} m (< 1e-5)")
+    return check.exit_code()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
