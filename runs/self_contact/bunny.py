@@ -5,9 +5,15 @@ the intersecting pairs of vertex-disjoint boundary triangles (runs/tools/interse
 inverted tets (signed volumes against frame 0's, volume/tetcheck.py), both computed here from the
 frames' positions (numpy, independent of msim), and the CPU user time of each run (1 rank).
 Writes bunny.csv (one row per case and frame) and bunny.png.
-Usage: /usr/bin/python3 runs/self_contact/bunny.py build/msim [--out DIR]
+Usage: /usr/bin/python3 runs/self_contact/bunny.py build/msim [--out DIR] [--against REF --rounds R [--append]]
   (--out keeps the runs there; a case whose DIR/CASE/series.pvd and DIR/CASE.time exist is read,
-  not rerun)"""
+  not rerun)
+--against REF: first times the four cases and examples/bunny_drop.opts with and without self-contact
+  R times (3 by default), alternating msim and the msim REF (another build) and swapping which goes
+  first each round, since a single run's CPU time on a shared host moves by tens of percent; each
+  figure is the least of its R runs. Writes bunny_cost.csv (every run) and DIR/CASE.time (msim's
+  least), so the frames read afterwards are msim's last run of each case. --append adds R more
+  rounds to those in bunny_cost.csv and takes the least over all of them."""
 import csv
 import os
 import resource
@@ -29,14 +35,54 @@ CASES = {  # name: (volume term, self-contact)
 }
 
 
+DROP = {"drop": "0", "drop_self": "1"}  # examples/bunny_drop.opts: name: self-contact
+
+
+def cpu_of(cmd):
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    return resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - before
+
+
+def cost(exes, out, rounds, append):
+    """CPU user time of every run, builds alternated; least per build and case into DIR/CASE.time"""
+    path = os.path.join(HERE, "bunny_cost.csv")
+    rows = []
+    if append:
+        with open(path) as f:
+            rows = [(r["build"], r["msim"], r["options_file"], r["case"], int(r["round"]), float(r["cpu_user_s"])) for r in csv.DictReader(f)]
+    first = max((r[4] for r in rows), default=-1) + 1
+    runs = [(name, "examples/bunny.opts", ["-msim_volume", vol, "-msim_self_contact", sc]) for name, (vol, sc) in CASES.items()]
+    runs += [(name, "examples/bunny_drop.opts", ["-msim_self_contact", sc]) for name, sc in DROP.items()]
+    for r in range(first, first + rounds):
+        for name, opts, flags in runs:
+            for label, exe in (exes if r % 2 == 0 else exes[::-1]):
+                series = os.path.join(out, name) if label == "msim" else os.path.join(out, label, name)
+                t = cpu_of([exe, "-options_file", opts, *flags, "-msim_output", series])
+                rows.append((label, exe, opts, name, r, t))
+                print(f"round {r} {label:5s} {name:12s} CPU {t:6.2f} s", flush=True)
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["build", "msim", "options_file", "case", "round", "cpu_user_s"])
+        w.writerows([(lb, exe, opts, name, r, f"{t:.2f}") for lb, exe, opts, name, r, t in rows])
+    least = {}
+    for lb, _, _, name, _, t in rows:
+        least[lb, name] = min(t, least.get((lb, name), t))
+    for name in CASES:
+        with open(os.path.join(out, name + ".time"), "w") as f:
+            f.write(f"{least['msim', name]:.2f}\n")
+    for lb, _ in exes:
+        print(f"{lb}: least CPU " + ", ".join(f"{n} {least[lb, n]:.2f} s" for n in [*CASES, *DROP]) +
+              f"; self-contact x{least[lb, 'volume_self'] / least[lb, 'volume']:.2f} with the volume term,"
+              f" x{least[lb, 'springs_self'] / least[lb, 'springs']:.2f} springs alone, x{least[lb, 'drop_self'] / least[lb, 'drop']:.2f} drop")
+
+
 def run(exe, out, name, vol, sc):
     series, timef = os.path.join(out, name), os.path.join(out, name + ".time")
     if not (os.path.exists(os.path.join(series, "series.pvd")) and os.path.exists(timef)):
-        before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
-        subprocess.run([exe, "-options_file", "examples/bunny.opts", "-msim_volume", vol, "-msim_self_contact", sc,
-                        "-msim_output", series], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+        t = cpu_of([exe, "-options_file", "examples/bunny.opts", "-msim_volume", vol, "-msim_self_contact", sc, "-msim_output", series])
         with open(timef, "w") as f:
-            f.write(f"{resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - before:.2f}\n")
+            f.write(f"{t:.2f}\n")
     with open(timef) as f:
         cpu = float(f.read())
     frames = tetcheck.tet_frames(os.path.join(series, "series.pvd"))
@@ -50,6 +96,10 @@ def main():
     exe = os.path.abspath(sys.argv[1])
     out = sys.argv[sys.argv.index("--out") + 1] if "--out" in sys.argv else os.path.join("/tmp", "msim_bunny_self")
     os.makedirs(out, exist_ok=True)
+    if "--against" in sys.argv:
+        ref = os.path.abspath(sys.argv[sys.argv.index("--against") + 1])
+        rounds = int(sys.argv[sys.argv.index("--rounds") + 1]) if "--rounds" in sys.argv else 3
+        cost([("msim", exe), ("ref", ref)], out, rounds, "--append" in sys.argv)
     res = {name: run(exe, out, name, *flags) for name, flags in CASES.items()}
     with open(os.path.join(HERE, "bunny.csv"), "w", newline="") as f:
         w = csv.writer(f)
