@@ -946,11 +946,16 @@ PetscErrorCode MSimSelfHessianEnd(MSimSelfHessian *h, VecScatter neighbours)
     scount.assign(nto, 0);
     soff.assign(nto + 1, 0);
     std::vector<PetscInt> at(h->dest.size());
+    PetscMPIInt           unreached = -1;
     for (size_t k = 0; k < h->dest.size(); k++) {
       at[k] = (PetscInt)(std::find(to, to + nto, h->dest[k]) - to);
-      PetscCheck(at[k] < nto, PETSC_COMM_SELF, PETSC_ERR_PLIB, "a pair's vertex is owned by rank %d, which the pairs' scatter does not reach", (int)h->dest[k]);
-      scount[at[k]]++;
+      if (at[k] < nto) scount[at[k]]++;
+      else unreached = h->dest[k];
     }
+    /* an invariant (the pairs' free vertices are the scatter's leaves, so their owners are its
+       roots), checked on every rank before the exchange: a rank stopping alone would leave its
+       neighbours waiting for its counts */
+    PetscCall(MSimCollectiveCheck(h->comm, (PetscBool)(unreached < 0), "a pair's vertex is owned by rank " + std::to_string(unreached) + ", which the pairs' scatter does not reach"));
     for (PetscInt i = 0; i < nto; i++) soff[i + 1] = soff[i] + scount[i];
     sorted.resize(h->send.size());
     {
