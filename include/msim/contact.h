@@ -25,6 +25,16 @@ void MSimMeshObstacleSetBand(MSimMeshObstacle mesh, PetscReal band);
 /* the band's queries from the candidate cache (default) or, PETSC_FALSE, from the tree at every
    query: both give the same answers (tests/unit/test_mesh_obstacle.cpp compares them) */
 void MSimMeshObstacleSetCache(MSimMeshObstacle mesh, PetscBool use);
+/* the explicit penalty's answers (on where the penalty is the contact, MSimContactForceSetIntegrator),
+   for vertices that sink deeper than band, which the barrier's never do: a closed surface answers
+   its inside at any depth, and a shell (an open surface with a thickness) keeps each vertex's side
+   in MSimMeshObstacleDistanceVertex, so that one past the surface is pushed back to the side it
+   came from (src/contact/mesh_obstacle.cpp, ShellSide) */
+void MSimMeshObstacleSetPenalty(MSimMeshObstacle mesh, PetscBool on);
+/* whether the mesh keeps its vertices' sides (a shell with the penalty); *lost: some vertex of the
+   rank entered the shell from beyond band in one query since the last call (its side unknown, the
+   nearer taken), x that point */
+PetscBool MSimMeshObstacleKeepsSides(MSimMeshObstacle mesh, PetscBool *lost, PetscReal x[3]);
 /* file name, triangles, closed (every edge in two triangles: the cloth stays outside) */
 void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *ntri, PetscBool *closed);
 /* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,

@@ -17,7 +17,11 @@
    projection with a velocity response: it is one more force in MSimSystemComputeForce, so every
    explicit method and PETSc's TS take it without a change to their updates, and its stiffness is
    a diagonal term the Gershgorin guard bounds (max_i (2 sum_j k_ij + n_obstacles kc) / m_i). The
-   penalty lets a vertex sink m g / kc at rest, and has no friction: -msim_friction acts in the
+   penalty lets a vertex sink m g / kc at rest (and a landing vertex about v sqrt(m / kc) more),
+   on a mesh as on the analytic shapes: a closed mesh answers its inside at any depth, and a shell
+   pushes a vertex back to the side it came from (MSimMeshObstacleSetPenalty), so a mesh holds a
+   vertex until it passes the solid's middle, as a box does, and a shell holds it at any depth
+   while it stays over the surface; it has no friction: -msim_friction acts in the
    implicit integrators only (the others refuse it, contact_force.cpp). PETSc's implicit TS types
    take the penalty's stiffness in their Jacobian (MSimContactAddPenaltyJacobian). The SLEPc guard (-msim_spectrum_guard slepc) takes the largest
    eigenvalue of (K + kc sum_o n_o n_o^T per vertex, M) (MSimContactAddPenaltyStiffness): every
@@ -588,6 +592,19 @@ PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Ve
   });
   PetscCall(VecRestoreArray(F, &f));
   PetscCall(VecRestoreArrayRead(X, &x));
+  /* a shell whose side some vertex lost (it entered the shell from farther than dhat in one
+     query, mesh_obstacle.cpp's ShellSide) cannot be held: the run stops rather than let the
+     cloth pass through. Collective, where some mesh keeps sides (every rank has the same meshes) */
+  for (size_t k = 0; k < ct->obs.size(); k++) {
+    PetscBool lost;
+    PetscReal p[3];
+    if (ct->obs[k].kind != MSIM_OBSTACLE_MESH || !MSimMeshObstacleKeepsSides(ct->obs[k].mesh, &lost, p)) continue;
+    const char *file;
+    char        msg[512];
+    MSimMeshObstacleInfo(ct->obs[k].mesh, &file, NULL, NULL);
+    PetscCall(PetscSNPrintf(msg, sizeof(msg), "a vertex entered the shell of obstacle %d (-msim_contact_mesh %s, thickness %g) at (%g, %g, %g), t = %g s, from farther than the contact distance %g in one step, so the penalty cannot tell which side it came from: reduce -msim_dt or raise -msim_contact_distance", (int)k, file, (double)ct->thickness, (double)p[0], (double)p[1], (double)p[2], (double)t, (double)ct->dhat));
+    PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)!lost, msg));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

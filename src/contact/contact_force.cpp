@@ -48,6 +48,11 @@ PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[])
       if (o.kind == MSIM_OBSTACLE_MESH) MSimMeshObstacleInfo(o.mesh, &file, &ntri, &closed);
       PetscCheck(closed, sys->comm, PETSC_ERR_SUP, "-msim_contact_mesh %s is an open surface, which the penalty of -msim_integrator %s cannot hold anything on at -msim_contact_thickness 0 (it pushes only inside the thickness shell); give a thickness > 0, or use implicit_euler or bdf2 (the barrier keeps either side)", file, type);
     }
+  /* the penalty's vertices sink deeper than the barrier's band: the meshes answer for them
+     (msim/contact.h, MSimMeshObstacleSetPenalty); the barrier's answers stay as they are */
+  if (!barrier && ct)
+    for (const MSimObstacle &o : ct->obs)
+      if (o.kind == MSIM_OBSTACLE_MESH) MSimMeshObstacleSetPenalty(o.mesh, PETSC_TRUE);
   if (barrier) {
     PetscCall(PetscContainerCreate(PETSC_COMM_SELF, &mark));
     PetscCall(PetscObjectCompose((PetscObject)sys->X0, barrier_key, (PetscObject)mark));

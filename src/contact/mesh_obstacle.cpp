@@ -12,10 +12,13 @@
      is decided by the parity of a ray's crossings, for points in the surface's bounding box and
      within a band of it (thickness + dhat once the contact options are read: the barrier's reach;
      the line searches never let a vertex cross the surface, so none is deeper; the start check
-     tests every vertex);
+     tests every vertex). The explicit penalty's vertices sink deeper (a landing's depth, m v /
+     sqrt(kc m)): with MSimMeshObstacleSetPenalty a point of the box beyond the band takes its side
+     from its cell's reference point or a ray too, and inside, its true depth (Deep), so that a
+     closed mesh holds the cloth as the analytic box does; the barrier's queries are unchanged;
      a ray that passes within roundoff of an edge or vertex is thrown away and another direction
      tried (the degenerate cases that break parity). An open surface has no inside: either side,
-     at distance >= thickness.
+     at distance >= thickness; the penalty keeps each vertex on the side it came from (ShellSide).
    - Safe step: with no thickness, 0.8 of the move's first crossing of the surface (a box query on
      the tree, then each triangle's exact crossing; a move along a triangle's plane, which crosses
      no plane, meets the triangle where it crosses an edge), as for the analytic shapes. With a thickness, conservative advancement (Li et al.
@@ -154,6 +157,17 @@ struct _n_MSimMeshObstacle {
   std::vector<unsigned char> bent, ie_near;
   std::vector<uint32_t>      ie_hit; /* FeatureSum's triangles (kept: no allocation per query) */
   uint64_t          nvq[5] = {0, 0, 0, 0, 0}; /* vertex queries in the band's box: answered again, skipped as far, full, by the near set; of the far ones, by the centre's ball alone */
+  /* the explicit penalty's queries (MSimMeshObstacleSetPenalty): a closed surface answers the
+     inside at any depth (Deep); a shell keeps each vertex's side (Side, ShellSide) */
+  bool penalty = false;
+  struct Side {
+    PetscReal m[3]; /* the unsigned gradient (x - p) / r at its last answer within band on its own side */
+    char      state; /* SIDE_NEW, SIDE_OUT, SIDE_IN (within the shell or past the surface: m is the side it came from), SIDE_FAR */
+  };
+  enum { SIDE_NEW, SIDE_OUT, SIDE_IN, SIDE_FAR };
+  std::vector<Side> side;
+  PetscInt          lost = -1; /* a rank's vertex that entered the shell from beyond band in one step (-1: none since MSimMeshObstacleKeepsSides last said) */
+  PetscReal         lost_x[3];
 };
 
 static PetscLogEvent MSIM_MeshCells; /* a cell's candidates collected (the cache's rebuilds) */
@@ -753,6 +767,18 @@ static inline bool CellKey(MSimMeshObstacle mo, const PetscReal x[3], uint64_t *
   return true;
 }
 
+/* the penalty's answer at a point x inside a closed surface, deeper than band: its true distance
+   (the tree's closest point, the nearest triangle's region as Distance's), negative */
+static __attribute__((noinline)) PetscReal Deep(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9])
+{
+  const auto hit = mo->tree.closest_point_and_primitive(Point(x[0], x[1], x[2]));
+  PetscReal  p[3], e[3] = {0, 0, 0}, q[3], r = 0;
+  int        region;
+  ClosestOnTriangle(x, *hit.second, p, &region, e);
+  for (int c = 0; c < 3; c++) q[c] = x[c] - p[c], r += q[c] * q[c];
+  return Answer(mo, q, std::sqrt(r), -1.0, region, e, &*hit.second, n, H);
+}
+
 static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n[3], PetscReal H[9], bool cube_bound, PetscReal *lower = NULL, _n_MSimMeshObstacle::Near *ns = NULL, PetscReal zball[4] = NULL, int32_t *tri = NULL)
 {
   if (tri) *tri = -1; /* the nearest triangle, where within band */
@@ -884,6 +910,10 @@ static PetscReal Distance(MSimMeshObstacle mo, const PetscReal x[3], PetscReal n
       for (const auto &id : mo->near) consider(*id);
     }
     if (!T || best > b * b) {
+      /* the penalty's vertices sink deeper than band (the barrier's never do): a closed surface's
+         inside at any depth, by x's cell's reference point or a ray (Inside: false outside the
+         surface's box). Inside, no far ball (lower, zball stay 0): the depth changes with x */
+      if (mo->penalty && mo->closed && (C && C->slot != ~(size_t)0 ? CellInside(mo, *C, x, PETSC_MAX_REAL) : Inside(mo, x))) return Deep(mo, x, n, H);
       for (int c = 0; c < 3; c++) n[c] = db2 > 0 ? q[c] / std::sqrt(db2) : (c == 2);
       if (H)
         for (int k = 0; k < 9; k++) H[k] = 0;
@@ -1296,7 +1326,7 @@ enum { MEMO_SLOTS = 3 };
    saves and stack frame were a third of their cost; callgrind, runs/contact/README.md) */
 static PetscReal DistanceVertexNear(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], const PetscReal q[3], PetscReal db2, PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr);
 
-PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr)
+static inline PetscReal VertexDistance(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr)
 {
   PetscReal       q[3];
   const PetscReal db2 = BoxOffset(mo, x, q);
@@ -1570,4 +1600,79 @@ PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mo, PetscInt v, const 
     d = Distance(mo, y, n, NULL, false);
   }
   return t;
+}
+
+/* A shell's side for the penalty. The penalty pushes a vertex within the thickness shell out along
+   the unsigned distance's gradient, towards the nearer side; one that sinks past the surface (a
+   landing deeper than the thickness) was pushed out the far side and the cloth passed through.
+   Each vertex keeps the gradient m of its last answer within band on its own side: an answer whose
+   gradient turns against m (by more than 90 degrees) has passed the surface, and takes the side it
+   came from, distance -(r + thickness) along -(x - p) / r, as a closed surface's inside does; past
+   band on the far side (deeper than band + thickness below the surface it came from) too, from the
+   tree's closest point. A vertex going round the surface's rim outside the shell turns m a little
+   at each answer, and keeps its side; one that entered the shell from beyond band in one query
+   (moved more than dhat) has no known side: it takes the nearer, and MSimMeshObstacleKeepsSides
+   says so. A vertex's first answer (the start, which has every vertex outside, or a restart) takes
+   the nearer side. */
+static __attribute__((noinline)) PetscReal ShellSide(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal d, PetscReal n[3], PetscReal H[9])
+{
+  typedef _n_MSimMeshObstacle M;
+  if (mo->side.size() <= (size_t)v) mo->side.resize((size_t)v + 1, M::Side{{0, 0, 0}, M::SIDE_NEW});
+  M::Side        &s  = mo->side[(size_t)v];
+  const PetscReal th = mo->thickness;
+  auto            back = [&](PetscReal r) { /* past the surface: the side it came from */
+    for (int c = 0; c < 3; c++) n[c] = -n[c];
+    if (H)
+      for (int k = 0; k < 9; k++) H[k] = -H[k];
+    s.state = M::SIDE_IN;
+    return -r - th;
+  };
+  auto against = [&](const PetscReal *u) { return u[0] * s.m[0] + u[1] * s.m[1] + u[2] * s.m[2] < 0; };
+  if (!(d + th < mo->band)) { /* beyond band: on its side, or past the surface by more than band */
+    if (s.state == M::SIDE_IN) {
+      PetscReal       nu[3], Hu[9];
+      const PetscReal du = Distance(mo, x, nu, H ? Hu : NULL, false);
+      if (against(nu)) {
+        for (int c = 0; c < 3; c++) n[c] = nu[c];
+        if (H)
+          for (int k = 0; k < 9; k++) H[k] = Hu[k];
+        return back(du + th);
+      }
+    }
+    s.state = M::SIDE_FAR;
+    return d;
+  }
+  if ((s.state == M::SIDE_OUT || s.state == M::SIDE_IN) && against(n)) return back(d + th);
+  if (d < 0 && s.state == M::SIDE_FAR && mo->lost < 0) {
+    mo->lost = v;
+    for (int c = 0; c < 3; c++) mo->lost_x[c] = x[c];
+  }
+  s.state = d < 0 ? M::SIDE_IN : M::SIDE_OUT;
+  for (int c = 0; c < 3; c++) s.m[c] = n[c];
+  return d;
+}
+
+PetscReal MSimMeshObstacleDistanceVertex(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal n[3], PetscReal H[9], MSimMeshCreases *cr)
+{
+  const PetscReal d = VertexDistance(mo, v, x, n, H, cr);
+  return mo->penalty && !mo->closed && v >= 0 ? ShellSide(mo, v, x, d, n, H) : d;
+}
+
+void MSimMeshObstacleSetPenalty(MSimMeshObstacle mo, PetscBool on)
+{
+  mo->penalty    = on ? true : false;
+  mo->memo_epoch = mo->clock; /* the kept answers and the far balls are the other mode's */
+  mo->far.clear();
+  mo->nearset.clear();
+  mo->side.clear();
+  mo->lost = -1;
+}
+
+PetscBool MSimMeshObstacleKeepsSides(MSimMeshObstacle mo, PetscBool *lost, PetscReal x[3])
+{
+  *lost = (PetscBool)(mo->lost >= 0);
+  if (mo->lost >= 0)
+    for (int c = 0; c < 3; c++) x[c] = mo->lost_x[c];
+  mo->lost = -1;
+  return (PetscBool)(mo->penalty && !mo->closed);
 }
