@@ -1613,7 +1613,8 @@ PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mo, PetscInt v, const 
    at each answer, and keeps its side; one that entered the shell from beyond band in one query
    (moved more than dhat) has no known side: it takes the nearer, and MSimMeshObstacleKeepsSides
    says so. A vertex's first answer (the start, which has every vertex outside, or a restart) takes
-   the nearer side. */
+   the nearer side: a checkpoint does not carry the sides, so a restart repeats the run bit for bit
+   unless some vertex was past the surface at the checkpoint (then it goes out the near side). */
 static inline PetscReal ShellSide(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal d, PetscReal n[3], PetscReal H[9])
 {
   typedef _n_MSimMeshObstacle M;
