@@ -20,11 +20,15 @@ rather than on its merit |phi|^2: src/integrators/impls/implicit.cpp, SetUpSemis
   which the semismooth solve reaches only to its tolerance: 1.4e-10 on |phi|, far inside 1e-9);
 - its defaults: l2 (on |phi|^2) and GMRES, not CG (-snes_view); msim's shell search, which
   works on Phi, is refused in one line;
-- the two solvers solve the same variational inequality each step, so their frames agree: at step
-  20, past the landing (steps 11-15), within 1e-4 m, 1e-3 of the cloth's 0.1 m spring (far above
-  the solves' tolerances, far below any difference of solution: a vertex held on another face is
-  centimetres off). The 1-rank rsls run is the reference at each rank count: two ranks change the
-  summation order, which the frictionless cloth, balanced on the table, amplifies slowly.
+- the two solvers solve the same variational inequality each step but for the face a vertex at one
+  of the table's vertical edges keeps to: held past a face's edge at a converged iterate, a vertex
+  takes the face it is beyond (src/contact/contact_bounds.cpp), and the corner vertex (0.8, 0.2)
+  ends on the face y = 0.2 under rsls and on x = 0.8 under ssls (step 10, both outside the box),
+  which moves the corner rows by 1.2 cm by step 20. So at step 20, past the landing (steps 11-15),
+  their frames agree within 2 cm, and the vertical contact force (the frames' contact_force) within
+  1% (12.33 and 12.35 N; a row held on a face that is not there added 16 N, tests/contact_bounds_edge.py).
+  The 1-rank rsls run is the reference at each rank count: two ranks change the summation order,
+  which the frictionless cloth, balanced on the table, amplifies slowly.
 The barrier (no bounds) with fixed-iteration PD on the same table, taller (top 0.1 m under a 21 x
 21 cloth, -snes_pd_fixed with 10 iterations, friction 0.3, h = 0.02 s, 40 steps), and the box 2 cm
 under the cloth beside a tilted plane (h = 1/30 s, 30 steps): before the seventh session's fix
@@ -130,10 +134,11 @@ def main():
             ssls = drop(tmp, "vinewtonssls", ["-snes_type", "vinewtonssls"], np_, check)
             if reference and ssls:
                 frame = mt.frames(ssls)[20]
-                a = vtu.read_vtu(os.path.join(reference, frame))["points"]
-                b = vtu.read_vtu(os.path.join(ssls, frame))["points"]
-                diff = float(np.abs(a - b).max())
-                check(diff <= 1e-4, f"np={np_}: vinewtonssls and vinewtonrsls (1 rank) agree at step 20 to {diff:.3g} m (<= 1e-4)")
+                a = vtu.read_vtu(os.path.join(reference, frame))
+                b = vtu.read_vtu(os.path.join(ssls, frame))
+                diff = float(np.abs(a["points"] - b["points"]).max())
+                fa, fb = float(a["contact_force"][:, 2].sum()), float(b["contact_force"][:, 2].sum())
+                check(diff <= 2e-2 and abs(fa - fb) <= 0.01 * abs(fa), f"np={np_}: vinewtonssls and vinewtonrsls (1 rank) agree at step 20 to {diff:.3g} m (<= 2e-2) and in the vertical contact force, {fb:.5g} and {fa:.5g} N (1%)")
             r = mt.run(MSIM, BASE + ["-msim_steps", "1", "-snes_linesearch_type", "basic", "-snes_view"], np_)
             types = [l.split(":", 1)[1].strip() for l in r.stdout.splitlines() if l.strip().startswith("type:")]
             check(r.returncode == 0 and "vinewtonrsls" in types and "basic" in types and "bt" not in types,

@@ -1,8 +1,9 @@
 /* Obstacles as variable bounds for PETSc's VI solvers (-msim_contact_bounds, or -snes_type
    vinewtonrsls / vinewtonssls with obstacles): an axis-aligned plane n = +-e_k is the bound
    x_k >= d (or <= -d) on every free vertex; a solid box, the half-space of the face each vertex was
-   nearest at the step's start (x_n; one face per vertex and step, so the vertex stays out of the
-   box, a conservative bound near its edges). Those obstacles leave the barrier's list (and
+   nearest at the step's start (x_n; one face per vertex, so the vertex stays out of the box; one
+   that the solve leaves held past that face's edge, where the box is not, takes the face it is
+   beyond and the solve goes on: src/contact/contact_bounds.cpp). Those obstacles leave the barrier's list (and
    friction's), and each step solves min Phi subject to the bounds: no vertex is ever past a bound,
    with zero gap at contact (the barrier keeps a gap below dhat). The contact force is the bound's
    reaction, the residual g_i at an active bound divided by beta h^2 (a force in N), which

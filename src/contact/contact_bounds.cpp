@@ -1,8 +1,11 @@
 /* Axis-aligned obstacles as variable bounds of PETSc's VI solvers (msim/contact_bounds.h). Why a
-   box gets one face per vertex and step: the outside of a solid box is a union of half-spaces, not
-   a box of bounds; the face region a vertex is in at x_n names the one half-space it keeps to for
-   the step, which keeps it outside the box (a vertex near an edge cannot slide round the corner
-   within one step: conservative, never inside). */
+   box gets one face per vertex: the outside of a solid box is a union of half-spaces, not a box of
+   bounds; the face region a vertex is in at x_n names the one half-space it keeps to for the step,
+   which keeps it outside the box. That half-space reaches past the face's edges, so a vertex that
+   slides past an edge within the step can end held by the face's plane where there is no box (a
+   cloth's row propped 4 cm past a table's edge at the top's height, 16.2 N on it where the cloth
+   weighs 9.81 N): the solve's convergence test hands such a vertex the face it is now beyond, a
+   half-space that holds its point, and the solve goes on from there (ConvergedOnBox). */
 #include <msim/contact_bounds.h>
 #include <msim/contact.h>
 #include <msim/contact_force.h>
@@ -10,7 +13,7 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
 #include <msim/destroy.h>
-#include <petscsnes.h>
+#include <petsc/private/snesimpl.h> /* snes->ops->converged: the test ConvergedOnBox wraps */
 #include <vector>
 
 struct _n_MSimContactBounds {
@@ -18,7 +21,15 @@ struct _n_MSimContactBounds {
   SNES                      snes;
   std::vector<MSimObstacle> obs; /* taken from the contact object: the barrier no longer sees them */
   Vec                       XL, XU, R;
+  std::vector<signed char>  face;   /* per owned vertex and obstacle: a box's face it keeps to, 2 axis + (1: upper) */
+  PetscInt                  passes; /* this step's face switches (ConvergedOnBox) */
+  PetscErrorCode (*converged)(SNES, PetscInt, PetscReal, PetscReal, PetscReal, SNESConvergedReason *, void *);
+  void *cctx; /* the convergence test ConvergedOnBox wraps, and its context */
 };
+
+/* a vertex that needs more face switches than this in one step goes round a box's edge and back:
+   no face settles (each switch follows one more edge crossing; a box has 12 edges) */
+static const PetscInt max_passes = 12;
 
 static const char reaction_key[] = "MSimContactReaction";
 
@@ -38,6 +49,94 @@ static int AxisOf(const PetscReal n[3])
     else axis = c;
   }
   return zeros == 2 ? axis : -1;
+}
+
+/* The face of box p (bounds lo, hi per axis) whose half-space xv is farthest into (>= 0: outside
+   or on it), over the axes other than skip: 2 axis + (1: upper) */
+static int FarthestFace(const PetscReal *p, const PetscScalar *xv, int skip)
+{
+  int       face = skip == 0 ? 2 : 0; /* a face of another axis, whatever x is (NaN) */
+  PetscReal best = PETSC_NINFINITY;
+  for (int c = 0; c < 3; c++) {
+    const PetscReal below = p[2 * c] - PetscRealPart(xv[c]), above = PetscRealPart(xv[c]) - p[2 * c + 1];
+    if (c == skip) continue;
+    if (below > best) best = below, face = 2 * c;
+    if (above > best) best = above, face = 2 * c + 1;
+  }
+  return face;
+}
+
+/* Owned vertex v's bounds: every plane's, and the half-space of the face each box holds it to */
+static void VertexBounds(MSimContactBounds b, PetscInt v, PetscScalar *lo, PetscScalar *hi)
+{
+  const size_t nobs = b->obs.size();
+  for (int c = 0; c < 3; c++) lo[3 * v + c] = PETSC_NINFINITY, hi[3 * v + c] = PETSC_INFINITY;
+  for (size_t k = 0; k < nobs; k++) {
+    const PetscReal *p = b->obs[k].p;
+    int              axis, upper;
+    PetscReal        d;
+    if (b->obs[k].kind == MSIM_OBSTACLE_PLANE) { /* n = s e_k: s x_k >= d */
+      axis = AxisOf(p), upper = p[axis] > 0, d = p[3] / p[axis];
+    } else {
+      const int face = b->face[v * nobs + k];
+      axis = face / 2, upper = face % 2, d = p[face];
+    }
+    if (upper) lo[3 * v + axis] = PetscMax(PetscRealPart(lo[3 * v + axis]), d);
+    else hi[3 * v + axis] = PetscMin(PetscRealPart(hi[3 * v + axis]), d);
+  }
+}
+
+/* The solve's convergence test, then, at a converged iterate: a vertex that a box's face holds (at
+   its bound, g pushing it on, as in MSimContactBoundsEndStep) at a point beyond another face of
+   that box is held where there is no box. It takes the face it is farthest beyond among the other
+   axes (a half-space that holds its point, so the iterate stays feasible), and the solve goes on:
+   the VI solvers read the bounds' arrays at each iteration. Where nothing switches, the wrapped
+   test's reason stands unchanged. Collective. */
+static PetscErrorCode ConvergedOnBox(SNES snes, PetscInt it, PetscReal xnorm, PetscReal snorm, PetscReal fnorm, SNESConvergedReason *reason, void *ctx)
+{
+  MSimContactBounds  b    = (MSimContactBounds)ctx;
+  const size_t       nobs = b->obs.size();
+  const PetscScalar *x, *f;
+  PetscScalar       *lo, *hi;
+  PetscInt           switched = 0;
+  PetscReal          far = 0; /* the farthest a switched vertex was past the face's edge */
+  Vec                X, F;
+
+  PetscFunctionBeginUser;
+  PetscCall(b->converged(snes, it, xnorm, snorm, fnorm, reason, b->cctx));
+  if (*reason <= 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESGetSolution(snes, &X));
+  PetscCall(SNESGetFunction(snes, &F, NULL, NULL));
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArrayRead(F, &f));
+  PetscCall(VecGetArray(b->XL, &lo));
+  PetscCall(VecGetArray(b->XU, &hi));
+  for (PetscInt v = 0; v < b->sys->nown; v++)
+    for (size_t k = 0; k < nobs; k++) {
+      if (b->obs[k].kind != MSIM_OBSTACLE_BOX) continue;
+      const PetscReal   *p = b->obs[k].p;
+      const PetscScalar *xv = x + 3 * v;
+      const int          face = b->face[v * nobs + k], axis = face / 2, i = 3 * v + axis;
+      const PetscReal    xi = PetscRealPart(x[i]), fi = PetscRealPart(f[i]);
+      const PetscBool    held = face % 2 ? (PetscBool)(PetscRealPart(lo[i]) == p[face] && xi - fi < p[face]) : (PetscBool)(PetscRealPart(hi[i]) == p[face] && xi - fi > p[face]);
+      const int          beyond = held ? FarthestFace(p, xv, axis) : -1;
+      if (beyond < 0 || (beyond % 2 ? PetscRealPart(xv[beyond / 2]) <= p[beyond] : PetscRealPart(xv[beyond / 2]) >= p[beyond])) continue; /* held over the face, or free */
+      b->face[v * nobs + k] = (signed char)beyond;
+      VertexBounds(b, v, lo, hi);
+      far = PetscMax(far, PetscAbsReal(PetscRealPart(xv[beyond / 2]) - p[beyond]));
+      switched++;
+    }
+  PetscCall(VecRestoreArray(b->XU, &hi));
+  PetscCall(VecRestoreArray(b->XL, &lo));
+  PetscCall(VecRestoreArrayRead(F, &f));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &switched, 1, MPIU_INT, MPI_SUM, b->sys->comm));
+  if (!switched) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &far, 1, MPIU_REAL, MPIU_MAX, b->sys->comm));
+  PetscCheck(++b->passes <= max_passes, b->sys->comm, PETSC_ERR_NOT_CONVERGED, "-msim_contact_bounds: a box's faces did not settle within a step: after %" PetscInt_FMT " switches of the face a vertex keeps to (it was held past a face's edge), %" PetscInt_FMT " vertices are still held where the box is not (a vertex going round an edge and back within the step; a smaller -msim_dt, or the barrier: no -msim_contact_bounds)", max_passes, switched);
+  PetscCall(PetscInfo(snes, "%" PetscInt_FMT " vertices held past a box face's edge (up to %g m past it) take the face they are beyond (pass %" PetscInt_FMT ")\n", switched, (double)far, b->passes));
+  *reason = SNES_CONVERGED_ITERATING;
+  PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBounds *b)
@@ -118,41 +217,33 @@ PetscErrorCode MSimContactBoundsCreate(MSimSystem sys, SNES snes, MSimContactBou
   PetscCall(VecSet((*b)->XU, PETSC_INFINITY));
   PetscCall(VecZeroEntries((*b)->R));
   PetscCall(SNESVISetVariableBounds(snes, (*b)->XL, (*b)->XU));
+  (*b)->face.assign(sys->nown * (*b)->obs.size(), 0);
+  /* the convergence test set so far (msim's, or PETSc's default), which ConvergedOnBox wraps: no
+     public getter; the SNES's options were read before, so it is the one the solves use */
+  (*b)->converged = snes->ops->converged;
+  (*b)->cctx      = snes->cnvP;
+  PetscCall(SNESSetConvergenceTest(snes, ConvergedOnBox, *b, NULL));
   PetscCall(PetscObjectCompose((PetscObject)sys->X0, reaction_key, (PetscObject)(*b)->R));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
 PetscErrorCode MSimContactBoundsBeginStep(MSimContactBounds b, Vec Xn)
 {
-  MSimSystem         sys = b->sys;
+  MSimSystem         sys  = b->sys;
+  const size_t       nobs = b->obs.size();
   const PetscScalar *x;
   PetscScalar       *lo, *hi;
 
   PetscFunctionBeginUser;
+  b->passes = 0;
   PetscCall(VecGetArrayRead(Xn, &x));
   PetscCall(VecGetArray(b->XL, &lo));
   PetscCall(VecGetArray(b->XU, &hi));
-  for (PetscInt i = 0; i < 3 * sys->nown; i++) lo[i] = PETSC_NINFINITY, hi[i] = PETSC_INFINITY;
-  for (PetscInt v = 0; v < sys->nown; v++)
-    for (const MSimObstacle &o : b->obs) {
-      const PetscReal *p = o.p, *xv = x + 3 * v;
-      if (o.kind == MSIM_OBSTACLE_PLANE) { /* n = s e_k: s x_k >= d */
-        const int k = AxisOf(p);
-        if (p[k] > 0) lo[3 * v + k] = PetscMax(PetscRealPart(lo[3 * v + k]), p[3] / p[k]);
-        else hi[3 * v + k] = PetscMin(PetscRealPart(hi[3 * v + k]), p[3] / p[k]);
-        continue;
-      }
-      /* box: the face whose half-space the vertex is farthest into (>= 0: it is outside or on it) */
-      int       axis = 0, upper = 0;
-      PetscReal best = PETSC_NINFINITY;
-      for (int c = 0; c < 3; c++) {
-        const PetscReal below = p[2 * c] - xv[c], above = xv[c] - p[2 * c + 1];
-        if (below > best) best = below, axis = c, upper = 0;
-        if (above > best) best = above, axis = c, upper = 1;
-      }
-      if (upper) lo[3 * v + axis] = PetscMax(PetscRealPart(lo[3 * v + axis]), p[2 * axis + 1]);
-      else hi[3 * v + axis] = PetscMin(PetscRealPart(hi[3 * v + axis]), p[2 * axis]);
-    }
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    for (size_t k = 0; k < nobs; k++)
+      if (b->obs[k].kind == MSIM_OBSTACLE_BOX) b->face[v * nobs + k] = (signed char)FarthestFace(b->obs[k].p, x + 3 * v, -1);
+    VertexBounds(b, v, lo, hi);
+  }
   PetscCall(VecRestoreArray(b->XU, &hi));
   PetscCall(VecRestoreArray(b->XL, &lo));
   PetscCall(VecRestoreArrayRead(Xn, &x));
