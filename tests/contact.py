@@ -292,6 +292,14 @@ def main():
         lines = mt.lines(r.stderr)
         check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: fixed vertex 0 enters obstacle 0 (-msim_contact_box) at step 5: obstacles do not act on prescribed vertices"),
               f"np {np_}: handles driven into a box: one warning line ({lines!r})")
+        # the run that fails for it says so too (only runs that ended did): corners driven 0.3 m
+        # into a floor stretch the cloth held above it until the run diverges at step 20
+        r = mt.run(exe, ["-msim_integrator", "implicit_euler", "-msim_dt", "0.02", "-msim_steps", "20", "-msim_cloth_n", "11", "-msim_fix", "corners",
+                         "-msim_fix_velocity", "0,0,-1", "-msim_contact_plane", "0,0,1,-0.1"], np_)
+        lines = mt.lines(r.stderr)
+        check(r.returncode != 0 and len(lines) == 2 and lines[0].startswith("msim: warning: fixed vertex 110 enters obstacle 0 (-msim_contact_plane) at step 6:")
+              and lines[1].startswith("msim: error: diverged at step 20"),
+              f"np {np_}: handles driven into a floor until the run diverges: the warning and the error ({lines!r})")
         # pd as newtonls's nonlinear preconditioner is the one composition allowed with a barrier
         # (its steps stay feasible): the cloth lands on a plane and stays out of it
         p, r = mt.final_positions(exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_steps", "20",

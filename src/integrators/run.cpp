@@ -179,6 +179,22 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(PetscLogStagePop());
     return PETSC_SUCCESS;
   };
+  /* the warnings that explain a run, printed after its steps, also when it stops on an error:
+     they may name its cause (a handle driven into an obstacle, steps cut off at -snes_max_it
+     before a divergence), which a failing run did not say. They count this run's steps up to n,
+     the last one taken (a restarted run's counters start at its checkpoint) */
+  auto Summarise = [&](PetscInt n) -> PetscErrorCode {
+    if (integ->saddle_steps)
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps Newton converged to a saddle point of Phi, not a minimum (up to %" PetscInt_FMT " negative eigenvalues of the exact Hessian): an unstable state, usually a cloth compressed flat; -msim_inertia_correction or a descent method (-msim_psd 1, pd, qn) moves off it\n", integ->saddle_steps, n - step0, integ->saddle_negative));
+    if (integ->unconverged_steps)
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, n - step0, integ->tolerance));
+    if (integ->stalled_steps)
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, n - step0, integ->stall));
+    if (integ->barrier_energy0 > scale - integ->barrier_energy0)
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: the contact barriers held %g J at the start, %g x the scene's energy scale %g J: elements that start within the contact distance (-msim_self_contact_start_gap below it, a vertex near an obstacle, or moving handles whose first step brings elements that near) spring apart and turn it into kinetic energy; a start resting in contact needs its gaps near that distance, or a smaller -msim_self_contact_distance\n", (double)integ->barrier_energy0, (double)(integ->barrier_energy0 / (scale - integ->barrier_energy0)), (double)(scale - integ->barrier_energy0)));
+    PetscCall(MSimContactWarnHandles(sys));
+    return PETSC_SUCCESS;
+  };
   PetscCall(MSimProgressBegin(&progress, step0));
   PetscCall(MSimStopSignalBegin(sys->comm, &stop));
   PetscCall(PetscLogStagePush(MSIM_StageStep));
@@ -227,6 +243,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
       PetscCall(VecCopy(Xgood, X));
       PetscCall(VecCopy(Vgood, V));
+      PetscCall(Summarise(n));
       PetscCall(EndEarly());
       SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
     }
@@ -250,6 +267,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
          kept where a checkpoint was asked for */
       char how[PETSC_MAX_PATH_LEN + 96];
       PetscCall(MSimCheckpointPath(ck, how, sizeof(how)));
+      PetscCall(Summarise(n));
       PetscCall(EndEarly());
       info->steps_done = n;
       info->t          = t;
@@ -261,17 +279,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(PetscLogStagePop());
   PetscCall(MSimCheckpointDestroy(&ck));
   info->steps_done = integ->steps;
-  /* the warnings below count this run's steps: a restarted run's counters start at its checkpoint */
   info->t          = time_at(integ->steps);
-  if (integ->saddle_steps)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps Newton converged to a saddle point of Phi, not a minimum (up to %" PetscInt_FMT " negative eigenvalues of the exact Hessian): an unstable state, usually a cloth compressed flat; -msim_inertia_correction or a descent method (-msim_psd 1, pd, qn) moves off it\n", integ->saddle_steps, integ->steps - step0, integ->saddle_negative));
-  if (integ->unconverged_steps)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, integ->steps - step0, integ->tolerance));
-  if (integ->stalled_steps)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, integ->steps - step0, integ->stall));
-  if (integ->barrier_energy0 > scale - integ->barrier_energy0)
-    PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: the contact barriers held %g J at the start, %g x the scene's energy scale %g J: elements that start within the contact distance (-msim_self_contact_start_gap below it, a vertex near an obstacle, or moving handles whose first step brings elements that near) spring apart and turn it into kinetic energy; a start resting in contact needs its gaps near that distance, or a smaller -msim_self_contact_distance\n", (double)integ->barrier_energy0, (double)(integ->barrier_energy0 / (scale - integ->barrier_energy0)), (double)(scale - integ->barrier_energy0)));
-  PetscCall(MSimContactWarnHandles(sys));
+  PetscCall(Summarise(integ->steps));
   PetscCall(MSimViewFinal(sys, info->t, X));
   PetscCall(MSimMonitorDestroy(sys->comm, &mon));
   PetscCall(MSimOutputDestroy(&out));
