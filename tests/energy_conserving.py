@@ -13,7 +13,9 @@ other schemes' in tests/schemes.py)
   reports the same), over 2000 steps; and on a 7 x 7 cloth at h = 1/30 s over 2000 steps, where
   implicit midpoint (msim's Newton) gains energy until it diverges: its energy must move by more
   than the discrete-gradient run's largest kinetic energy before it stops;
-- -snes_type pd with the scheme is refused with one line naming the option (printed once).
+- -snes_type pd with the scheme is refused with one line naming the option (printed once);
+- -snes_type ksponly (one linear solve a step) runs it linearised and says so in one note, as ts
+  does for its implicit types (it ran silently, its energy no longer kept); Newton has no note.
 (Its bit-identical restart with no history beyond (x, v) is checked with the other schemes' in
 tests/schemes.py.)"""
 import math
@@ -87,11 +89,20 @@ def refusal(np_):
           f"np={np_}: -snes_type pd with discrete_gradient is refused in one line: {lines[0] if lines else (r.stdout + r.stderr)[-300:]!r}")
 
 
+def linearised(np_):
+    for snes, notes in (("ksponly", 1), ("newtonls", 0)):
+        r = mt.run(MSIM, CHAIN + DG + ["-msim_dt", "0.01", "-msim_steps", "3", "-snes_type", snes], np_)
+        noted = [l for l in mt.lines(r.stderr) if "a linearised scheme" in l]
+        check(r.returncode == 0 and len(noted) == notes and all(l.startswith("msim: note: -snes_type ksponly with -msim_integrator discrete_gradient") for l in noted),
+              f"np={np_}: -snes_type {snes} runs with {notes} note that the scheme is linearised ({r.returncode}, {mt.lines(r.stderr)})")
+
+
 def main():
     with tempfile.TemporaryDirectory() as tmp:
         for np_ in mt.ranks():
             energy(np_, tmp)
             refusal(np_)
+            linearised(np_)
     return check.exit_code()
 
 

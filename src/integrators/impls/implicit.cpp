@@ -47,6 +47,7 @@ typedef struct {
   MSimContactBounds      bounds;         /* obstacles as VI bounds (-msim_contact_bounds), or NULL */
   PetscBool              semismooth;     /* -snes_type vinewtonssls: no objective, a nonsymmetric Jacobian */
   PetscBool              history_loaded; /* a restart gave the scheme its history (HistoryLoaded_Implicit) */
+  PetscBool              linearised_noted; /* the note that a fixed-count solve makes a residual scheme linearised is out */
   Vec                    history[MSIM_SCHEME_MAX_WORK + 1 + MSIM_MAX_TERM_HISTORY]; /* what a checkpoint carries (GetHistory_Implicit) */
   Vec                    vi_step;        /* LineSearchPostCheckVI's work: the VI search's step (made once) */
 } ImplicitData;
@@ -897,6 +898,15 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
      counts, also where pd runs as another SNES's nonlinear preconditioner */
   integ->linear_its = lits + ie->imp->pd_lits;
+  if (reason == SNES_CONVERGED_ITS && ie->imp->scheme->no_objective && !ie->linearised_noted) {
+    /* a scheme whose step is a residual's root, not Phi's minimizer (discrete_gradient), stopped
+       after a fixed count (ksponly's one linear solve) is a linearised scheme, as ts says of its
+       implicit types: its energy is kept only to what the step leaves in the residual (the
+       scheme's balance moves it by (2/h) v_m . r a step). For the schemes that minimize Phi,
+       one Newton step is Baraff-Witkin's method, as documented */
+    ie->linearised_noted = PETSC_TRUE;
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: note: -snes_type %s with -msim_integrator %s stops each step after a fixed count (a linearised scheme), not at -snes_atol/-snes_rtol: the monitor's residual is |r| where it stopped, and the energy is kept only to what that residual leaves\n", type, integ->type));
+  }
   /* the types that stop after a fixed count (ksponly, fixed-count pd) do not evaluate g at their
      result: do it here for the monitor */
   PetscCall(SNESGetFunction(ie->snes, &F, NULL, NULL));
