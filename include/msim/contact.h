@@ -92,6 +92,11 @@ typedef struct _n_MSimContact *MSimContact;
    it). */
 PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact);
 PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
+/* After the integrator's set-up (of type, its name): the contact options set that act nowhere in
+   it refused in one line naming them: the barrier's (-msim_contact_kappa, -msim_contact_pd_*, ...)
+   with a penalty integrator or with obstacles as VI bounds, the penalty's stiffness with the
+   barrier. Collective; nothing without obstacles (MSimContactGet refuses them there). */
+PetscErrorCode MSimContactRefuseUnread(MSimSystem sys, const char type[]);
 /* The start state against the obstacles the barrier takes, with its margin: one error line naming
    the first vertex within 1e-6 dhat of one (MSimContactGet refuses only a vertex inside, as a
    penalty or VI bounds can start on an obstacle; the implicit integrators call this where the

@@ -39,7 +39,8 @@ PetscErrorCode MSimOptionsWatchEnd(MSimOptionsWatch *watch, std::string &read);
 /* Collective, after PetscInitialize: each plain -options_file of the command line (and each it
    includes) read again on rank 0 for an option given on two of its lines, which PETSc's database
    keeps only the last of: an error for msim's list options (obstacles, vertex ids, ...), a warning
-   line for any other (options_file_repeats.cpp). */
+   line for any other; and a list option given twice on the command line, an error
+   (options_file_repeats.cpp). */
 PetscErrorCode MSimCheckOptionsFileRepeats(MPI_Comm comm);
 
 /* Options set but never read (a misspelled name does nothing otherwise): one warning line each on

@@ -27,6 +27,7 @@
    eigenvalue of (K + kc sum_o n_o n_o^T per vertex, M) (MSimContactAddPenaltyStiffness): every
    vertex as if pressed into every obstacle, exact for a cloth lying on a plane. */
 #include <msim/contact.h>
+#include <msim/implicit.h>
 #include <msim/options.h>
 #include <msim/errors.h>
 #include <msim/private/systemimpl.h>
@@ -458,6 +459,46 @@ PetscErrorCode MSimContactObstacleSpeed(MSimSystem sys, PetscReal *speed)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Options set that act nowhere in this run, each refused in one line, "NAME WHY": read, PETSc
+   counts them used, so the unused-option warning never named them */
+static PetscErrorCode RefuseSet(MPI_Comm comm, size_t n, const char *const names[], const char why[])
+{
+  PetscFunctionBeginUser;
+  for (size_t k = 0; k < n; k++) {
+    PetscBool set;
+    PetscCall(PetscOptionsHasName(NULL, NULL, names[k], &set));
+    PetscCheck(!set, comm, PETSC_ERR_ARG_WRONG, "%s %s", names[k], why);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the implicit integrators' barrier and its PD and Newton weights (obstacles.cpp, pd_steps.cpp) */
+static const char *const barrier_options[] = {"-msim_contact_kappa", "-msim_contact_pd_weight", "-msim_contact_pd_refactor", "-msim_contact_pd_refactor_selective", "-msim_contact_pd_bound", "-msim_contact_pc_pd_weight", "-msim_contact_psd_curvature"};
+
+PetscErrorCode MSimContactRefuseUnread(MSimSystem sys, const char type[])
+{
+  MSimContact ct;
+  PetscBool   barrier;
+  char        why[256];
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(sys, &ct));
+  PetscCall(Query(sys, &ct)); /* also where VI bounds took every obstacle (MSimContactGet gives NULL then) */
+  if (!ct || (ct->obs.empty() && ct->bounds.empty())) PetscFunctionReturn(PETSC_SUCCESS); /* MSimContactGet refused them */
+  PetscCall(MSimImplicitSchemeIsRegistered(type, &barrier));
+  if (!barrier) {
+    PetscCall(PetscSNPrintf(why, sizeof(why), "with -msim_integrator %s is not supported: it tunes the barrier of implicit_euler and bdf2, and this integrator's contact is a penalty (-msim_contact_stiffness)", type));
+    PetscCall(RefuseSet(sys->comm, PETSC_STATIC_ARRAY_LENGTH(barrier_options), barrier_options, why));
+  } else {
+    static const char *const penalty[] = {"-msim_contact_stiffness"};
+    PetscCall(PetscSNPrintf(why, sizeof(why), "with -msim_integrator %s is not supported: it is the penalty's stiffness (the explicit integrators and ts); the barrier's is -msim_contact_kappa", type));
+    PetscCall(RefuseSet(sys->comm, 1, penalty, why));
+    /* VI bounds take every obstacle or refuse (contact_bounds.cpp): no barrier is left */
+    if (!ct->bounds.empty()) PetscCall(RefuseSet(sys->comm, PETSC_STATIC_ARRAY_LENGTH(barrier_options), barrier_options, "with obstacles as variable bounds (-msim_contact_bounds, or a VI -snes_type) is not supported: it tunes the barrier, which the bounds replace"));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
 {
   PetscContainer container;
@@ -564,6 +605,20 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
     PetscCheck(ct->thickness == 0 || mesh, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_thickness %g acts on mesh obstacles (-msim_contact_mesh) only, and there is none", (double)ct->thickness);
   }
   PetscCheck(ct->mu == 0 || !ct->obs.empty() || sys->self_contact.on, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_friction %g acts on nothing: friction is with obstacles (-msim_contact_plane, _sphere, _box, _mesh) or between surfaces in self-contact (-msim_self_contact), and there are neither", (double)ct->mu);
+  {
+    /* the rest act only with an obstacle, and friction's smoothing only with friction (given as 0
+       it turns off what an options file set up, smoothing with it) */
+    static const char *const with_obstacle[] = {"-msim_contact_distance", "-msim_contact_stiffness"};
+    static const char *const smoothing[]     = {"-msim_friction_eps"};
+    const char              *why             = "has no effect without an obstacle (-msim_contact_plane, _sphere, _box or _mesh)";
+    PetscBool                eps_set;
+    if (ct->obs.empty()) {
+      PetscCall(RefuseSet(sys->comm, PETSC_STATIC_ARRAY_LENGTH(with_obstacle), with_obstacle, why));
+      PetscCall(RefuseSet(sys->comm, PETSC_STATIC_ARRAY_LENGTH(barrier_options), barrier_options, why));
+    }
+    PetscCall(PetscOptionsHasName(NULL, NULL, smoothing[0], &eps_set));
+    PetscCall(MSimOptionsRefuseWithout(sys->comm, "-msim_friction", 1, smoothing, &eps_set));
+  }
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));

@@ -98,6 +98,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(PetscLogStagePush(MSIM_StageSetup));
   PetscCall(MSimIntegratorSetUp(integ));
   PetscCall(PetscLogStagePop());
+  PetscCall(MSimContactRefuseUnread(sys, integ->type));
   PetscCall(MSimContactForceSetIntegrator(sys, integ->type)); /* the frames' and monitor's contact force */
   PetscCall(MSimGuard(sys, integ, X, info));
   PetscCall(MSimCheckpointSetIntegrator(ck, integ));

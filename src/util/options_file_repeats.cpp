@@ -6,11 +6,13 @@
    An option whose value is a list of items is refused, naming the file and the lines; any other
    option repeated gets one warning line saying which value is used. A command-line option that
    overrides a file's (given after it) is PETSc's ordinary rule and is left alone, with the file's
-   repeats of it, and so is an option repeated across two files. */
+   repeats of it, and so is an option repeated across two files. A list option given twice on the
+   command line itself is refused the same way: the first obstacle vanished just as silently. */
 #include <msim/errors.h>
 #include <msim/options.h>
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -21,6 +23,28 @@
 /* msim's options whose value is a list of items (obstacles, vertex ids, spring families, terms):
    a second line is one more item the user meant to add, never a change of mind */
 static const char *const kListOptions[] = {"msim_contact_plane", "msim_contact_sphere", "msim_contact_box", "msim_contact_mesh", "msim_contact_velocity", "msim_fix_list", "msim_springs", "msim_implicit_terms"};
+
+/* whether the name (no dash, lower case) is one of kListOptions */
+static bool IsList(const std::string &name)
+{
+  return std::any_of(std::begin(kListOptions), std::end(kListOptions), [&](const char *o) { return name == o; });
+}
+
+/* the option name of a command-line argument (no dash, lower case), or "" for a value: as
+   PETSc's PetscOptionsValidKey, a key is a dash (or two) and a letter, and not a number such as
+   -1e3 or -inf */
+static std::string KeyName(const char *arg)
+{
+  if (arg[0] != '-') return "";
+  const char *key = arg[1] == '-' ? arg + 1 : arg;
+  char       *end;
+  if (!isalpha((unsigned char)key[1])) return "";
+  (void)strtod(key, &end);
+  if (end != key && !(*end == '_' || isalnum((unsigned char)*end))) return "";
+  std::string name(key + 1);
+  std::transform(name.begin(), name.end(), name.begin(), ::tolower);
+  return name;
+}
 
 /* "3 and 7", "3, 5 and 7" */
 static std::string LineList(const std::vector<int> &lines)
@@ -110,8 +134,7 @@ static PetscErrorCode CheckFile(const std::string &file, const std::set<std::str
     auto it = given.find(name);
     if (it == given.end() || it->second.lines.size() < 2 || later.count(name)) continue; /* the command line's value counts */
     const Given &g = it->second;
-    const bool list = std::any_of(std::begin(kListOptions), std::end(kListOptions), [&](const char *o) { return name == o; });
-    PetscCheck(!list, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "%s lines %s: %s is given %s, and only the last would be used: give all of them in one %s, comma-separated", file.c_str(), LineList(g.lines).c_str(), g.typed.c_str(), Times(g.lines).c_str(), g.typed.c_str());
+    PetscCheck(!IsList(name), PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "%s lines %s: %s is given %s, and only the last would be used: give all of them in one %s, comma-separated", file.c_str(), LineList(g.lines).c_str(), g.typed.c_str(), Times(g.lines).c_str(), g.typed.c_str());
     repeated.push_back(&g);
   }
   for (const Given *g : repeated)
@@ -130,16 +153,18 @@ PetscErrorCode MSimCheckOptionsFileRepeats(MPI_Comm comm)
   PetscCall(PetscGetArgs(&argc, &argv));
   PetscCall(MSimCallOnRankZero(comm, [&]() -> PetscErrorCode {
     std::string warnings; /* said once every file has passed: a refusal is the run's one line */
+    std::map<std::string, int> given; /* the command line's list options: how often each is given */
     PetscFunctionBeginUser;
+    for (int a = 1; a < argc; a++) {
+      const std::string name = KeyName(argv[a]);
+      if (!IsList(name)) continue;
+      PetscCheck(++given[name] < 2, PETSC_COMM_SELF, PETSC_ERR_ARG_WRONG, "the command line gives %s twice, and only the last would be used: give all of them in one %s, comma-separated", argv[a], argv[a]);
+    }
     for (int a = 1; a + 1 < argc; a++) {
       if (strcasecmp(argv[a], "-options_file") || IsYAML(argv[a + 1])) continue;
       std::set<std::string> later; /* PETSc inserts the arguments in order: those after the file replace its values */
       for (int b = a + 2; b < argc; b++)
-        if (argv[b][0] == '-' && !isdigit((unsigned char)argv[b][1]) && argv[b][1] != '.') {
-          std::string name(argv[b] + 1);
-          std::transform(name.begin(), name.end(), name.begin(), ::tolower);
-          later.insert(name);
-        }
+        if (!KeyName(argv[b]).empty()) later.insert(KeyName(argv[b]));
       PetscCall(CheckFile(argv[a + 1], later, warnings));
     }
     PetscCall(PetscFPrintf(PETSC_COMM_SELF, PETSC_STDERR, "%s", warnings.c_str()));

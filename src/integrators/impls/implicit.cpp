@@ -662,7 +662,19 @@ static PetscErrorCode CreateSNES(MSimIntegrator integ, ImplicitData *ie, KSP *ks
          left the feasible set and ended in DIVERGED_DTOL on a cloth dropped on a plane): with a
          barrier, backtracking on Phi unless the user chose a search */
       PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESQN, &qn));
-      if (qn && !ie->linesearch_set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+      if (qn) {
+        /* Broyden's directions (broyden, badbroyden) need not descend Phi: bt found no decrease for
+           any lambda down to 1e-12 and the run failed at step 2 of a cloth falling towards a plane
+           it had not reached (cp: a NaN residual at step 5), and at step 1 of a cloth in
+           self-contact. PETSc has no getter for qn's type; its names are upper case. */
+        static const char *const qn_names[] = {"lbfgs", "broyden", "badbroyden"}; /* SNESQNType's order */
+        SNESQNType               qn_type    = SNES_QN_LBFGS;
+        const char *prefix;
+        PetscCall(SNESGetOptionsPrefix(ie->snes, &prefix));
+        PetscCall(PetscOptionsGetEnum(NULL, prefix, "-snes_qn_type", SNESQNTypes, (PetscEnum *)&qn_type, NULL));
+        PetscCheck(qn_type == SNES_QN_LBFGS, integ->comm, PETSC_ERR_SUP, "-snes_qn_type %s with %s is not supported: its directions need not descend the energy, which the feasible line search backtracks on: use -snes_qn_type lbfgs (the default)", qn_names[qn_type], BarrierName(ie->imp->terms[k]));
+        if (!ie->linesearch_set) PetscCall(SNESLineSearchSetType(ls, SNESLINESEARCHBT));
+      }
       {
         /* a user's l2 or cp: their secant steps take lambda up to the search's maxstep (1e8),
            past 1, the pre-check's feasible step: l2 passed the 41 x 41 fold's 6 crossing
