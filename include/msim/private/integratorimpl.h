@@ -64,5 +64,9 @@ struct _n_MSimIntegrator {
      kinetic energy, so the divergence check counts it in the start's energy (set at step 1 by
      the implicit integrators; 0 where there is none, and in a restarted run, whose E0 has it) */
   PetscReal         barrier_energy0;
+  /* of barrier_energy0, the obstacles' part, their contact distance, and per obstacle holding
+     some the vertices within it and the least distance (for the start's warning in run.cpp) */
+  PetscReal         barrier_obstacles0, barrier_dhat0;
+  char              barrier_near0[512];
   PetscBool         help_listing; /* a throwaway instance made only so -help lists its options */
 };

@@ -859,18 +859,53 @@ static PetscErrorCode StepStalled(ImplicitData *ie, SNESConvergedReason reason, 
    potential. A touching mesh started 0.1 m from a triangle with dhat = 0.2 m (tests/self_contact_
    start_rest.py) held 1254 J there against a scene energy of 0.70 J: the first step released it
    as kinetic energy, and the divergence check, which did not count it, stopped the run as
-   "diverged" at step 1 (run.cpp now counts it in the start's energy E0 and the scale). */
-static PetscErrorCode BarrierEnergy(ImplicitData *ie, Vec X, PetscReal *e)
+   "diverged" at step 1 (run.cpp now counts it in the start's energy E0 and the scale). Sets
+   integ's barrier_energy0, and the obstacles' part with where they hold it for run.cpp's warning. */
+static PetscErrorCode BarrierEnergy(MSimIntegrator integ, PetscReal t, Vec X)
 {
-  MSimImplicit imp = ie->imp;
-  PetscReal    phi = 0;
+  ImplicitData *ie  = (ImplicitData *)integ->data;
+  MSimImplicit  imp = ie->imp;
+  PetscReal     phi = 0;
 
   PetscFunctionBeginUser;
-  *e = 0;
+  integ->barrier_energy0 = integ->barrier_obstacles0 = 0;
   if (imp->scheme->no_objective || !(imp->step.h2 > 0)) PetscFunctionReturn(PETSC_SUCCESS);
-  for (PetscInt k = 0; k < imp->nterms; k++)
-    if (imp->terms[k]->ops.max_step && imp->terms[k]->ops.energy && !imp->terms[k]->in_potential) PetscCall(imp->terms[k]->ops.energy(imp->terms[k], X, &phi)); /* summed over the ranks */
-  *e = phi / imp->step.h2;
+  for (PetscInt k = 0; k < imp->nterms; k++) {
+    PetscReal before = phi;
+    PetscBool obstacles;
+    if (!imp->terms[k]->ops.max_step || !imp->terms[k]->ops.energy || imp->terms[k]->in_potential) continue;
+    PetscCall(imp->terms[k]->ops.energy(imp->terms[k], X, &phi)); /* summed over the ranks */
+    PetscCall(PetscStrcmp(imp->terms[k]->type, "obstacles", &obstacles));
+    if (obstacles) integ->barrier_obstacles0 = (phi - before) / imp->step.h2;
+  }
+  integ->barrier_energy0 = phi / imp->step.h2;
+  if (integ->barrier_obstacles0 > 0) { /* which obstacles hold it, so that the warning can say where */
+    MSimContact                ct;
+    const PetscScalar         *x;
+    std::vector<PetscReal>     dmin;
+    std::vector<PetscInt>      count;
+    size_t                     len = 0;
+    PetscCall(MSimContactGetForStep(imp->sys, imp->step.h2, &ct));
+    dmin.assign(ct->obs.size(), PETSC_MAX_REAL);
+    count.assign(ct->obs.size(), 0);
+    PetscCall(VecGetArrayRead(X, &x));
+    std::vector<PetscInt> last(ct->obs.size(), -1); /* a vertex in a mesh's creases has several contacts: counted once */
+    MSimContactForEachNear(ct, imp->sys->nown, x, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *, const PetscReal *) {
+      const size_t k = (size_t)(&o - ct->obs.data());
+      if (last[k] != v) count[k]++, last[k] = v;
+      dmin[k] = PetscMin(dmin[k], d);
+    });
+    PetscCall(VecRestoreArrayRead(X, &x));
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, count.data(), (PetscMPIInt)count.size(), MPIU_INT, MPI_SUM, integ->comm));
+    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, dmin.data(), (PetscMPIInt)dmin.size(), MPIU_REAL, MPIU_MIN, integ->comm));
+    integ->barrier_dhat0    = ct->dhat;
+    integ->barrier_near0[0] = 0;
+    for (size_t k = 0; k < ct->obs.size(); k++)
+      if (count[k]) {
+        PetscCall(PetscSNPrintf(integ->barrier_near0 + len, sizeof(integ->barrier_near0) - len, "%sobstacle %d: %" PetscInt_FMT " vertices within it, the nearest at %g m", len ? "; " : "", (int)k, count[k], (double)dmin[k]));
+        PetscCall(PetscStrlen(integ->barrier_near0, &len));
+      }
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -892,7 +927,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   PetscCall(MSimImplicitBeginStep(ie->imp, t, integ->dt, X, V));
   if (ie->conv) PetscCall(MSimConvergenceMonitorBeginStep(ie->conv, integ->step, integ->first_step));
   if (ie->bounds) PetscCall(MSimContactBoundsBeginStep(ie->bounds, X)); /* from x_n */
-  if (integ->step == 1) PetscCall(BarrierEnergy(ie, X, &integ->barrier_energy0)); /* at x_0, after BeginStep set the barriers up; a restart has it in its E0 */
+  if (integ->step == 1) PetscCall(BarrierEnergy(integ, t, X)); /* at x_0, after BeginStep set the barriers up; a restart has it in its E0 */
   PetscCall(MSimImplicitGuess(ie->imp, V, X));
   if (ie->imp->refused[0]) { /* no feasible start (a term's feasible_start said why): nothing to solve */
     integ->failed      = PETSC_TRUE;
