@@ -202,7 +202,8 @@ static PetscErrorCode Body(void)
 {
   PetscFunctionBeginUser;
   /* edge 0.2 m: vertex-disjoint elements of the flat grid are 0.141 m apart, within dhat 0.18 (on
-     purpose: -msim_self_contact_start_gap 0 lets such a start pass the start check) */
+     purpose; the start check runs in MSimRun, not here, and -msim_self_contact_start_gap 0 is the
+     option a run of this start would need) */
   PetscCall(Run("-msim_cloth_n 6 -msim_fix none -msim_perturb 0.02 -msim_self_contact -msim_self_contact_distance 0.18 -msim_self_contact_start_gap 0 -msim_friction 0.4 -msim_integrator implicit_euler", PETSC_FALSE));
   PetscCall(Run("-msim_cloth_n 6 -msim_fix corners -msim_fix_velocity 0.3,-0.2,0.1 -msim_perturb 0.02 -msim_self_contact -msim_self_contact_distance 0.18 -msim_self_contact_start_gap 0 -msim_friction 0.4 -msim_integrator implicit_euler", PETSC_TRUE));
   PetscFunctionReturn(PETSC_SUCCESS);

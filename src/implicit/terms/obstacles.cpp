@@ -920,8 +920,8 @@ static void ClampMoveMask(PetscInt nown, const PetscReal *__restrict an, const P
    its weight is 25 x further off. At -msim_contact_distance 1e-5 (PD-10 on a ball, h = 0.02) a
    vertex fell from 6.6e-9 to 5e-12 m in the iterations of two steps, the cloth's steps cut to
    alpha ~1e-6 meanwhile, and at 1e-12 m the coordinates' roundoff is 1e-5 of the distance: 1 and 2
-   ranks drifted 8 mm apart in 20 steps (3e-7 m with the weights taken again at the next local
-   step, which stops the fall where it starts). Above sqrt(eps) |x| the rule per time step stands:
+   ranks drifted 8 mm apart in 20 steps once msimllt refactored there (3e-2 m before), and 3e-7 m
+   with the weights taken again at the next local step, which stops the fall where it starts. Above sqrt(eps) |x| the rule per time step stands:
    there the same fall (to 7e-4 dhat at the default dhat) is harmless, and every PD contact run
    keeps its bits. PD's own steps alone (Newton's preconditioner takes them at every Jacobian). */
 static PetscErrorCode BlockerStale(MSimImplicitTerm term, MSimContact ct, PDWeights *pw, PetscInt v, const PetscScalar *x, PetscBool *stale)
