@@ -52,18 +52,6 @@ import vtu  # noqa: E402
 G = 9.81
 
 
-def write_box(path, b):
-    """closed box x0,x1,y0,y1,z0,z1 as 12 triangles"""
-    x0, x1, y0, y1, z0, z1 = b
-    V = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
-    Q = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
-    with open(path, "w") as f:
-        for v in V:
-            f.write("v %r %r %r\n" % v)
-        for q in Q:
-            f.write("f %d %d %d\nf %d %d %d\n" % (q[0] + 1, q[1] + 1, q[2] + 1, q[0] + 1, q[2] + 1, q[3] + 1))
-
-
 def sphere_mesh(c, r, nu=24, nv=12):
     """a UV sphere: vertices (array) and triangles (0-based)"""
     V = [(c[0], c[1], c[2] + r)]
@@ -182,10 +170,10 @@ def main():
     tmp = tempfile.mkdtemp(prefix="msim_contact_mesh_")
     table = [0.2, 0.8, 0.2, 0.8, -1, -0.2]
     table_obj = os.path.join(tmp, "table.obj")
-    write_box(table_obj, table)
+    mt.write_box_obj(table_obj, table)
     big = [-0.5, 1.5, -0.5, 1.5, -1, -0.05]
     big_obj = os.path.join(tmp, "big.obj")
-    write_box(big_obj, big)
+    mt.write_box_obj(big_obj, big)
     ball_c, ball_r, ball_v = [0.5, 0.5, -0.5], 0.2, [0, 0, 0.6]
     BV, BF = sphere_mesh(ball_c, ball_r)
     ball_obj = os.path.join(tmp, "ball.obj")
@@ -349,7 +337,7 @@ def main():
         with open(flat, "w") as f:
             f.write("v 0 0 -1\nv 1 0 -1\nv 2 0 -1\nv 0 1 -1\nf 1 2 4\nf 1 2 3\n")
         inside = os.path.join(tmp, "inside.obj")
-        write_box(inside, [0.4, 0.6, 0.4, 0.6, -0.1, 0.1])
+        mt.write_box_obj(inside, [0.4, 0.6, 0.4, 0.6, -0.1, 0.1])
         mt.refusals(check, exe, ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_steps", "1"],
                     (("a face naming a missing vertex", ["-msim_contact_mesh", bad_face], ["bad_face.obj", "line 4"]),
                      ("a zero-area triangle", ["-msim_contact_mesh", flat], ["flat.obj", "zero area"]),

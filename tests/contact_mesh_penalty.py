@@ -35,18 +35,6 @@ SHEET_Z, THICK = -0.1, 0.01
 SHEET_BOX = [-1, 2, -1, 2, -1, SHEET_Z + THICK]  # the shell's top side where the cloth is
 
 
-def write_box(path, b):
-    """closed box x0,x1,y0,y1,z0,z1 as 12 triangles"""
-    x0, x1, y0, y1, z0, z1 = b
-    V = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
-    Q = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
-    with open(path, "w") as f:
-        for v in V:
-            f.write("v %g %g %g\n" % v)
-        for a, b_, c, d in Q:
-            f.write(f"f {a + 1} {b_ + 1} {c + 1}\nf {a + 1} {c + 1} {d + 1}\n")
-
-
 def box_distance(p, b):
     """signed distance of points p (n, 3) to the solid box b (negative inside)"""
     lo, hi = np.array(b[0::2]), np.array(b[1::2])
@@ -64,7 +52,7 @@ def main():
     check = mt.Checks()
     tmp = tempfile.mkdtemp(prefix="msim_contact_mesh_penalty_")
     cube_obj = os.path.join(tmp, "cube.obj")
-    write_box(cube_obj, CUBE)
+    mt.write_box_obj(cube_obj, CUBE)
     sheet_obj = os.path.join(tmp, "sheet.obj")
     with open(sheet_obj, "w") as f:
         f.write(f"v -1 -1 {SHEET_Z}\nv 2 -1 {SHEET_Z}\nv 2 2 {SHEET_Z}\nv -1 2 {SHEET_Z}\nf 1 2 3\nf 1 3 4\n")

@@ -169,6 +169,18 @@ def read_csv(path):
         return list(csv.DictReader(f))
 
 
+def write_box_obj(path, b):
+    """a closed box x0,x1,y0,y1,z0,z1 as 12 outward triangles in an OBJ file (a mesh obstacle)"""
+    x0, x1, y0, y1, z0, z1 = b
+    V = [(x, y, z) for x in (x0, x1) for y in (y0, y1) for z in (z0, z1)]
+    Q = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    with open(path, "w") as f:
+        for v in V:
+            f.write("v %r %r %r\n" % v)
+        for q in Q:
+            f.write("f %d %d %d\nf %d %d %d\n" % (q[0] + 1, q[1] + 1, q[2] + 1, q[0] + 1, q[2] + 1, q[3] + 1))
+
+
 def frames(out):
     """the frame files series.pvd in the output directory out lists, in order"""
     with open(os.path.join(out, "series.pvd")) as f:
