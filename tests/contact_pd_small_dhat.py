@@ -18,7 +18,20 @@ barrier, so the force swings from step to step, 5-27 N; it was 3.2e5 N). Then 1 
 after 15 steps to 1e-5 m (measured 1.5e-7 m; 3.4e-2 m after 12 steps before). Past that the fixed
 iterations amplify the partition's roundoff at distances of 1e-10 m (2.2e-6 m at step 23, 7.1e-4 m
 at step 25, 1.3e-2 m after 30 steps), so the comparison stops well short of it.
+Then the weights are taken again within a step by the same rule at any rank count: two balls
+under the cloth's opposite corners, so that each of 2 or 3 ranks has vertices near one. The rule
+tests the vertex that cut the global step; the flag was reduced over every rank's own blocker, so
+at 2 and 3 ranks a vertex that cut no step took the weights again at step 9 (iteration 6), where 1
+rank did not, and 1 and 2 ranks were 1.1e-5 m apart after 11 steps (1.1e-9 m now; 3 ranks 2.5e-10
+m). Checks: positions after 11 steps within 1e-7 m of 1 rank's at 2 and 3 ranks, and the weights
+taken again (-info) as many times, at least 3 (the scene exercises the rule; not the same
+vertices: at step 9's last iteration two of them cut the step to alpha 1 - 2e-8 and 1 - 6e-8, and
+each rank count's roundoff picks either). msimllt's low-rank update is off there: it corrects 1
+rank's solves alone (the ranks refactor), with roundoff up to 1e-10 |x| (src/solvers/pc_llt.cpp),
+which moved a blocker's distance across the rule's threshold at step 9: an extra reweighting at 1
+rank, and 1 and 2 ranks 1.1e-5 m apart after 11 steps.
 Usage: contact_pd_small_dhat.py path/to/msim"""
+import re
 import sys
 import tempfile
 
@@ -31,6 +44,10 @@ ARGS = ["-msim_cloth_n", "11", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_i
         "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_contact_distance", "1e-5",
         "-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"]
 MG = 9.81  # N: the cloth's weight (1 kg)
+TWO_BALLS = ["-msim_cloth_n", "11", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_integrator", "implicit_euler",
+             "-msim_contact_sphere", "0.2,0.3,-0.3,0.25,0.8,0.7,-0.3,0.25", "-msim_contact_distance", "1e-5",
+             "-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed", "-msim_steps", "11", "-pd_pc_msimllt_update", "0"]
+RETAKEN = re.compile(r"^\[0\] .*contact: vertex (\d+) \(input id\) cut PD's global step", re.M)
 
 
 def least_distance(x):
@@ -57,6 +74,16 @@ def main():
     if check(x[1] is not None and x[2] is not None, "15 steps at 1 and 2 ranks: run"):
         d = float(np.abs(x[1] - x[2]).max())
         check(d < 1e-5, f"1 and 2 ranks agree after 15 steps, max |x1 - x2| = {d:.3g} m (< 1e-5)")
+    x, ids = {}, {}
+    for np_ in (1, 2, 3):
+        x[np_], r = mt.final_positions(exe, TWO_BALLS, np_, tmp, "two_balls", info="vec")
+        ids[np_] = [int(v) for v in RETAKEN.findall(r.info)] if x[np_] is not None else None
+    if check(all(x[n] is not None for n in x), "two balls at 1, 2 and 3 ranks: run"):
+        check(len(ids[1]) >= 3, f"two balls: the weights taken again within a step {len(ids[1])} times at 1 rank (>= 3)")
+        for np_ in (2, 3):
+            check(len(ids[np_]) == len(ids[1]), f"two balls: the weights taken again {len(ids[np_])} times at {np_} ranks (vertices {ids[np_]}), as at 1 rank (vertices {ids[1]})")
+            d = float(np.abs(x[1] - x[np_]).max())
+            check(d < 1e-7, f"two balls: 1 and {np_} ranks agree after 11 steps, max |x1 - x{np_}| = {d:.3g} m (< 1e-7)")
     return check.exit_code()
 
 

@@ -25,6 +25,7 @@
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <msim/errors.h>
+#include <climits>
 #include <cstdint>
 #include <cstring>
 #if defined(__AVX__)
@@ -102,6 +103,10 @@ typedef struct {
   PetscObjectId          dmin_id    = 0;
   PetscObjectState       dmin_state = 0;
   PetscReal              dmin_tx    = 0; /* where the obstacles were */
+  /* each owned vertex's input id: max_step's blocker among ranks whose blockers cut the step
+     alike, and its name in -info (InputIds) */
+  std::vector<PetscInt>  input_id;
+  PetscBool              have_input_id = PETSC_FALSE;
 } PDWeights;
 
 /* w's vertices with a weight, after w changed: PD's right-hand side adds w_v x_v for those alone
@@ -955,6 +960,35 @@ static PetscErrorCode BlockerStale(MSimImplicitTerm term, MSimContact ct, PDWeig
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* pw->input_id: each owned vertex's input id, by the natural layout's scatter run backwards (once
+   a run). Collective. */
+static PetscErrorCode InputIds(MSimSystem sys, PDWeights *pw)
+{
+  Vec                g;
+  PetscInt           lo, hi;
+  PetscScalar       *n;
+  const PetscScalar *x;
+
+  PetscFunctionBeginUser;
+  if (pw->have_input_id) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCheck(sys->nv <= INT_MAX / 2, sys->comm, PETSC_ERR_SUP, "max_step's reduction keys 2 x the input id in an int: at most %d vertices", INT_MAX / 2);
+  PetscCall(MSimSystemNaturalSetUp(sys));
+  PetscCall(VecGetOwnershipRange(sys->natural, &lo, &hi));
+  PetscCall(VecGetArray(sys->natural, &n));
+  for (PetscInt i = lo; i < hi; i++) n[i - lo] = (PetscScalar)(i / 3);
+  PetscCall(VecRestoreArray(sys->natural, &n));
+  PetscCall(MSimSystemCreateVec(sys, &g));
+  PetscCall(VecScatterBegin(sys->to_natural, sys->natural, g, INSERT_VALUES, SCATTER_REVERSE));
+  PetscCall(VecScatterEnd(sys->to_natural, sys->natural, g, INSERT_VALUES, SCATTER_REVERSE));
+  PetscCall(VecGetArrayRead(g, &x));
+  pw->input_id.resize(sys->nown);
+  for (PetscInt v = 0; v < sys->nown; v++) pw->input_id[v] = (PetscInt)(PetscRealPart(x[3 * v]) + 0.5);
+  PetscCall(VecRestoreArrayRead(g, &x));
+  PetscCall(VecDestroy(&g));
+  pw->have_input_id = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, PetscReal *alpha)
 {
   MSimSystem         sys = term->imp->sys;
@@ -972,6 +1006,7 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
      a contact step before); the others give the same alpha as without the skip */
   PDWeights       *pw = Anchors(term, ct);
   const PetscReal *dmin = NULL;
+  PetscCall(InputIds(sys, pw));
   {
     /* from the X of PD's last local step, whose distances (or dhat) that pass kept */
     PetscObjectId    id;
@@ -1031,19 +1066,33 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
       }
     }
   }
-  /* with the step's alpha, whether the weights are to be taken again (the same on every rank: one
-     reduction of both) */
-  PetscReal red[2] = {a, 1};
+  /* with the step's alpha, whether the weights are to be taken again: the vertex that cut the
+     global step decides, tested on its rank. One reduction as before (MINLOC of alpha with the
+     key 2 id + (stale ? 0 : 1), where it was the MIN of alpha and a flag: no other collective)
+     keeps the least alpha and, where several ranks' blockers cut it alike, the least input id
+     (within a rank the first blocker met, the least id there: owned vertices are numbered in
+     input order), so 1 and P ranks test the same vertex. The MIN of every rank's flag let each
+     rank's own blocker, also one that cut no step, take the weights again: on the cloth over two
+     balls (tests/contact_pd_small_dhat.py) 2 ranks did so where 1 did not and were 1.1e-5 m from
+     it after 11 steps (1.1e-9 m now). A rank with no blocker sends an odd key: not stale. */
+  static_assert(sizeof(PetscReal) == sizeof(double), "max_step's reduction is MPI_DOUBLE_INT");
+  struct {
+    double a;
+    int    key;
+  } red = {a, INT_MAX};
   if (blocker >= 0) {
     PetscBool stale;
     PetscCall(BlockerStale(term, ct, pw, blocker, x, &stale));
-    if (stale) red[1] = 0;
+    red.key = 2 * (int)pw->input_id[blocker] + (stale ? 0 : 1);
   }
   PetscCall(VecRestoreArrayRead(Y, &y));
   PetscCall(VecRestoreArrayRead(X, &x));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, red, 2, MPIU_REAL, MPIU_MIN, sys->comm));
-  *alpha = red[0];
-  if (red[1] == 0) pw->stale = PETSC_TRUE;
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &red, 1, MPI_DOUBLE_INT, MPI_MINLOC, sys->comm));
+  *alpha = red.a;
+  if (!(red.key & 1)) {
+    pw->stale = PETSC_TRUE;
+    PetscCall(PetscInfo(X, "contact: vertex %d (input id) cut PD's global step to alpha %g with a factored weight too low for its distance: the weights are taken again at the next local step\n", red.key / 2, (double)red.a));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
