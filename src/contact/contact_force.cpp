@@ -3,7 +3,9 @@
    divided by the step's weight beta h^2: the barrier's normal force -kappa m b'(d) n (b' <= 0, so it
    pushes out along n) plus friction's -mu lambda f1(y)/y u,
    the slip u measured from the x_n of the step that friction's term last evaluated (the state
-   passed is that step's result); the penalty's is what
+   passed is that step's result), with lambda and P those its last solve used: taken at x_n, or at
+   the lag point of its last lag iteration (-msim_friction_lag_iterations), where, once the lag
+   converged, a vertex carries friction exactly where it is within dhat at the result; the penalty's is what
    MSimContactAddPenaltyForce adds. Computed here from msim/contact.h's geometry rather than read
    back from the solver, whose last evaluation is at its last iterate or line-search trial, not
    the step's result. Which of the two applies is kept on the system's X0 (a composed container,
@@ -106,16 +108,18 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
         for (int c = 0; c < 3; c++) s[c] = -ct->kappa * PetscRealPart(m[3 * v]) * de * n[c];
         add(v, s, 1);
       });
-      /* and friction's, -mu lambda f1(y)/y u, at this state against the step's x_n that its term
-         left (friction.cpp; none before the first step) */
+      /* and friction's, -mu lambda f1(y)/y u, at this state against the step's x_n, with the
+         contacts of the lag point, that its term left (friction.cpp; none before the first step) */
       if (ct->mu > 0 && ct->fr_xn) {
-        const PetscScalar *xn;
+        const PetscScalar *xn, *xl;
         const PetscReal    eps = ct->eps_v * ct->fr_h;
         PetscCall(VecGetArrayRead(ct->fr_xn, &xn));
-        MSimContactForEachSliding(ct, sys->nown, x, xn, m, ct->fr_t, ct->fr_tx, [&](PetscInt v, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
+        PetscCall(VecGetArrayRead(ct->fr_xl, &xl));
+        MSimContactForEachSliding(ct, sys->nown, x, xn, xl, m, ct->fr_t, ct->fr_tl, ct->fr_tx, [&](PetscInt v, PetscReal lambda, const PetscReal *, const PetscReal *u, PetscReal y) {
           const PetscReal a = -ct->mu * lambda * MSimFrictionF1OverY(y, eps), s[3] = {a * u[0], a * u[1], a * u[2]};
           add(v, s, 0); /* counted where its normal force is */
         });
+        PetscCall(VecRestoreArrayRead(ct->fr_xl, &xl));
         PetscCall(VecRestoreArrayRead(ct->fr_xn, &xn));
       }
     } else

@@ -29,9 +29,14 @@ struct _n_MSimContact {
      (-1: none yet), its input id and the obstacle's index */
   PetscInt                  handle_step = -1, handle_id = 0, handle_obstacle = 0;
   /* friction's last step (set by its term at every evaluation, non-owning): x_n, the step's start
-     and unknown's times and h, so that the output's force at the step's result includes friction */
+     and unknown's times and h, so that the output's force at the step's result includes friction;
+     and the lag point its normal forces and tangent bases were taken at, with the obstacles' time
+     there: x_n at t, or after lag iterations (-msim_friction_lag_iterations) the state the step's
+     last solve took them at, at tx */
   Vec                       fr_xn;
   PetscReal                 fr_t, fr_tx, fr_h;
+  Vec                       fr_xl = NULL;
+  PetscReal                 fr_tl = 0;
 };
 
 /* kappa's default once h is known (h2 = beta h^2): the barrier as stiff as the mass at dhat/2 */
@@ -92,13 +97,14 @@ inline void MSimFrictionNormal(PetscReal f, const PetscReal n[3], PetscReal *lam
 }
 
 /* IPC's lagged friction (src/implicit/terms/friction.cpp): f(v, lambda, P, u, y) for every owned
-   vertex within dhat of an obstacle at x_n (obstacle at t), lambda the barrier's normal force there
-   and P its tangent projector (MSimFrictionNormal), u = P (x - x_n - v_o (tx - t)) its slip relative to the
+   vertex within dhat of an obstacle at the lag point xl (obstacle at tl: x_n at t, or a lag
+   iteration's state at tx), lambda the barrier's normal force there and P its tangent projector
+   (MSimFrictionNormal), u = P (x - x_n - v_o (tx - t)) its slip over the step relative to the
    obstacle, y = |u| */
 template <class F>
-inline void MSimContactForEachSliding(const _n_MSimContact *ct, PetscInt nown, const PetscScalar *x, const PetscScalar *xn, const PetscScalar *m, PetscReal t, PetscReal tx, F &&f)
+inline void MSimContactForEachSliding(const _n_MSimContact *ct, PetscInt nown, const PetscScalar *x, const PetscScalar *xn, const PetscScalar *xl, const PetscScalar *m, PetscReal t, PetscReal tl, PetscReal tx, F &&f)
 {
-  MSimContactForEachNear(ct, nown, xn, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
+  MSimContactForEachNear(ct, nown, xl, tl, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
     PetscReal e, de, d2e, P[9], u[3], y = 0;
     if (d <= 0) return;
     PetscReal lambda;

@@ -151,6 +151,12 @@ typedef struct {
      by history_loaded after a restart loaded it. Its presence must depend on options only, as a
      checkpoint's count of history vectors must match at restart. */
   PetscErrorCode (*get_history)(MSimImplicitTerm, Vec *h) = NULL;
+  /* optional: a term with quantities lagged over the step (friction: the normal forces and
+     tangent bases it takes at x_n) takes them again at the step's solution X where they differ
+     from those the solve used, and then sets *again (else leaves it): the integrator solves the
+     step again from X (IPC's lag iterations, -msim_friction_lag_iterations). Collective: the same
+     answer on every rank. A new step (its x_n) starts the lag afresh. */
+  PetscErrorCode (*lag)(MSimImplicitTerm, Vec X, PetscBool *again) = NULL;
   PetscErrorCode (*history_loaded)(MSimImplicitTerm) = NULL;
   PetscErrorCode (*view)(MSimImplicitTerm, PetscViewer) = NULL;
   PetscErrorCode (*destroy)(MSimImplicitTerm) = NULL;

@@ -8,17 +8,27 @@
    the Hessian beta h^2 mu lambda [f1(y)/y P + (f1'(y) y - f1(y))/y^3 u u^T] is PSD as it is (in
    the tangent plane its eigenvalues are f1'(y) >= 0 along u and f1(y)/y across), so no
    projection. Everything lagged (the vertices within dhat at x_n, lambda, P and the obstacle's
-   shift) is computed once per step and kept (Lagged: keyed by x_n's id and state, the step's
-   times and kappa, so a restart or a new step recomputes it; the same numbers as the per-call
-   loop of msim/private/contactimpl.h, which cost 2 queries per vertex and obstacle per PD
-   iteration: +35% of a free PD step on the 101 x 101 drape, runs/contact/README.md). It leaves
-   x_n and the step's times on the contact object so that the output's force at the step's result
-   includes friction (src/contact/contact_force.cpp). PD: its
-   gradient at the current iterate in the right-hand side, as the barrier's. A moving obstacle
+   shift) is computed once per step (and per lag iteration) and kept (Lagged: keyed by x_n's id
+   and state, the step's times and kappa, so a restart or a new step recomputes it; the same
+   numbers as the per-call loop of msim/private/contactimpl.h, which cost 2 queries per vertex
+   and obstacle per PD iteration: +35% of a free PD step on the 101 x 101 drape,
+   runs/contact/README.md). It leaves
+   x_n, the lag point and the step's times on the contact object so that the output's force at the
+   step's result includes the friction that acted (src/contact/contact_force.cpp).
+   Lagged at x_n alone, a step that leaves the obstacle keeps x_n's friction to its end (2 N on a
+   cloth with no vertex within dhat at the step's result) and one that lands has none, so a load
+   that should stick slides a distance that grows with h. IPC's lag iterations
+   (-msim_friction_lag_iterations N, op lag): the integrator solves the step again from its result
+   with lambda and P taken there (the obstacles at tx; u still measured from x_n), at most N
+   solves, until the normal forces change by less than -msim_friction_lag_rtol of the largest with
+   the same vertices in contact (cloth_sphere.opts: 461 -> 1460 Newton iterations, N = 10).
+   N = 1, the default, is the lag at x_n alone. PD: its gradient at the current iterate in the
+   right-hand side, as the barrier's. A moving obstacle
    (-msim_contact_velocity) drags: the slip u is the displacement relative to it, P (x - x_n -
    v_o (tx - t)). */
 #include <msim/implicit.h>
 #include <msim/contact.h>
+#include <msim/options.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
@@ -26,29 +36,90 @@
 #include <vector>
 #include <petsc/private/petscimpl.h> /* PetscObjectStateGet: x_n's lagged data kept for the step */
 
-/* x_n's part of the loop, for one step: per owned vertex and obstacle in contact at x_n (in
-   MSimContactForEachSliding's order), lambda, P and the obstacle's velocity v_o */
+/* the lag point's part of the loop, for one solve: per owned vertex and obstacle in contact there
+   (in MSimContactForEachSliding's order), lambda, P, the obstacle's velocity v_o and the normal
+   force f n (lambda along the unit normal), which the lag iterations compare */
 typedef struct {
   PetscInt  v;
-  PetscReal lambda, P[9], vo[3];
+  PetscReal lambda, P[9], vo[3], fn[3];
 } Sliding;
 
 typedef struct {
-  std::vector<Sliding> s;
+  std::vector<Sliding> s, next; /* the solve's; a lag iteration's candidate */
   PetscObjectId        id    = 0; /* x_n's, at its state: 0 none yet */
   PetscObjectState     state = 0;
   PetscReal            t = 0, tx = 0, kappa = 0;
-  /* per owned vertex, where x_n's distances were last computed (anchor) and their least less dhat
+  /* per owned vertex, where its distances were last computed (anchor) and their least less dhat
      and a roundoff margin (ex), as the obstacles term keeps them: the distance is 1-Lipschitz, so
-     an x_n within ex of the anchor is beyond dhat of every obstacle and not queried (the query of
+     a point within ex of the anchor is beyond dhat of every obstacle and not queried (the query of
      every vertex at each step was 1.2 M instructions of a 123 M PD-10 step of the 101 x 101 drape,
      runs/contact/README.md). Static analytic obstacles only: a moving one's distances hold at one
      t, and a mesh keeps per-vertex answers that its later queries start from. */
   std::vector<PetscReal> anchor, ex;
+  /* IPC's lag iterations: at most lag_max solves a step, the lag taken again at each solve's
+     result until the normal forces there are within lag_rtol of those the solve used (the
+     largest per-vertex change against the largest force) with the same vertices in contact.
+     lags: the lags taken this step; xl, tl: the lag point and the obstacles' time there (x_n at
+     t until the first lag; xl made then) */
+  PetscInt  lag_max = 1, lags = 0;
+  PetscReal lag_rtol = 0, tl = 0;
+  Vec       xl = NULL;
 } Lagged;
 
-/* the step's lagged data, recomputed where x_n (its id or state), the step's times or kappa
-   changed since it was kept: the same expressions as MSimContactForEachSliding's */
+/* into s, the contacts at the point xp (the obstacles at time tp): the same expressions as
+   MSimContactForEachSliding's */
+static void Collect(MSimSystem sys, MSimContact ct, Lagged *L, const PetscScalar *xp, const PetscScalar *m, PetscReal tp, std::vector<Sliding> &s)
+{
+  auto add = [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
+    PetscReal e, de, d2e;
+    Sliding   q;
+    if (d <= 0) return;
+    MSimBarrier(d, ct->dhat, &e, &de, &d2e);
+    q.v                 = v;
+    const PetscReal f   = ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de);
+    MSimFrictionNormal(f, n, &q.lambda, q.P);
+    for (int c = 0; c < 3; c++) {
+      q.vo[c] = o.v[c];
+      q.fn[c] = f * n[c]; /* lambda n / |n| (MSimFrictionNormal) */
+    }
+    s.push_back(q);
+  };
+  s.clear();
+  if (ct->moving) {
+    MSimContactForEachNear(ct, sys->nown, xp, tp, ct->dhat, PETSC_FALSE, add);
+    return;
+  }
+  /* MSimContactForEachNear's queries, in its order, less the vertices within ex of their anchors.
+     A mesh answers "band" beyond band, which would leave no ball to skip in, but knows a larger
+     lower bound there (MSimMeshObstacleVertexClearance, as the barrier's anchors take it): each
+     step's x_n queries on the 101 x 101 drape on the 20,480-triangle ball were 1.7 M instructions
+     of its 114 M PD-10 step, most of them for vertices far from the mesh */
+  if ((PetscInt)L->ex.size() != sys->nown) {
+    L->anchor.assign(3 * sys->nown, 0.0);
+    L->ex.assign(sys->nown, -PETSC_MAX_REAL);
+  }
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    const PetscReal *an = L->anchor.data() + 3 * v, ev = L->ex[v];
+    const PetscReal  dx = xp[3 * v] - an[0], dy = xp[3 * v + 1] - an[1], dz = xp[3 * v + 2] - an[2];
+    PetscReal        dmin = PETSC_MAX_REAL, xmax = 0;
+    if (ev > 0 && dx * dx + dy * dy + dz * dz <= ev * ev) continue;
+    for (const MSimObstacle &o : ct->obs) {
+      const PetscReal d = MSimObstacleContacts(o, v, xp + 3 * v, tp, ct->dhat, PETSC_FALSE, [&](PetscReal dc, const PetscReal *n, const PetscReal *) { add(v, o, dc, n, NULL); }); /* each contact, a mesh's creases' too */
+      if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
+        const PetscReal y[3] = {xp[3 * v] - o.v[0] * tp, xp[3 * v + 1] - o.v[1] * tp, xp[3 * v + 2] - o.v[2] * tp}; /* MSimObstacleContacts' point */
+        dmin                 = PetscMin(dmin, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
+      } else dmin = PetscMin(dmin, d);
+    }
+    for (int c = 0; c < 3; c++) {
+      L->anchor[3 * v + c] = xp[3 * v + c];
+      xmax                 = PetscMax(xmax, PetscAbsReal(xp[3 * v + c]));
+    }
+    L->ex[v] = MSimContactAnchorExcess(dmin, ct->dhat, xmax);
+  }
+}
+
+/* the solve's lagged data, taken at x_n where x_n (its id or state), the step's times or kappa
+   changed since it was kept (a new step, whose lag starts afresh) */
 static PetscErrorCode GetLagged(MSimImplicitTerm term, MSimContact ct, const Lagged **lag)
 {
   MSimImplicit     imp = term->imp;
@@ -62,58 +133,18 @@ static PetscErrorCode GetLagged(MSimImplicitTerm term, MSimContact ct, const Lag
   PetscCall(PetscObjectStateGet((PetscObject)imp->Xn, &state));
   if (id != L->id || state != L->state || imp->step.t != L->t || imp->step.tx != L->tx || ct->kappa != L->kappa) {
     const PetscScalar *xn, *m;
-    const PetscReal    t = imp->step.t;
-    auto add = [&](PetscInt v, const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) {
-      PetscReal e, de, d2e;
-      Sliding   q;
-      if (d <= 0) return;
-      MSimBarrier(d, ct->dhat, &e, &de, &d2e);
-      q.v      = v;
-      MSimFrictionNormal(ct->kappa * PetscRealPart(m[3 * v]) * PetscAbsReal(de), n, &q.lambda, q.P);
-      for (int c = 0; c < 3; c++) q.vo[c] = o.v[c];
-      L->s.push_back(q);
-    };
-    const PetscBool skip = (PetscBool)!ct->moving;
-    L->s.clear();
     PetscCall(VecGetArrayRead(imp->Xn, &xn));
     PetscCall(VecGetArrayRead(sys->mass, &m));
-    if (!skip) MSimContactForEachNear(ct, sys->nown, xn, t, ct->dhat, PETSC_FALSE, add);
-    else {
-      /* MSimContactForEachNear's queries, in its order, less the vertices within ex of their
-         anchors. A mesh answers "band" beyond band, which would leave no ball to skip in, but
-         knows a larger lower bound there (MSimMeshObstacleVertexClearance, as the barrier's anchors
-         take it): each step's x_n queries on the 101 x 101 drape on the 20,480-triangle ball were
-         1.7 M instructions of its 114 M PD-10 step, most of them for vertices far from the mesh */
-      if ((PetscInt)L->ex.size() != sys->nown) {
-        L->anchor.assign(3 * sys->nown, 0.0);
-        L->ex.assign(sys->nown, -PETSC_MAX_REAL);
-      }
-      for (PetscInt v = 0; v < sys->nown; v++) {
-        const PetscReal *an = L->anchor.data() + 3 * v, ev = L->ex[v];
-        const PetscReal  dx = xn[3 * v] - an[0], dy = xn[3 * v + 1] - an[1], dz = xn[3 * v + 2] - an[2];
-        PetscReal        dmin = PETSC_MAX_REAL, xmax = 0;
-        if (ev > 0 && dx * dx + dy * dy + dz * dz <= ev * ev) continue;
-        for (const MSimObstacle &o : ct->obs) {
-          const PetscReal d = MSimObstacleContacts(o, v, xn + 3 * v, t, ct->dhat, PETSC_FALSE, [&](PetscReal dc, const PetscReal *n, const PetscReal *) { add(v, o, dc, n, NULL); }); /* each contact, a mesh's creases' too */
-          if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
-            const PetscReal y[3] = {xn[3 * v] - o.v[0] * t, xn[3 * v + 1] - o.v[1] * t, xn[3 * v + 2] - o.v[2] * t}; /* MSimObstacleContacts' point */
-            dmin                 = PetscMin(dmin, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
-          } else dmin = PetscMin(dmin, d);
-        }
-        for (int c = 0; c < 3; c++) {
-          L->anchor[3 * v + c] = xn[3 * v + c];
-          xmax                 = PetscMax(xmax, PetscAbsReal(xn[3 * v + c]));
-        }
-        L->ex[v] = MSimContactAnchorExcess(dmin, ct->dhat, xmax);
-      }
-    }
+    Collect(sys, ct, L, xn, m, imp->step.t, L->s);
     PetscCall(VecRestoreArrayRead(sys->mass, &m));
     PetscCall(VecRestoreArrayRead(imp->Xn, &xn));
     L->id    = id;
     L->state = state;
-    L->t     = t;
+    L->t     = imp->step.t;
     L->tx    = imp->step.tx;
     L->kappa = ct->kappa;
+    L->lags  = 0;
+    L->tl    = L->t;
   }
   *lag = L;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -130,11 +161,13 @@ static PetscErrorCode ForEachSliding(MSimImplicitTerm term, MSimContact ct, Vec 
   const Lagged      *L;
 
   PetscFunctionBeginUser;
+  PetscCall(GetLagged(term, ct, &L));
   ct->fr_xn = imp->Xn;
   ct->fr_t  = imp->step.t;
   ct->fr_tx = imp->step.tx;
   ct->fr_h  = imp->step.h;
-  PetscCall(GetLagged(term, ct, &L));
+  ct->fr_xl = L->lags ? L->xl : imp->Xn;
+  ct->fr_tl = L->tl;
   const PetscReal t = L->t, tx = L->tx;
   PetscCall(VecGetArrayRead(X, &x));
   PetscCall(VecGetArrayRead(imp->Xn, &xn));
@@ -259,13 +292,70 @@ static PetscErrorCode PDRHS_Friction(MSimImplicitTerm term, Vec X, Vec rhs, Pets
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A lag iteration: the contacts at X (the obstacles at tx) against those the solve used. Where the
+   same vertices are in contact and no vertex's normal force changed by more than lag_rtol of the
+   largest force of either, the solve stands (and the output reports the forces it used);
+   otherwise X becomes the lag point for another solve, while lag_max allows one. */
+static PetscErrorCode Lag_Friction(MSimImplicitTerm term, Vec X, PetscBool *again)
+{
+  MSimImplicit       imp = term->imp;
+  MSimSystem         sys = imp->sys;
+  MSimContact        ct;
+  const Lagged      *Lc;
+  const PetscScalar *x, *m;
+
+  PetscFunctionBeginUser;
+  PetscCall(Contact(term, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(GetLagged(term, ct, &Lc)); /* the step's, taken at x_n where the step is new */
+  Lagged *L = (Lagged *)term->data;
+  if (L->lags + 1 >= L->lag_max) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecGetArrayRead(X, &x));
+  PetscCall(VecGetArrayRead(sys->mass, &m));
+  Collect(sys, ct, L, x, m, imp->step.tx, L->next);
+  PetscCall(VecRestoreArrayRead(sys->mass, &m));
+  PetscCall(VecRestoreArrayRead(X, &x));
+  /* per vertex, the summed normal force of each list: [0] the solve's, [1] X's */
+  std::vector<PetscReal> f[2];
+  PetscReal              w[3] = {0, 0, 0}; /* largest change, largest force, contacts differ */
+  for (int k = 0; k < 2; k++) {
+    f[k].assign(3 * sys->nown, 0.0);
+    for (const Sliding &q : k ? L->next : L->s)
+      for (int c = 0; c < 3; c++) f[k][3 * q.v + c] += q.fn[c];
+  }
+  w[2] = L->s.size() != L->next.size();
+  for (size_t k = 0; k < L->s.size() && !w[2]; k++) w[2] = L->s[k].v != L->next[k].v;
+  for (PetscInt v = 0; v < sys->nown; v++) {
+    PetscReal d2 = 0, a2 = 0, b2 = 0;
+    for (int c = 0; c < 3; c++) {
+      const PetscReal a = f[0][3 * v + c], b = f[1][3 * v + c];
+      d2 += (a - b) * (a - b);
+      a2 += a * a;
+      b2 += b * b;
+    }
+    w[0] = PetscMax(w[0], PetscSqrtReal(d2));
+    w[1] = PetscMax(w[1], PetscSqrtReal(PetscMax(a2, b2)));
+  }
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, w, 3, MPIU_REAL, MPIU_MAX, sys->comm));
+  if (!w[2] && w[0] <= L->lag_rtol * w[1]) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!L->xl) PetscCall(VecDuplicate(imp->Xn, &L->xl));
+  PetscCall(VecCopy(X, L->xl));
+  L->s.swap(L->next);
+  L->tl = imp->step.tx;
+  L->lags++;
+  *again = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode View_Friction(MSimImplicitTerm term, PetscViewer viewer)
 {
   MSimContact ct;
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(term->imp->sys, &ct));
-  if (ct) PetscCall(PetscViewerASCIIPrintf(viewer, "friction: mu %g, lagged normal forces, smoothing eps_v %g m/s\n", (double)ct->mu, (double)ct->eps_v));
+  const Lagged *L = (const Lagged *)term->data;
+  if (ct && L->lag_max > 1) PetscCall(PetscViewerASCIIPrintf(viewer, "friction: mu %g, normal forces lagged up to %" PetscInt_FMT " solves a step (relative tolerance %g), smoothing eps_v %g m/s\n", (double)ct->mu, L->lag_max, (double)L->lag_rtol, (double)ct->eps_v));
+  else if (ct) PetscCall(PetscViewerASCIIPrintf(viewer, "friction: mu %g, normal forces lagged at the step's start, smoothing eps_v %g m/s\n", (double)ct->mu, (double)ct->eps_v));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -276,22 +366,40 @@ static PetscErrorCode Destroy_Friction(MSimImplicitTerm term)
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(term->imp->sys, &ct));
-  if (ct && ct->fr_xn == term->imp->Xn) ct->fr_xn = NULL;
-  delete (Lagged *)term->data;
+  Lagged *L = (Lagged *)term->data;
+  if (ct && ct->fr_xn == term->imp->Xn) ct->fr_xn = ct->fr_xl = NULL;
+  PetscCall(VecDestroy(&L->xl));
+  delete L;
   term->data = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps FrictionOps = {.energy = Energy_Friction, .gradient = Gradient_Friction, .hessian = Hessian_Friction, .pd_rhs = PDRHS_Friction, .view = View_Friction, .destroy = Destroy_Friction};
+static const MSimImplicitTermOps FrictionOps = {.energy = Energy_Friction, .gradient = Gradient_Friction, .hessian = Hessian_Friction, .pd_rhs = PDRHS_Friction, .lag = Lag_Friction, .view = View_Friction, .destroy = Destroy_Friction};
 
+/* The lag's options are read by every implicit problem, so that -help lists them, and refused
+   where there is no friction with an obstacle for them to act on */
 PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
 {
+  MSimSystem  sys = term->imp->sys;
   MSimContact ct;
+  PetscInt    lag_max  = 1;
+  PetscReal   lag_rtol = 1e-2;
+  PetscBool   set_max, set_rtol;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimContactGet(term->imp->sys, &ct));
+  PetscOptionsBegin(sys->comm, NULL, "msim friction with obstacles", NULL);
+  PetscCall(MSimOptionsInt("-msim_friction_lag_iterations", "Friction with obstacles: at most this many solves a step, each taking the normal forces and tangent bases at the previous one's result (IPC's lag iterations) until they change by less than -msim_friction_lag_rtol with the same vertices in contact; 1: taken at the step's start only, so a step that lands has no friction and one that leaves keeps it", NULL, lag_max, &lag_max, &set_max));
+  PetscCall(MSimOptionsReal("-msim_friction_lag_rtol", "Friction's lag iterations: done once no vertex's normal force changed by more than this fraction of the largest one (and the same vertices are in contact)", NULL, lag_rtol, &lag_rtol, &set_rtol));
+  PetscOptionsEnd();
+  PetscCheck(lag_max >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_lag_iterations must be >= 1 (got %" PetscInt_FMT ")", lag_max);
+  PetscCheck(lag_rtol >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_lag_rtol must be >= 0 (got %g)", (double)lag_rtol);
+  PetscCall(MSimContactGet(sys, &ct));
+  PetscCheck((ct && ct->mu > 0) || !(set_max || set_rtol), sys->comm, PETSC_ERR_ARG_WRONG, "%s acts on friction with obstacles only (-msim_friction > 0 with -msim_contact_plane, _sphere, _box or _mesh), and there is none", set_max ? "-msim_friction_lag_iterations" : "-msim_friction_lag_rtol");
   if (!ct || ct->mu == 0) PetscFunctionReturn(PETSC_SUCCESS); /* nothing per iteration */
-  term->data = new Lagged();
-  term->ops  = FrictionOps;
+  Lagged *L   = new Lagged();
+  L->lag_max  = lag_max;
+  L->lag_rtol = lag_rtol;
+  term->data  = L;
+  term->ops   = FrictionOps;
   PetscFunctionReturn(PETSC_SUCCESS);
 }

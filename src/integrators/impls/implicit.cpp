@@ -15,6 +15,7 @@
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h> /* MSimContactGetForStep: kappa at set-up */
 #include <msim/destroy.h>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateIncrease: Phi at X changes with a lag iteration */
 
 #define MSIM_MAX_TERM_HISTORY 4 /* terms' history vectors (MSimImplicitTermOps.get_history) */
 
@@ -935,16 +936,29 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
     integ->failure[0]  = 0;
     PetscFunctionReturn(PETSC_SUCCESS);
   }
-  ie->ls_cut = 1;
-  PetscCall(SNESSolve(ie->snes, NULL, X));
-  PetscCall(SNESGetConvergedReason(ie->snes, &reason));
-  PetscCall(SNESGetIterationNumber(ie->snes, &its));
-  PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));
+  /* the step's solve, again from its result while a term's lag asks for it (friction's lag
+     iterations: its normal forces taken at the result); what follows reads the last solve, and
+     the iteration counts are the solves' sums */
+  integ->nonlinear_its = integ->linear_its = 0;
+  for (PetscBool again = PETSC_TRUE; again;) {
+    ie->ls_cut = 1;
+    PetscCall(SNESSolve(ie->snes, NULL, X));
+    PetscCall(SNESGetConvergedReason(ie->snes, &reason));
+    PetscCall(SNESGetIterationNumber(ie->snes, &its));
+    PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));
+    integ->nonlinear_its += its;
+    integ->linear_its += lits;
+    again = PETSC_FALSE;
+    if (reason > 0 || reason == SNES_DIVERGED_MAX_IT) /* not from a failed solve's result */
+      for (PetscInt k = 0; k < ie->imp->nterms; k++)
+        if (ie->imp->terms[k]->ops.lag) PetscCall(ie->imp->terms[k]->ops.lag(ie->imp->terms[k], X, &again));
+    /* Phi at X changed with the lag: what solvers keep for X's state (PD's Phi) is stale */
+    if (again) PetscCall(PetscObjectStateIncrease((PetscObject)X));
+  }
   PetscCall(SNESGetType(ie->snes, &type));
-  integ->nonlinear_its = its;
   /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
      counts, also where pd runs as another SNES's nonlinear preconditioner */
-  integ->linear_its = lits + ie->imp->pd_lits;
+  integ->linear_its += ie->imp->pd_lits;
   if (reason == SNES_CONVERGED_ITS && ie->imp->scheme->no_objective && !ie->linearised_noted) {
     /* a scheme whose step is a residual's root, not Phi's minimizer (discrete_gradient), stopped
        after a fixed count (ksponly's one linear solve) is a linearised scheme, as ts says of its
