@@ -76,15 +76,16 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscReal      t_ck = 0, dt_ck = 0, E0_ck = 0;
   PetscBool      restarted;
   PetscBool   want_mon, want_out;
-  PetscReal   factor = 10, kin, pot, E0, scale, gnorm, vobs;
+  PetscReal   factor = 10, kin, pot, E0, scale, gnorm, vobs, Ug0, Ug = 0;
   PetscInt    check_every = 10, last_good = 0;
   Vec         Xgood, Vgood, Xprev, Vprev; /* the last checked state; the one before this step */
+  Vec         G;                          /* -m g per dof: gravity's potential of X is G.X */
 
   PetscFunctionBeginUser;
   *info = MSimRunInfo();
   info->critical_dt = PETSC_INFINITY;
   PetscOptionsBegin(sys->comm, NULL, "msim divergence detection", NULL);
-  PetscCall(MSimOptionsReal("-msim_divergence_factor", "Stop when |E - E0| exceeds this factor times the energy scale of the scene", NULL, factor, &factor, NULL));
+  PetscCall(MSimOptionsReal("-msim_divergence_factor", "Stop when the total energy E (kinetic + potential, gravity's included) rises above its start E0 by more than this factor times the energy scale |E0| + M g (D + rise) + M (u^2 + w^2 + v^2)/2 (+ the contact barriers' start energy): M the mass, g gravity, D the scene's diagonal, rise how far gravity's potential of the free vertices has risen above its start (per M g), u the handles', w the wind's and v the fastest obstacle's speed; that bounds what the handles, wind and obstacles can add, and a blow-up passes any multiple of it within steps. Energy lost (damping, drag, friction, an implicit scheme, an inelastic landing) never stops a run; a state that is not finite always does", NULL, factor, &factor, NULL));
   PetscCall(MSimOptionsInt("-msim_divergence_check_every", "Check energy every k steps (always every step when monitoring)", NULL, check_every, &check_every, NULL));
   PetscOptionsEnd();
   PetscCheck(factor > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_divergence_factor must be > 0 (got %g)", (double)factor);
@@ -139,9 +140,17 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   const PetscBool same_clock = (PetscBool)(!restarted || t_ck == step0 * integ->dt);
   auto            time_at    = [&](PetscInt k) { return same_clock ? k * integ->dt : t_ck + (k - step0) * integ->dt; };
 
-  /* Energy scale: the initial energy, what gravity can release over the scene's size, the kinetic
-     energy of the whole mass moving with the handles, the wind or the fastest obstacle. Divergence
-     is an energy change many times larger than all of them. */
+  /* Divergence test. A run's energy balance is E - E0 = W - D: D >= 0 what damping, drag,
+     friction, an inelastic landing or an implicit scheme dissipate, W the work of what the
+     options drive. Handles moving at u, wind w and obstacles moving at v can give the mass M at
+     most their kinetic energy M (u^2 + w^2 + v^2)/2 and lift it: gravity's potential rises by
+     M g times that lift, counted as it happens (Ug - Ug0, the free vertices' gravity potential
+     against the start's). So E - E0 <= W, and a growth many times the scale below, the start's
+     energy, that lift and those kinetic energies, plus M g D (what gravity can move between
+     forms over the scene's diagonal D: an explicit scheme's bounded energy error), is not
+     physical: a blow-up grows the energy geometrically and passes any multiple within steps.
+     Energy lost is never divergence (a 10 x 10 cloth dropped 15 m, the 147 J gravity gave it
+     lost in the landing, was stopped by the old test of |E - E0| against 10 x 14 J). */
   PetscCall(MSimSystemComputeEnergy(sys, 0, X, V, &kin, &pot));
   PetscCall(MSimContactObstacleSpeed(sys, &vobs));
   E0    = restarted ? E0_ck : kin + pot; /* a restarted run compares with the first run's start */
@@ -165,6 +174,26 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(VecDuplicate(V, &Vprev));
   PetscCall(VecCopy(X, Xgood));
   PetscCall(VecCopy(V, Vgood));
+  /* gravity's potential at the scene's start (a restarted run's too), from which the energy
+     scale counts the rise */
+  PetscCall(VecDuplicate(sys->mass, &G));
+  {
+    PetscScalar *g;
+    PetscInt     n3;
+    PetscCall(VecGetLocalSize(G, &n3));
+    PetscCall(VecGetArray(G, &g));
+    for (PetscInt i = 0; i < n3; i++) g[i] = -sys->gravity[i % 3];
+    PetscCall(VecRestoreArray(G, &g));
+  }
+  PetscCall(VecPointwiseMult(G, G, sys->mass));
+  PetscCall(VecDot(G, sys->X0, &Ug0));
+  /* the test at a state of time t: its energies and whether it stops the run */
+  auto Diverged = [&](PetscReal t, Vec x, Vec v, PetscReal *k, PetscReal *p, PetscReal *ug, PetscBool *out) -> PetscErrorCode {
+    PetscCall(MSimSystemComputeEnergy(sys, t, x, v, k, p));
+    PetscCall(VecDot(G, x, ug));
+    *out = (PetscBool)(PetscIsInfOrNanReal(*k + *p) || *k + *p - E0 > factor * (scale + PetscMax(*ug - Ug0, 0)));
+    return PETSC_SUCCESS;
+  };
 
   /* a run that ends inside the loop (diverged, or stopped by a signal) closes what it opened,
      keeping what it wrote */
@@ -177,6 +206,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(VecDestroy(&Vgood));
     PetscCall(VecDestroy(&Xprev));
     PetscCall(VecDestroy(&Vprev));
+    PetscCall(VecDestroy(&G));
     PetscCall(PetscLogStagePop());
     return PETSC_SUCCESS;
   };
@@ -232,13 +262,14 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     }
     solver_failed = integ->failed; /* the implicit solver gave up on this step */
     if (solver_failed) bad = PETSC_TRUE;
-    if (check && !bad) {
-      PetscCall(MSimSystemComputeEnergy(sys, t, X, V, &kin, &pot));
-      bad = (PetscBool)(PetscIsInfOrNanReal(kin + pot) || PetscAbsReal(kin + pot - E0) > factor * scale);
-    }
+    if (check && !bad) PetscCall(Diverged(t, X, V, &kin, &pot, &Ug, &bad));
     if (bad) {
-      char limit[128] = "";
+      char limit[128] = "", why[256] = "";
       if (info->critical_dt < PETSC_INFINITY) PetscCall(PetscSNPrintf(limit, sizeof(limit), ", predicted limit h <= %g", (double)info->critical_dt));
+      if (!solver_failed) {
+        if (PetscIsInfOrNanReal(kin + pot)) PetscCall(PetscSNPrintf(why, sizeof(why), ": the state is not finite"));
+        else snprintf(why, sizeof(why), ": the total energy rose by %g J (%g -> %g J), more than -msim_divergence_factor %g x the energy scale %g J", (double)(kin + pot - E0), (double)E0, (double)(kin + pot), (double)factor, (double)(scale + PetscMax(Ug - Ug0, 0))); /* C's %g: PETSc's prints 10 as "10." */
+      }
       info->diverged   = PETSC_TRUE;
       info->steps_done = n;
       info->t          = t;
@@ -246,9 +277,10 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
         /* the steps since the last check were not checked (-msim_divergence_check_every): the one
            before this is the last finite state if it passes the same test (a failed solve at step
            2 named and saved step 0, up to k - 1 good steps lost) */
-        PetscReal k0, p0;
-        PetscCall(MSimSystemComputeEnergy(sys, t0, Xprev, Vprev, &k0, &p0));
-        if (!PetscIsInfOrNanReal(k0 + p0) && PetscAbsReal(k0 + p0 - E0) <= factor * scale) {
+        PetscReal k0, p0, u0;
+        PetscBool bad0 = PETSC_TRUE;
+        PetscCall(Diverged(t0, Xprev, Vprev, &k0, &p0, &u0, &bad0));
+        if (!bad0) {
           last_good = n - 1;
           PetscCall(VecSwap(Xgood, Xprev));
           PetscCall(VecSwap(Vgood, Vprev));
@@ -259,7 +291,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(VecCopy(Vgood, V));
       PetscCall(Summarise(n));
       PetscCall(EndEarly());
-      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s): %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, integ->type, (double)integ->dt, limit, last_good);
+      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s)%s; %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, why, integ->type, (double)integ->dt, limit, last_good);
     }
     if (check) {
       last_good = n;
@@ -302,5 +334,6 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(VecDestroy(&Vgood));
   PetscCall(VecDestroy(&Xprev));
   PetscCall(VecDestroy(&Vprev));
+  PetscCall(VecDestroy(&G));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
