@@ -131,6 +131,20 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_stiffness", "10"], "-msim_contact_stiffness with -msim_integrator implicit_euler is not supported: it is the penalty's stiffness"),
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_bounds", "-msim_contact_kappa", "5"], "-msim_contact_kappa with obstacles as variable bounds (-msim_contact_bounds, or a VI -snes_type) is not supported"),
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_friction_eps", "0.5"], "-msim_friction_eps has no effect without -msim_friction"),
+    # absurd but finite contact values: their products overflowed or fell below the coordinates'
+    # roundoff, and the run failed steps later in the solver (DIVERGED_FNORM_NAN, "diverged"),
+    # naming no option, its frames written
+    (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_contact_kappa", "1e300"], "-msim_contact_kappa must be 0 (the default) or in ["),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_friction", "1e300"], "-msim_friction must be in [0, 6.71089e+07]"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_friction", "0.3", "-msim_friction_eps", "1e-300"], "-msim_friction_eps must be >= "),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_velocity", "0,0,1e300"], "-msim_contact_velocity: obstacle 0's speed must be <= "),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_contact_distance", "1e-9"], "-msim_contact_distance must be >= 1.49012e-08 m here"),
+    # a plane whose offset over its normal's length overflows (its normal, scaled by its largest
+    # component, no longer does); a mesh obstacle whose lengths overflow was refused as of zero length
+    (["-msim_contact_plane", "0,0,1e-200,1e200"], "-msim_contact_plane: obstacle 0's offset 1e+200 over its normal's length 1e-200 overflows"),
+    (["-msim_contact_mesh", "huge.obj"], "huge.obj: the coordinates span [0., 1e+300] x [0., 1e+300] x [-0.5, -0.5], a diagonal beyond"),
+    # a vertex on a box's edge (distance -0) was "inside" for the barrier, and on it for the penalty
+    (["-msim_integrator", "implicit_euler", "-msim_fix", "none", "-msim_cloth_n", "11", "-msim_contact_box", "0.9,2,0.9,2,-1,0"], "vertex 108 starts at distance 0. from obstacle 0 (-msim_contact_box), below 1e-6 of the contact distance"),
     # qn's Broyden directions need not descend the energy the feasible line search backtracks on:
     # the run failed at step 2 of a cloth the plane had not yet met
     (["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_type", "broyden", "-msim_contact_plane", "0,0,1,-0.1"], "-snes_qn_type broyden with obstacles (-msim_contact_*) is not supported: its directions need not descend the energy"),
@@ -260,6 +274,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         with open(os.path.join(tmp, "malformed.opts"), "w") as f:
             f.write("-msim_cloth_n 8\nmsim_steps 3\n")  # the dash forgotten on line 2
+        with open(os.path.join(tmp, "huge.obj"), "w") as f:
+            f.write("v 0 0 -0.5\nv 1e300 0 -0.5\nv 0 1e300 -0.5\nf 1 2 3\n")
         for np in nps:
             for i, (args, message) in enumerate(CASES + (PARALLEL_CASES if np > 1 else [])):
                 if np > 1 and tuple(args) in ONE_RANK:
@@ -311,6 +327,15 @@ def main():
         r = run(["-options_file", "plane.opts", "-msim_contact_plane", "0,0,1,-0.2", "-msim_steps", "1", "-msim_scene_view"], tmp, 1)
         check(r.returncode == 0 and not mt.lines(r.stderr) and "1 obstacle(s)" in r.stdout and "n.x >= -0.2" in r.stdout,
               f"an options file's list option replaced on the command line: rc {r.returncode}, stderr {mt.lines(r.stderr)!r}, stdout {r.stdout[-400:]!r}")
+        # plane normals whose squares overflow or underflow are normalised (they had become zero:
+        # every vertex on the plane, or "a zero normal"); the scene view names the penalty's
+        # stiffness only where the integrator has a penalty
+        for integrator, plane, want in (("implicit_euler", "1e300,1e300,0,-1e300", "n = (0.707107, 0.707107, 0.), n.x >= -0.707107\n"),
+                                        ("symplectic_euler", "0,0,1e-170,-1e-171", "n = (0., 0., 1.), n.x >= -0.1\n")):
+            r = run(["-msim_integrator", integrator, "-msim_cloth_n", "5", "-msim_contact_plane", plane, "-msim_steps", "1", "-msim_dt", "1e-3", "-msim_scene_view", "-msim_output", os.path.join(tmp, "plane_" + integrator)], tmp, 1)
+            kc = "contact: penalty kc" in r.stdout
+            check(r.returncode == 0 and want in r.stdout and kc == (integrator == "symplectic_euler"),
+                  f"-msim_contact_plane {plane} with {integrator}: rc {r.returncode}, stderr {mt.lines(r.stderr)!r}, stdout {r.stdout[-400:]!r} (want '{want.strip()}', the penalty's kc {'' if kc else 'not '}named)")
         # an implicit solve cut off by -snes_max_it before its tolerance: the run goes on, and one
         # warning line at its end says how many steps stopped short; a fixed count says nothing
         implicit = ["-msim_integrator", "implicit_euler", "-msim_cloth_n", "8", "-msim_dt", "0.0333", "-msim_steps", "4"]

@@ -194,7 +194,9 @@ PetscErrorCode MSimContactView(MSimContact ct, PetscViewer viewer)
 {
   PetscFunctionBeginUser;
   if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(PetscViewerASCIIPrintf(viewer, "contact: %d obstacle(s), distance dhat %g, friction mu %g, explicit penalty kc %g N/m\n", (int)ct->obs.size(), (double)ct->dhat, (double)ct->mu, (double)ct->kc));
+  /* the penalty's kc only where the integrator takes it (MSimContactRefuseUnread): the implicit
+     integrators have none */
+  PetscCall(PetscViewerASCIIPrintf(viewer, "contact: %d obstacle(s), distance dhat %g, friction mu %g\n", (int)ct->obs.size(), (double)ct->dhat, (double)ct->mu));
   for (size_t k = 0; k < ct->obs.size(); k++) {
     const PetscReal *p = ct->obs[k].p;
     switch (ct->obs[k].kind) {
@@ -234,9 +236,18 @@ static PetscErrorCode ReadObstacles(PetscOptionItems *PetscOptionsObject, MSimSy
     o.kind         = kind;
     for (int c = 0; c < per; c++) o.p[c] = v[per * k + c];
     if (kind == MSIM_OBSTACLE_PLANE) {
+      /* scaled first by the power of 2 nearest the largest component: the squares of 1e300
+         overflowed (the normal became 0, every vertex on the plane) and those of 1e-200
+         underflowed (refused as "a zero normal"); a power of 2 scales exactly, so a normal that
+         did not overflow is normalised to the same bits as before */
+      const PetscReal big = PetscMax(PetscAbsReal(o.p[0]), PetscMax(PetscAbsReal(o.p[1]), PetscAbsReal(o.p[2])));
+      int             e;
+      PetscCheck(big > 0, sys->comm, PETSC_ERR_ARG_WRONG, "%s: obstacle %d has a zero normal", name, (int)k);
+      (void)std::frexp(big, &e);
+      for (int c = 0; c < 4; c++) o.p[c] = std::ldexp(o.p[c], -e);
       const PetscReal len = std::sqrt(o.p[0] * o.p[0] + o.p[1] * o.p[1] + o.p[2] * o.p[2]);
-      PetscCheck(len > 0, sys->comm, PETSC_ERR_ARG_WRONG, "%s: obstacle %d has a zero normal", name, (int)k);
       for (int c = 0; c < 4; c++) o.p[c] /= len; /* n.x >= d keeps its meaning with n normalised */
+      PetscCheck(std::isfinite(o.p[3]), sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: obstacle %d's offset %g over its normal's length %g overflows", name, (int)k, (double)v[per * k + 3], (double)std::ldexp(len, e));
     } else if (kind == MSIM_OBSTACLE_SPHERE) {
       PetscCheck(o.p[3] > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "%s: obstacle %d has radius %g; it must be > 0", name, (int)k, (double)o.p[3]);
     } else {
@@ -278,7 +289,9 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
 /* every free vertex at X (time t) outside every obstacle of obs (outside the shell of a mesh);
    for the barrier, by more than a millionth of dhat: nearer, its force at the start is beyond any
    step's scale (a vertex 2e-16 from a box gave a first step with 2.5e9 N and |g| 3e5, accepted on
-   the step norm); else on it (d = 0) is allowed: VI bounds rest there. The first offender named by
+   the step norm); else on it (d = 0) is allowed: VI bounds rest there. A box's -0 (a vertex on
+   its surface) is on it, named 0: the barrier named a vertex on a box's edge "inside (distance
+   -0.)", which the penalty accepted as on it. The first offender named by
    its input id (the id users type, whatever the rank count) and the obstacle. The meshes answer as
    set (CheckState sets them to answer in full). near, where given, says whether some vertex is
    within the barrier's margin (on every rank), so that the barrier's check need not query again. */
@@ -300,7 +313,7 @@ static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstac
   for (PetscInt v = 0; v < sys->nown; v++)
     for (size_t k = 0; k < obs.size(); k++) {
       PetscReal       n[3];
-      const PetscReal d = MSimObstacleDistanceAt(&obs[k], t, x + 3 * v, n, NULL);
+      const PetscReal dk = MSimObstacleDistanceAt(&obs[k], t, x + 3 * v, n, NULL), d = dk == 0 ? 0.0 : dk; /* -0 as 0 */
       if ((barrier ? d <= tol : d < 0) && f[3 * v] == 0) {
         f[3 * v] = (PetscScalar)(k + 1), f[3 * v + 1] = d;
         counts[0]++;
@@ -323,7 +336,7 @@ static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstac
         const PetscReal d   = PetscRealPart(nat[3 * i + 1]);
         char            buf[512];
         first = id;
-        if (d <= 0) PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (int)k, KindOption(obs[k].kind), (double)d));
+        if (d < 0) PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (int)k, KindOption(obs[k].kind), (double)d));
         else PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (double)d, (int)k, KindOption(obs[k].kind), (double)ct->dhat));
         msg = buf;
       }
@@ -489,6 +502,7 @@ PetscErrorCode MSimContactRefuseUnread(MSimSystem sys, const char type[])
   if (!barrier) {
     PetscCall(PetscSNPrintf(why, sizeof(why), "with -msim_integrator %s is not supported: it tunes the barrier of implicit_euler and bdf2, and this integrator's contact is a penalty (-msim_contact_stiffness)", type));
     PetscCall(RefuseSet(sys->comm, PETSC_STATIC_ARRAY_LENGTH(barrier_options), barrier_options, why));
+    if (sys->scene_view) PetscCall(PetscPrintf(sys->comm, "contact: penalty kc %g N/m per vertex and obstacle (-msim_integrator %s)\n", (double)ct->kc, type));
   } else {
     static const char *const penalty[] = {"-msim_contact_stiffness"};
     PetscCall(PetscSNPrintf(why, sizeof(why), "with -msim_integrator %s is not supported: it is the penalty's stiffness (the explicit integrators and ts); the barrier's is -msim_contact_kappa", type));
@@ -515,6 +529,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   ct->dhat  = 1e-2 * PetscMax(sys->diameter, PETSC_SMALL);
   ct->mu    = 0;
   ct->kappa = 0;
+  ct->h2_checked = 0;
   ct->kc    = 0;
   ct->eps_v = 1e-3 * PetscMax(sys->diameter, PETSC_SMALL);
   ct->thickness = 0;
@@ -593,7 +608,10 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCheck(ct->dhat > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be > 0 (got %g)", (double)ct->dhat);
   PetscCheck(ct->kappa >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_kappa must be >= 0 (got %g)", (double)ct->kappa);
   PetscCheck(ct->kc >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_stiffness must be >= 0 (got %g)", (double)ct->kc);
-  PetscCheck(ct->mu >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction must be >= 0 (got %g)", (double)ct->mu);
+  /* a coefficient above 1/sqrt(eps) holds any load a larger one holds, and its products with the
+     normal forces over friction's smoothing overflow (-msim_friction 1e300: DIVERGED_FNORM_NAN at
+     step 5 of a drape, the frames written; 1e15: DIVERGED_LINEAR_SOLVE; 1e8 runs) */
+  PetscCheck(ct->mu >= 0 && ct->mu <= 1 / PETSC_SQRT_MACHINE_EPSILON, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction must be in [0, %g] (1/sqrt(eps); got %g)", (double)(1 / PETSC_SQRT_MACHINE_EPSILON), (double)ct->mu);
   PetscCheck(ct->pd_refactor == 0 || ct->pd_refactor >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor must be 0 or >= 1 (got %g)", (double)ct->pd_refactor);
   PetscCheck(ct->pd_refactor_selective >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_pd_refactor_selective must be >= 0 (got %" PetscInt_FMT ")", ct->pd_refactor_selective);
   PetscCheck(ct->eps_v > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be > 0 (got %g)", (double)ct->eps_v);
@@ -621,6 +639,15 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   }
   *contact = NULL;
   if (ct->obs.empty()) PetscFunctionReturn(PETSC_SUCCESS);
+  {
+    /* A contact distance below sqrt(eps) of the coordinates is lost in their roundoff: the
+       barrier's distances, differences of coordinates, are off by eps |x|, over 1e-8 of such a
+       dhat, and its energy's changes drown in Phi's roundoff (-msim_contact_distance 1e-9 on a
+       1 m drape: steps stalled, then "diverged at step 17", the frames written) */
+    PetscReal xmax;
+    PetscCall(VecNorm(sys->X0, NORM_INFINITY, &xmax));
+    PetscCheck(ct->dhat >= PETSC_SQRT_MACHINE_EPSILON * xmax, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be >= %g m here, sqrt(eps) times the largest start coordinate %g m, below which distances are lost in the coordinates' roundoff (got %g)", (double)(PETSC_SQRT_MACHINE_EPSILON * xmax), (double)xmax, (double)ct->dhat);
+  }
   if (ct->kc == 0) PetscCall(DefaultPenalty(sys, &ct->kc));
   /* inside refused here, whatever takes the obstacles; the barrier's margin once it is known to be
      the barrier (MSimContactCheckBarrierStart): a penalty or VI bounds start on an obstacle well */
@@ -717,14 +744,44 @@ PetscErrorCode MSimContactAddPenaltyJacobian(MSimSystem sys, PetscReal t, Vec X,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The barrier's values against the step, once per h2 (the first call is the implicit integrator's
+   set-up, before any output), s = sqrt(h2) = sqrt(beta) h the step's scale kappa's default takes:
+   - kappa within [eps, 1/eps] of its default 1/(h2 b''(dhat/2)): beyond, the barrier's stiffness
+     at dhat/2 is past the mass's by more than the Hessian's roundoff resolves, or below it by as
+     much, so that it holds a vertex only within the coordinates' roundoff (kappa 1e300, 1e18 x
+     the default: the drape failed at steps 5 and 6; 1e15 x and 1e-5 x ran; 1e-300: "diverged");
+   - friction's smoothing distance eps_v s at least sqrt(eps) times the largest start coordinate,
+     as the contact distance is (friction_eps 1e-300 and 1e-10 m/s: DIVERGED_LINEAR_SOLVE; 1e-8 ran);
+   - each obstacle's travel in a step |v| s at most dhat / sqrt(eps): its position x - v t, with
+     roundoff eps |v t|, then keeps distances to sqrt(eps) of dhat within a step (a plane rising
+     1e300 m/s gave NaN at step 1, 1e10 a stalled step). */
+static PetscErrorCode CheckStep(MSimContact ct, PetscReal h2)
+{
+  MSimSystem      sys = ct->sys;
+  const PetscReal s   = PetscSqrtReal(h2), eps = PETSC_MACHINE_EPSILON;
+  PetscReal       b, db, d2b, xmax;
+
+  PetscFunctionBeginUser;
+  MSimBarrier(0.5 * ct->dhat, ct->dhat, &b, &db, &d2b);
+  const PetscReal k0 = 1.0 / (h2 * d2b);
+  PetscCheck(ct->kappa == 0 || (ct->kappa >= eps * k0 && ct->kappa <= k0 / eps), sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_kappa must be 0 (the default) or in [%g, %g] 1/s^2 here, eps to 1/eps times the default 1/(beta h^2 b''(dhat/2)) = %g (got %g)", (double)(eps * k0), (double)(k0 / eps), (double)k0, (double)ct->kappa);
+  if (ct->mu > 0) {
+    PetscCall(VecNorm(sys->X0, NORM_INFINITY, &xmax));
+    PetscCheck(ct->eps_v * s >= PETSC_SQRT_MACHINE_EPSILON * xmax, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be >= %g m/s here: friction's smoothing distance eps_v sqrt(beta) h (sqrt(beta) h = %g s) below sqrt(eps) times the largest start coordinate %g m is lost in the coordinates' roundoff (got %g)", (double)(PETSC_SQRT_MACHINE_EPSILON * xmax / s), (double)s, (double)xmax, (double)ct->eps_v);
+  }
+  for (size_t k = 0; k < ct->obs.size(); k++) {
+    const PetscReal *v = ct->obs[k].v, speed = std::hypot(v[0], std::hypot(v[1], v[2])); /* no overflow at 1e300 */
+    PetscCheck(speed * s <= ct->dhat / PETSC_SQRT_MACHINE_EPSILON, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_velocity: obstacle %d's speed must be <= %g m/s here, a travel in a step (sqrt(beta) h = %g s) of at most the contact distance %g over sqrt(eps), or its roundoff is past sqrt(eps) of the contact distance (got %g m/s)", (int)k, (double)(ct->dhat / PETSC_SQRT_MACHINE_EPSILON / s), (double)s, (double)ct->dhat, (double)speed);
+  }
+  if (ct->kappa == 0) ct->kappa = k0;
+  ct->h2_checked = h2;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *ct)
 {
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, ct));
-  if (*ct && (*ct)->kappa == 0) {
-    PetscReal b, db, d2b;
-    MSimBarrier(0.5 * (*ct)->dhat, (*ct)->dhat, &b, &db, &d2b);
-    (*ct)->kappa = 1.0 / (h2 * d2b);
-  }
+  if (*ct && (*ct)->h2_checked != h2) PetscCall(CheckStep(*ct, h2));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -1,7 +1,8 @@
 /* Validation of a mesh before it becomes springs, and the geometry it needs. Thresholds are
-   relative to the cell's own size, so they hold at any unit: an edge is of zero length below 1e-12
-   of the mesh's bounding-box diagonal, a tet of zero volume below 1e-12 of its longest edge cubed,
-   a triangle of zero area below 1e-12 of its longest edge squared. */
+   relative to the cell's own size, so they hold at any unit up to a bounding-box diagonal of
+   DBL_MAX^(1/4): an edge is of zero length below 1e-12 of the mesh's bounding-box diagonal, a
+   tet of zero volume below 1e-12 of its longest edge cubed, a triangle of zero area below 1e-12
+   of its longest edge squared. */
 #include <msim/mesh.h>
 #include <msim/log.h>
 #include <algorithm>
@@ -67,6 +68,9 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m)
       hi[c] = std::max(hi[c], m->x[3 * v + c]);
     }
   const PetscReal diam = Dist(lo, hi);
+  /* a triangle's area takes the fourth power of its edges: past DBL_MAX^(1/4) (1e77) the lengths
+     and areas overflow, and an edge of coordinates 1e300 was refused as "of zero length" */
+  PetscCheck(diam <= std::pow(PETSC_MAX_REAL, 0.25), PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s: the coordinates span [%g, %g] x [%g, %g] x [%g, %g], a diagonal beyond %g (DBL_MAX^(1/4)), where edge lengths and areas overflow", m->file.c_str(), (double)lo[0], (double)hi[0], (double)lo[1], (double)hi[1], (double)lo[2], (double)hi[2], (double)std::pow(PETSC_MAX_REAL, 0.25));
   for (PetscInt c = 0; c < m->ncell; c++) {
     const PetscInt *id = &m->cell[(size_t)k * c];
     PetscReal       lmax = 0;

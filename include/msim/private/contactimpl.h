@@ -14,6 +14,7 @@ struct _n_MSimContact {
   PetscReal                 dhat;  /* the barrier acts below this distance */
   PetscReal                 mu;    /* Coulomb friction coefficient */
   PetscReal                 kappa; /* barrier stiffness per unit mass (1/s^2); 0: chosen at the first step */
+  PetscReal                 h2_checked; /* the beta h^2 kappa, friction's smoothing and the velocities were last checked against (MSimContactGetForStep; 0: none yet) */
   PetscReal                 kc;    /* explicit penalty stiffness, N/m per vertex */
   PetscReal                 eps_v; /* friction's static velocity threshold (m/s) */
   PetscReal                 thickness; /* mesh obstacles: the shell the cloth keeps out of */
@@ -39,7 +40,8 @@ struct _n_MSimContact {
   PetscReal                 fr_tl = 0;
 };
 
-/* kappa's default once h is known (h2 = beta h^2): the barrier as stiff as the mass at dhat/2 */
+/* kappa's default once h is known (h2 = beta h^2): the barrier as stiff as the mass at dhat/2;
+   kappa, friction's smoothing and the obstacles' speeds checked against the step there */
 PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *ct);
 
 /* obstacle o's contacts with the rank's vertex v at xv (o where it is at time t): f(d, n, H) for
