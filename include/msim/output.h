@@ -106,3 +106,5 @@ PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon);
 /* -msim_view_final VIEWER: positions of all vertices in msim's vertex order (that of the frames,
    whose file_id array maps it to the input file's ids). */
 PetscErrorCode MSimViewFinal(MSimSystem sys, PetscReal t, Vec X);
+/* before stepping: the directory of -msim_view_final's file exists and is writable (collective) */
+PetscErrorCode MSimViewFinalCheckWritable(MSimSystem sys);

@@ -3,9 +3,10 @@
 #include <msim/options.h>
 #include <msim/run.h>
 #include <msim/spectrum.h>
+#include <msim/signals.h>
 #include <slepcsys.h>
 
-static const char help[] = "msim: mass-spring simulator on PETSc (cloth, chains; explicit and implicit integrators).\n"
+static const char help[] = "msim: mass-spring simulator on PETSc (cloth, chains, surfaces and tet solids; obstacles and self-contact; explicit, implicit and PETSc TS integrators).\n"
                            "Usage: mpirun -n 2 ./msim -options_file examples/cloth.opts\n";
 
 static PetscErrorCode MSimMain(void)
@@ -80,5 +81,5 @@ int main(int argc, char **argv)
   /* the error was reported as one line by msim's handler; finalize so MPI exits cleanly */
   ierr = (PetscErrorCode)(SlepcFinalize() || ierr);
   MPI_Finalize();
-  return ierr ? 1 : 0;
+  return ierr ? (MSimStoppedByClosedOutput() ? 141 : 1) : 0;
 }

@@ -124,6 +124,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   integ->first_step = step0 + 1;
   {
     PetscErrorCode merr = MSimCheckpointCheckWritable(ck); /* first: a refusal leaves no file behind */
+    if (!merr) merr = MSimViewFinalCheckWritable(sys);
     if (!merr) merr = MSimMonitorSetUp(sys->comm, &mon, restarted ? step0 : -1, t_ck);
     if (!merr && integ->ops.openfiles) merr = integ->ops.openfiles(integ);
     if (merr) { /* refused before anything is written: the new output directory goes again */
@@ -308,6 +309,12 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(MSimStopSignalPoll(&stop, &signal_seen));
     PetscCall(MSimCheckpointWanted(ck, n, integ->steps, &want_out));
     if (want_out || signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));
+    if (signal_seen == SIGPIPE) { /* standard output's reader left: stop as for SIGTERM, quietly */
+      PetscCall(EndEarly());
+      info->steps_done = n;
+      info->t          = t;
+      PetscFunctionReturn(PETSC_ERR_SIG);
+    }
     if (signal_seen) {
       /* SIGINT or SIGTERM (a batch system's time limit): stopped after a whole step, its state
          kept where a checkpoint was asked for */

@@ -161,6 +161,28 @@ PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+PetscErrorCode MSimViewFinalCheckWritable(MSimSystem sys)
+{
+  char      value[PETSC_MAX_PATH_LEN], dir[PETSC_MAX_PATH_LEN] = ".";
+  PetscBool set;
+  int       err = 0;
+
+  PetscFunctionBeginUser;
+  /* the viewer opens its file only at the end: a directory that is not there failed after the
+     whole run, naming no option. PETSc's form is TYPE[:FILE[:FORMAT[:MODE]]] */
+  PetscCall(PetscOptionsGetString(NULL, NULL, "-msim_view_final", value, sizeof(value), &set));
+  const char *file = set ? strchr(value, ':') : NULL;
+  if (!file || !file[1] || file[1] == ':') PetscFunctionReturn(PETSC_SUCCESS); /* stdout, or the type's default name here */
+  std::string path(file + 1);
+  path = path.substr(0, path.find(':'));
+  const size_t slash = path.rfind('/');
+  if (slash != std::string::npos) PetscCall(PetscStrncpy(dir, slash ? path.substr(0, slash).c_str() : "/", sizeof(dir)));
+  if (sys->rank == 0 && access((std::string(dir) + "/.").c_str(), W_OK | X_OK) != 0) err = errno; /* "/.": a file there is no directory */
+  PetscCallMPI(MPI_Bcast(&err, 1, MPI_INT, 0, sys->comm));
+  PetscCheck(!err, sys->comm, PETSC_ERR_FILE_OPEN, "-msim_view_final %s: cannot write in %s (%s)", value, dir, strerror(err));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimViewFinal(MSimSystem sys, PetscReal t, Vec X)
 {
   PetscViewer            viewer;

@@ -5,6 +5,7 @@
 #include <msim/init.h>
 #include <cerrno>
 #include <cstdarg>
+#include <csignal>
 #include <cstring>
 #include <sstream>
 #include <string>
@@ -137,7 +138,12 @@ int MSimInitializeEnd(PetscErrorCode ierr)
   int initialized = 0, finalized = 0, rank = 0;
 
   PetscErrorPrintf = PetscErrorPrintfDefault;
-  if (!ierr) return 0;
+  if (!ierr) {
+    /* a write to a closed standard output fails (EPIPE) instead of PETSc's handler printing a
+       signal trace and aborting (stop_signal.cpp stops a run's steps on it) */
+    signal(SIGPIPE, SIG_IGN);
+    return 0;
+  }
   MPI_Initialized(&initialized);
   MPI_Finalized(&finalized);
   if (initialized && !finalized) MPI_Comm_rank(MPI_COMM_WORLD, &rank);
