@@ -21,9 +21,9 @@
    (-msim_friction_lag_iterations N, op lag): the integrator solves the step again from its result
    with lambda and P taken there (the obstacles at tx; u still measured from x_n), at most N
    solves, until the normal forces change by less than -msim_friction_lag_rtol of the largest with
-   the same vertices in contact (cloth_sphere.opts: 461 -> 1460 Newton iterations, N = 10).
-   N = 1, the default, is the lag at x_n alone. PD: its gradient at the current iterate in the
-   right-hand side, as the barrier's. A moving obstacle
+   the same vertices in contact (examples/cloth_sphere.opts: 461 -> 1455 Newton iterations at
+   N = 10, 3x the time). N = 1, the default, is the lag at x_n alone. PD: its gradient at the
+   current iterate in the right-hand side, as the barrier's. A moving obstacle
    (-msim_contact_velocity) drags: the slip u is the displacement relative to it, P (x - x_n -
    v_o (tx - t)). */
 #include <msim/implicit.h>

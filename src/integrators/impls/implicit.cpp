@@ -938,9 +938,15 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   }
   /* the step's solve, again from its result while a term's lag asks for it (friction's lag
      iterations: its normal forces taken at the result); what follows reads the last solve, and
-     the iteration counts are the solves' sums */
+     the iteration counts are the solves' sums. A lag's solve starts next to the step's solution,
+     at a |g0| that is only the lag's change: it is converged to the first solve's tolerance,
+     max(atol, rtol |g0|) of the step's own start, not to rtol of its own small |g0|, which asks
+     for more digits than the step has; the user's tolerances are back at the step's end */
+  PetscReal atol0, rtol0, stol0;
+  PetscInt  maxit0, maxf0, solves = 0;
+  PetscCall(SNESGetTolerances(ie->snes, &atol0, &rtol0, &stol0, &maxit0, &maxf0));
   integ->nonlinear_its = integ->linear_its = 0;
-  for (PetscBool again = PETSC_TRUE; again;) {
+  for (PetscBool again = PETSC_TRUE; again; solves++) {
     ie->ls_cut = 1;
     PetscCall(SNESSolve(ie->snes, NULL, X));
     PetscCall(SNESGetConvergedReason(ie->snes, &reason));
@@ -952,6 +958,12 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
     if (reason > 0 || reason == SNES_DIVERGED_MAX_IT) /* not from a failed solve's result */
       for (PetscInt k = 0; k < ie->imp->nterms; k++)
         if (ie->imp->terms[k]->ops.lag) PetscCall(ie->imp->terms[k]->ops.lag(ie->imp->terms[k], X, &again));
+    if (again && solves == 0) {
+      const PetscReal *hist;
+      PetscInt         nhist;
+      PetscCall(SNESGetConvergenceHistory(ie->snes, (PetscReal **)&hist, NULL, &nhist));
+      if (nhist > 0) PetscCall(SNESSetTolerances(ie->snes, PetscMax(atol0, rtol0 * hist[0]), rtol0, stol0, maxit0, maxf0));
+    }
     /* Phi at X changed with the lag: what solvers keep for X's state (PD's Phi) is stale */
     if (again) PetscCall(PetscObjectStateIncrease((PetscObject)X));
   }
@@ -1029,6 +1041,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
       PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: its result has %" PetscInt_FMT " inverted tet(s), where the inversion barrier of -msim_volume is infinite: a solver that keeps its feasible set, e.g. newtonls or pd)", type, bad));
     }
   }
+  if (solves > 1) PetscCall(SNESSetTolerances(ie->snes, atol0, rtol0, stol0, maxit0, maxf0));
   PetscCall(MSimImplicitEndStep(ie->imp, X, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
