@@ -583,7 +583,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
     std::vector<PetscReal> v(3 * ct->obs.size() + 1, 0.0);
     PetscInt               nv = (PetscInt)v.size();
     PetscBool              set;
-    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static", NULL, v.data(), &nv, &set));
+    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static. Implicit integrators: a travel in a step |v| sqrt(beta) h of at most dhat / sqrt(eps)", NULL, v.data(), &nv, &set));
     if (set) {
       PetscCheck(nv == 3 * (PetscInt)ct->obs.size(), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_velocity takes one vx,vy,vz per obstacle (%d obstacles: %d values); got %s%d values", (int)ct->obs.size(), 3 * (int)ct->obs.size(), nv == (PetscInt)v.size() ? "more than " : "", (int)(nv == (PetscInt)v.size() ? nv - 1 : nv));
       for (size_t k = 0; k < ct->obs.size(); k++)
@@ -593,8 +593,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
         }
     }
   }
-  PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter)", NULL, ct->dhat, &ct->dhat, NULL));
-  PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2)", NULL, ct->kappa, &ct->kappa, NULL));
+  PetscCall(MSimOptionsReal("-msim_contact_distance", "Contact distance dhat: the barrier (implicit) acts below it (default 1e-2 of the scene's diameter; at least sqrt(eps) times the largest start coordinate)", NULL, ct->dhat, &ct->dhat, NULL));
+  PetscCall(MSimOptionsReal("-msim_contact_kappa", "Barrier stiffness per unit mass, 1/s^2 (0: 1/(beta h^2 b''(dhat/2)), the barrier as stiff as the mass at dhat/2; else within eps to 1/eps times that)", NULL, ct->kappa, &ct->kappa, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_stiffness", "Penalty stiffness kc of the explicit integrators and -msim_integrator ts, N/m per vertex (0: the largest sum of spring stiffnesses at a free vertex)", NULL, ct->kc, &ct->kc, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pd_weight", "PD: each vertex within dhat of an obstacle gets the barrier's stiffness beta h^2 kappa m b''(d) on A's diagonal (A refactored per -msim_contact_pd_refactor); 0: the barrier's force in the right-hand side only", NULL, ct->pd_weight, &ct->pd_weight, NULL));
   PetscCall(MSimOptionsReal("-msim_contact_pd_refactor", "PD with -msim_contact_pd_weight: keep the factor until some vertex's wanted diagonal (A's plus the barrier's weight, taken once per step) is off the factored one by more than this factor; 0: refactor whenever the set of vertices within dhat changes", NULL, ct->pd_refactor, &ct->pd_refactor, NULL));
@@ -602,8 +602,8 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
   PetscCall(MSimOptionsInt("-msim_contact_pd_refactor_selective", "PD with -msim_contact_pd_refactor r > 0: when some vertex's weight is off by more than r, only the vertices off by more than sqrt(r) take their current weight (the others keep the factored one, so msimllt can update its factor instead of refactoring), while at most this many vertices change; more: every vertex takes its weight. 0: every vertex always", NULL, ct->pd_refactor_selective, &ct->pd_refactor_selective, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_pc_pd_weight", "Newton with -msim_pc_pd: the PD factor preconditioning CG includes the barrier's weights (taken at every Jacobian, refactored by -msim_contact_pd_refactor's rule or where the set of vertices within dhat changes)", NULL, ct->pc_pd_weight, &ct->pc_pd_weight, NULL));
   PetscCall(PetscOptionsBool("-msim_contact_psd_curvature", "PSD Newton: keep the barrier's curvature term b'(d) D^2 d (negative semidefinite) scaled so that the vertex's inertia plus it stays >= m/2; 0: drop it", NULL, ct->psd_curvature, &ct->psd_curvature, NULL));
-  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit_euler, bdf2: IPC's lagged smoothed friction; the penalty of the explicit integrators and ts has none, and refuses it; obstacles as variable bounds, -msim_contact_bounds, have none)", NULL, ct->mu, &ct->mu, NULL));
-  PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing (IPC's): tangential speed (m/s) below which the friction force grows linearly with the speed instead of being mu times the normal force, so a load below the static limit creeps at a fraction of it (default 1e-3 of the scene's diameter per second)", NULL, ct->eps_v, &ct->eps_v, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction", "Coulomb friction coefficient mu with the obstacles and, with -msim_self_contact, between surfaces in self-contact (implicit_euler, bdf2: IPC's lagged smoothed friction; the penalty of the explicit integrators and ts has none, and refuses it; obstacles as variable bounds, -msim_contact_bounds, have none; at most 1/sqrt(eps))", NULL, ct->mu, &ct->mu, NULL));
+  PetscCall(MSimOptionsReal("-msim_friction_eps", "Friction's smoothing (IPC's): tangential speed (m/s) below which the friction force grows linearly with the speed instead of being mu times the normal force, so a load below the static limit creeps at a fraction of it (default 1e-3 of the scene's diameter per second; at least sqrt(eps) times the largest start coordinate over sqrt(beta) h)", NULL, ct->eps_v, &ct->eps_v, NULL));
   PetscOptionsEnd();
   PetscCheck(ct->dhat > 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_distance must be > 0 (got %g)", (double)ct->dhat);
   PetscCheck(ct->kappa >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_kappa must be >= 0 (got %g)", (double)ct->kappa);
