@@ -35,6 +35,15 @@ typedef struct _n_MSimSceneData {
   std::vector<PetscReal> sk, sL;       /* stiffness and rest length */
   int                    cell_size = 0; /* 4 tets, 3 triangles, 0 none */
   std::vector<PetscInt>  cells;        /* cells held here, input ids */
+  /* each cell's place in the scene's order of its cells (the file's element order, a generator's
+     order; a refined tet's children at 8 x its place + 0..7), the same at any rank count; empty
+     where the cells held on ranks 0, 1, ... in turn are in that order (as a generator makes them,
+     before MSimSceneSpreadCells moves them) */
+  std::vector<PetscInt>  cell_id;
+  /* the last nbend springs held here are a mesh's bending springs (MSimSceneCellSprings). The
+     scene's order of its springs: every rank's others in rank order, then every rank's bending
+     ones (the order at one rank, where each group is sorted by its ends) */
+  PetscInt               nbend = 0;
   /* a mesh's springs come from its cells' edges: stiffness k_cell each, or with young > 0
      E V_e / L_e^2 (V_e: the volume of the tets around edge e); with k_bend > 0 a bending spring
      across every edge two triangles share */
@@ -116,6 +125,11 @@ PetscErrorCode MSimSceneToDirectory(MPI_Comm comm, MSimSceneData *s);   /* verti
 PetscErrorCode MSimSceneSpreadCells(MPI_Comm comm, MSimSceneData *s);   /* cells to the directory rank of their first vertex */
 PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s);        /* one regular refinement of the tets (1 into 8) */
 PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s);   /* a mesh's springs and measure shares from its cells */
+/* What output draws, in the scene's order at any rank count, each rank a block of it (the layout
+   of msim/exchange.h): its cells (input ids, cell_size each) and its springs (input-id pairs and
+   rest lengths). */
+PetscErrorCode MSimSceneDrawnCells(MPI_Comm comm, const MSimSceneData *s, std::vector<PetscInt> &cells);
+PetscErrorCode MSimSceneDrawnSprings(MPI_Comm comm, const MSimSceneData *s, std::vector<PetscInt> &ends, std::vector<PetscReal> &L);
 /* The rest positions of any vertices, from the directory. */
 PetscErrorCode MSimSceneFetchPositions(MPI_Comm comm, const MSimSceneData *s, const std::vector<PetscInt> &ids, std::vector<PetscReal> &x);
 

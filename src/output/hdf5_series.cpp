@@ -1,7 +1,9 @@
 /* The series at scale: every rank writes its part at once through PETSc's HDF5 viewer (MPI-IO),
    nothing is gathered. DIR/mesh.h5 holds the cells ("/cells", n x k input vertex ids), a mesh's
    springs ("/springs", pairs of input ids), the fixed flags ("/fixed") and the file ids
-   ("/file_id"), written once; each frame is DIR/frame_NNNNNN.h5 with "/positions" and
+   ("/file_id"), written once (cells and springs in the scene's order at any rank count, each rank
+   a block of it: MSimSceneDrawnCells, so a restart at another rank count rewrites mesh.h5 as it
+   was under the frames written before); each frame is DIR/frame_NNNNNN.h5 with "/positions" and
    "/velocity" (nv x 3, input order, from the natural Vec), "/strain" (one per spring, in the order
    of the springs drawn), for tets "/volume_ratio" (one per cell) and with obstacles
    "/contact_force" (nv x 3, msim/contact_force.h). DIR/series.xdmf lists them

@@ -13,6 +13,7 @@ struct VertexRecord {
 };
 struct CellRecord {
   PetscInt v[4];
+  PetscInt id; /* its place in the scene's order (MSimSceneData::cell_id) */
 };
 /* one unique edge of one rank's cells, sent to the directory of its lower vertex a */
 struct EdgeRecord {
@@ -28,6 +29,16 @@ struct ShareRecord {
 };
 struct PairRecord {
   PetscInt a, b;
+};
+/* a cell or spring drawn, on its way to the rank of its place in the scene's order */
+struct DrawnCell {
+  PetscInt place;
+  PetscInt v[4];
+};
+struct DrawnSpring {
+  PetscInt  place;
+  PetscInt  a, b;
+  PetscReal L;
 };
 } // namespace
 
@@ -98,18 +109,30 @@ PetscErrorCode MSimSceneSpreadCells(MPI_Comm comm, MSimSceneData *s)
   const size_t             nc = k ? s->cells.size() / k : 0;
   std::vector<PetscMPIInt> dest(nc);
   std::vector<CellRecord>  send(nc), recv;
+  PetscMPIInt              rank;
+  PetscInt                 first = 0, mine = (PetscInt)nc;
 
   PetscFunctionBeginUser;
+  /* each cell keeps its place in the scene's order, which the spread loses: the first spread
+     finds them in that order (a file's on rank 0, a generator's in rank order), a refined mesh's
+     spread has its children's places */
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Exscan(&mine, &first, 1, MPIU_INT, MPI_SUM, comm));
+  if (rank == 0) first = 0;
   for (size_t c = 0; c < nc; c++) {
     dest[c] = s->dir.Owner(s->cells[k * c]);
     for (int q = 0; q < 4; q++) send[c].v[q] = q < k ? s->cells[k * c + q] : -1;
+    send[c].id = s->cell_id.empty() ? first + (PetscInt)c : s->cell_id[c];
   }
   s->cells.clear();
   s->cells.shrink_to_fit();
   PetscCall(MSimExchange(comm, dest, std::move(send), recv));
   s->cells.resize(k * recv.size());
-  for (size_t c = 0; c < recv.size(); c++)
+  s->cell_id.resize(recv.size());
+  for (size_t c = 0; c < recv.size(); c++) {
     for (int q = 0; q < k; q++) s->cells[k * c + q] = recv[c].v[q];
+    s->cell_id[c] = recv[c].id;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -222,6 +245,7 @@ PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
       far.push_back(p.b);
     }
     std::vector<PetscReal> xb;
+    s->nbend = (PetscInt)keep.size();
     PetscCall(MSimSceneFetchPositions(comm, s, far, xb));
     std::string bad;
     for (size_t q = 0; q < keep.size(); q++) {
@@ -234,6 +258,80 @@ PetscErrorCode MSimSceneCellSprings(MPI_Comm comm, MSimSceneData *s)
       s->sL.push_back(L);
     }
     PetscCall(MSimCollectiveCheck(comm, (PetscBool)bad.empty(), bad));
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* the records to the ranks of their places, ordered there; every place in [0, total) arrives once */
+template <typename R>
+static PetscErrorCode ToPlaces(MPI_Comm comm, std::vector<R> &&send, std::vector<R> &got)
+{
+  PetscMPIInt              rank, size;
+  PetscInt                 total = (PetscInt)send.size();
+  MSimBlockLayout          layout;
+  std::vector<PetscMPIInt> dest(send.size());
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Comm_size(comm, &size));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, &total, 1, MPIU_INT, MPI_SUM, comm));
+  layout.Set(total, size);
+  for (size_t k = 0; k < send.size(); k++) dest[k] = layout.Owner(send[k].place);
+  PetscCall(MSimExchange(comm, dest, std::move(send), got));
+  std::sort(got.begin(), got.end(), [](const R &u, const R &v) { return u.place < v.place; });
+  const PetscInt start = layout.Start(rank);
+  PetscCheck((PetscInt)got.size() == layout.Count(rank), PETSC_COMM_SELF, PETSC_ERR_PLIB, "%zu drawn items for a block of %" PetscInt_FMT, got.size(), layout.Count(rank));
+  for (size_t k = 0; k < got.size(); k++) PetscCheck(got[k].place == start + (PetscInt)k, PETSC_COMM_SELF, PETSC_ERR_PLIB, "drawn item at place %" PetscInt_FMT " where %" PetscInt_FMT " belongs", got[k].place, start + (PetscInt)k);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneDrawnCells(MPI_Comm comm, const MSimSceneData *s, std::vector<PetscInt> &cells)
+{
+  const int              k  = s->cell_size;
+  const size_t           nc = s->cells.size() / k;
+  PetscMPIInt            rank;
+  PetscInt               first = 0, mine = (PetscInt)nc;
+  std::vector<DrawnCell> send(nc), got;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Exscan(&mine, &first, 1, MPIU_INT, MPI_SUM, comm));
+  if (rank == 0) first = 0;
+  for (size_t c = 0; c < nc; c++) {
+    send[c].place = s->cell_id.empty() ? first + (PetscInt)c : s->cell_id[c];
+    for (int q = 0; q < 4; q++) send[c].v[q] = q < k ? s->cells[k * c + q] : -1;
+  }
+  PetscCall(ToPlaces(comm, std::move(send), got));
+  cells.resize(k * got.size());
+  for (size_t c = 0; c < got.size(); c++)
+    for (int q = 0; q < k; q++) cells[k * c + q] = got[c].v[q];
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimSceneDrawnSprings(MPI_Comm comm, const MSimSceneData *s, std::vector<PetscInt> &ends, std::vector<PetscReal> &L)
+{
+  const size_t             n = s->si.size();
+  const PetscInt           nother = (PetscInt)n - s->nbend;
+  PetscMPIInt              rank;
+  PetscInt                 mine[2] = {nother, s->nbend}, first[2] = {0, 0}, total[2];
+  std::vector<DrawnSpring> send(n), got;
+
+  PetscFunctionBeginUser;
+  PetscCallMPI(MPI_Comm_rank(comm, &rank));
+  PetscCallMPI(MPI_Exscan(mine, first, 2, MPIU_INT, MPI_SUM, comm));
+  if (rank == 0) first[0] = first[1] = 0;
+  PetscCallMPI(MPI_Allreduce(mine, total, 2, MPIU_INT, MPI_SUM, comm));
+  for (size_t q = 0; q < n; q++) {
+    const PetscInt i = (PetscInt)q;
+    send[q]          = {i < nother ? first[0] + i : total[0] + first[1] + i - nother, s->si[q], s->sj[q], s->sL[q]};
+  }
+  PetscCall(ToPlaces(comm, std::move(send), got));
+  ends.resize(2 * got.size());
+  L.resize(got.size());
+  for (size_t q = 0; q < got.size(); q++) {
+    ends[2 * q]     = got[q].a;
+    ends[2 * q + 1] = got[q].b;
+    L[q]            = got[q].L;
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -119,6 +119,13 @@ PetscErrorCode MSimSceneRefine(MPI_Comm comm, MSimSceneData *s)
     }
   }
   s->cells.swap(children);
+  /* the children follow their parent in the scene's order of the cells */
+  if (!s->cell_id.empty()) {
+    std::vector<PetscInt> ids(8 * nt);
+    for (size_t t = 0; t < nt; t++)
+      for (int c = 0; c < 8; c++) ids[8 * t + c] = 8 * s->cell_id[t] + c;
+    s->cell_id.swap(ids);
+  }
   children.clear();
   children.shrink_to_fit();
   LE = MSimLocalEdges();

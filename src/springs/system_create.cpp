@@ -93,21 +93,16 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   /* grids, chains and boxes come in an order whose regular offsets the sliced sweep exploits; a
      mesh file's order is whatever its maker chose, a refined mesh's is poor (MortonOrder) */
   const PetscBool morton = (PetscBool)(order == 2 || (order == 0 && (S.name == "tet" || S.name == "mesh")));
-  /* the cells output draws: a mesh's cells held here, or the springs held here as lines (taken
-     now: the distribution consumes the scene's springs); none (and the scene's topology freed
-     with the scene) when no option writes a series or modes */
+  /* the cells output draws: a mesh's cells, or the springs as lines (taken now: the
+     distribution consumes the scene's springs), each rank a block of the scene's order, so that
+     every series holds them in the same order at any rank count; none (and the scene's topology
+     freed with the scene) when no option writes a series or modes */
   const PetscBool drawn = scene->drawn;
   sys->out_cell_size = S.cell_size ? S.cell_size : 2;
   if (drawn) {
     /* the springs as input-id pairs: a grid's or chain's cells, a mesh's second piece */
-    std::vector<PetscInt> &lines = S.cell_size ? sys->out_springs : sys->out_cells;
-    lines.resize(2 * S.si.size());
-    for (size_t q = 0; q < S.si.size(); q++) {
-      lines[2 * q]     = S.si[q];
-      lines[2 * q + 1] = S.sj[q];
-    }
-    sys->out_spring_L = S.sL;
-    if (S.cell_size) sys->out_cells = S.cells;
+    PetscCall(MSimSceneDrawnSprings(comm, &S, S.cell_size ? sys->out_springs : sys->out_cells, sys->out_spring_L));
+    if (S.cell_size) PetscCall(MSimSceneDrawnCells(comm, &S, sys->out_cells));
     sys->nat_file_id = S.file_id;
   }
   if (drawn && S.cell_size == 4) {

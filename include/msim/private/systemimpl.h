@@ -108,14 +108,15 @@ struct _n_MSimSystem {
   std::vector<PetscInt> nat_fixed;     /* the fixed vertices of this rank's block (local index) ... */
   std::vector<PetscReal> nat_b0;       /* ... and their positions at t = 0 */
   std::vector<char>     nat_fixed_flag; /* every vertex of the block */
-  /* the cells drawn (a mesh's tets or triangles held here, otherwise the springs held here as
-     lines), input ids */
+  /* the cells drawn (a mesh's tets or triangles, otherwise the springs as lines), input ids: a
+     block of the scene's order (MSimSceneDrawnCells), the same series at any rank count */
   int                   out_cell_size; /* vertices per cell: 4, 3 or 2 */
   std::vector<PetscInt> out_cells;
   /* what frames show besides positions, kept only when something draws (the scene's drawn) */
   std::vector<PetscReal> out_cell_V0;  /* rest volume of each tet of out_cells (tet scenes) */
-  std::vector<PetscInt>  out_springs;  /* a mesh's springs held here as input-id pairs (for grids
-                                          and chains out_cells are the springs) */
+  std::vector<PetscInt>  out_springs;  /* a mesh's springs as input-id pairs, a block of the
+                                          scene's order (for grids and chains out_cells are the
+                                          springs) */
   std::vector<PetscReal> out_spring_L; /* rest length of each spring drawn: of out_springs, or of
                                           out_cells' lines where those are the springs */
   std::vector<PetscInt>  nat_file_id;  /* each block vertex's id in the input file (-1: made by
