@@ -5,7 +5,13 @@
   step quietly, exit status 141 (was PETSc's "Caught signal number 13 Broken Pipe" trace and Open
   MPI's abort lines, exit 59), the checkpoint asked for written, and a restart from it runs on;
 - -msim_view_final into a directory that is not there, or under a file: refused before any step
-  in one line naming the option (failed after the whole run, naming none)."""
+  in one line naming the option (failed after the whole run, naming none);
+- -msim_view lists the energy terms that act (it listed every registered one: drag, obstacles,
+  friction, self-contact and volume for a cloth with none of them) and names PD's global solve,
+  which msim chooses by the scene's size;
+- -log_view names every stage it prints (those no rank pushed printed as "Unknown") and has the
+  run's frames, the first one's too, in Stepping, none in the main stage (the first frame and the
+  run's set-up were there)."""
 import os
 import subprocess
 import sys
@@ -41,6 +47,25 @@ def main():
             lines = mt.lines(r.stderr)
             check(r.returncode != 0 and r.stdout == "" and lines == [f"msim: error: -msim_view_final binary:{where}: cannot write in {where.split('/')[0]} ({why})"],
                   f"-msim_view_final binary:{where}: refused before the first step in one line ({lines!r}, stdout {r.stdout[:80]!r})")
+    implicit = ["-msim_cloth_n", "5", "-msim_integrator", "implicit_euler", "-msim_steps", "1", "-msim_view"]
+    for extra, terms, solve in ((["-msim_drag", "0.1"], "springs, drag", None),
+                                (["-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd"], "springs, obstacles", "-pd_ksp_type preonly -pd_pc_type msimllt")):
+        r = mt.run(MSIM, implicit + extra)
+        got = [l.strip() for l in r.stdout.splitlines() if "energy terms:" in l or "global solve:" in l]
+        want = [f"implicit problem: scheme implicit_euler (beta 1.), energy terms: {terms}"] + ([f"projective dynamics' global solve: {solve}"] if solve else [])
+        check(r.returncode == 0 and got == want, f"-msim_view with {' '.join(extra)}: {got!r}")
+    with tempfile.TemporaryDirectory() as tmp:
+        r = mt.run(MSIM, ["-msim_cloth_n", "5", "-msim_steps", "4", "-msim_output", os.path.join(tmp, "out"), "-msim_output_every", "2", "-log_view"])
+        stages, events, stage = [], {}, None
+        for l in r.stdout.splitlines():
+            if l.startswith("--- Event Stage "):
+                stage = l.split(": ", 1)[1].strip()
+                stages.append(stage)
+            elif stage and l.split()[:1] == ["MSimOutput"]:
+                events.setdefault(stage, 0)
+                events[stage] += int(l.split()[1])
+        check(r.returncode == 0 and stages and "Unknown" not in stages and events == {"Stepping": 3},
+              f"-log_view: stages {sorted(set(stages))}, MSimOutput's count by stage {events} (the 3 frames, in Stepping)")
     return check.exit_code()
 
 

@@ -17,6 +17,11 @@ extern PetscLogStage MSIM_StageRead, MSIM_StagePartition, MSIM_StageDistribute, 
 /* Starts PETSc's default log (msim reads its counts) and registers the class, events and stages. */
 PetscErrorCode MSimLogRegister(void);
 
+/* Hides from -log_view the stages no rank pushed (collective): PETSc prints each registered
+   stage's event table, one never pushed as "Unknown" (msim's Refinement without -msim_refine,
+   another library's). Called once the stages are done with. */
+PetscErrorCode MSimLogHideUnusedStages(MPI_Comm comm);
+
 /* Preconditioner set-ups so far in this process (PETSc's log counter of PCSetUp, which logs only
    when it does work): bracketing a factor PC's solves with it counts its factorizations. */
 PetscErrorCode MSimFactorizationCount(PetscInt *count);

@@ -40,11 +40,36 @@ PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer)
   char terms[512] = "";
 
   PetscFunctionBeginUser;
+  /* the terms that act: every registered term is in the problem, and one its scene does not use
+     (no obstacle, no self-contact, no drag) set no op, or a diagonal of weight 0 (listed all,
+     bunny_drop's view named drag and self-contact it has not) */
   for (PetscInt k = 0; k < imp->nterms; k++) {
-    if (k) PetscCall(PetscStrlcat(terms, ", ", sizeof(terms)));
-    PetscCall(PetscStrlcat(terms, imp->terms[k]->type, sizeof(terms)));
+    MSimImplicitTerm term = imp->terms[k];
+    PetscBool        acts = (PetscBool)(term->ops.energy || term->ops.gradient);
+    if (!acts && term->ops.diagonal) {
+      PetscReal w;
+      Vec       c;
+      PetscCall(term->ops.diagonal(term, &w, &c));
+      acts = (PetscBool)(w != 0);
+    }
+    if (!acts) continue;
+    if (terms[0]) PetscCall(PetscStrlcat(terms, ", ", sizeof(terms)));
+    PetscCall(PetscStrlcat(terms, term->type, sizeof(terms)));
   }
   PetscCall(PetscViewerASCIIPrintf(viewer, "implicit problem: scheme %s (beta %g), energy terms: %s\n", imp->scheme->type, (double)imp->scheme->beta, terms));
+  if (imp->pdksp) { /* PD's global solve, chosen by the scene's size unless -pd_ksp_type / -pd_pc_type say */
+    KSPType        ktype;
+    PCType         ptype;
+    MatSolverType  stype = NULL;
+    PC             pc;
+    PetscBool      factor;
+    PetscCall(KSPGetType(imp->pdksp, &ktype));
+    PetscCall(KSPGetPC(imp->pdksp, &pc));
+    PetscCall(PCGetType(pc, &ptype));
+    PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factor, PCCHOLESKY, PCLU, ""));
+    if (factor) PetscCall(PCFactorGetMatSolverType(pc, &stype));
+    PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics' global solve: -pd_ksp_type %s -pd_pc_type %s%s%s\n", ktype, ptype, stype ? " -pd_pc_factor_mat_solver_type " : "", stype ? stype : ""));
+  }
   if (imp->scheme->ops.view) PetscCall(imp->scheme->ops.view(imp->scheme, viewer));
   for (PetscInt k = 0; k < imp->nterms; k++)
     if (imp->terms[k]->ops.view) PetscCall(imp->terms[k]->ops.view(imp->terms[k], viewer));

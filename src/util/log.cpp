@@ -1,6 +1,7 @@
 /* msim's log class, events and stages: registered once, so -log_view reports msim's work beside
    PETSc's. */
 #include <msim/log.h>
+#include <vector>
 
 PetscClassId  MSIM_CLASSID;
 PetscLogEvent MSIM_Force, MSIM_Energy, MSIM_Step, MSIM_Output, MSIM_Jacobian, MSIM_Residual, MSIM_PDLocal, MSIM_PDGlobal, MSIM_PDSetUp, MSIM_Spectrum, MSIM_Setup, MSIM_LLTFactor, MSIM_LLTSweep;
@@ -38,6 +39,21 @@ PetscErrorCode MSimLogRegister(void)
   PetscCall(PetscLogStageRegister("Refinement", &MSIM_StageRefine));
   PetscCall(PetscLogStageRegister("Setup", &MSIM_StageSetup));
   PetscCall(PetscLogStageRegister("Stepping", &MSIM_StageStep));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimLogHideUnusedStages(MPI_Comm comm)
+{
+  PetscStageLog          log;
+  std::vector<PetscInt> used;
+
+  PetscFunctionBeginUser;
+  PetscCall(PetscLogGetStageLog(&log));
+  for (int s = 0; s < log->numStages; s++) used.push_back(log->stageInfo[s].used);
+  /* every rank hides the same stages: -log_view reduces over the ranks per visible stage */
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, used.data(), (PetscMPIInt)used.size(), MPIU_INT, MPI_MAX, comm));
+  for (int s = 0; s < log->numStages; s++)
+    if (!used[s]) PetscCall(PetscLogStageSetVisible(s, PETSC_FALSE));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
