@@ -24,6 +24,11 @@
   0.14 m above the square) with -msim_self_contact_distance 0.2 it is refused with
   -msim_self_contact_start_gap 0.2 and runs without (a checkpoint of a run with self-contact
   rests in contact within dhat: at a restart the gap is 0 by default, tests/self_contact_restart.py);
+- a gap of 0 (a restart's default, or given) finds only elements at distance 0, where no smaller gap
+  exists: the vertical triangle with vertex 4 on triangle (0, 1, 2), at the start with
+  -msim_self_contact_start_gap 0 and restarted from a checkpoint of it at rest (no gravity), is
+  refused as touching itself "(distance 0)" without advising a smaller gap (it did: "closer than
+  -msim_self_contact_start_gap 0 m ... give a smaller gap");
 - a stall is reported: the 41 x 41 cloth with the start check off (-msim_self_contact_start_check
   0, a switch for this test) stays locked through itself; every step's CCD cuts Newton's step to
   nothing with |g| far above its tolerance, and msim must warn that the steps did not converge
@@ -44,6 +49,7 @@ import vtu  # noqa: E402
 
 FOLD = ["-options_file", os.path.join(mt.ROOT, "examples", "cloth_fold.opts"), "-msim_cloth_n", "41"]
 SQUARE = [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]
+ON_SQUARE = (0.75, 0.25)  # vertex 4 there at z = 0: on triangle (0, 1, 2), its distance exactly 0
 
 
 def restarts(check, exe, tmp, np_):
@@ -68,11 +74,22 @@ def restarts(check, exe, tmp, np_):
                 ["-msim_self_contact: the surface touches itself " + state, "vertex 4 is 0.14", "m from triangle (0, 1, 2)", "-msim_self_contact_start_gap 0.2"], "restart near the square")
         r = mt.run(exe, restart, np_)
         check(r.returncode == 0, f"np {np_}: the same restart without a start gap runs ({r.stderr.strip()[-300:]})")
+    # vertex 4 on the square, at rest: its checkpoint touches at distance 0, the restart's default gap
+    on = os.path.join(tmp, "on.off")
+    write_off(on, 0.0, ON_SQUARE)
+    scene = ["-msim_scene", "mesh", "-msim_mesh_file", on, "-msim_fix", "list", "-msim_fix_list", "0,1,2,3", "-msim_gravity", "0,0,0",
+             "-msim_integrator", "implicit_euler", "-msim_dt", "0.02"]
+    ck = os.path.join(tmp, f"on_{np_}.ck")
+    r = mt.run(exe, scene + ["-msim_steps", "2", "-msim_checkpoint", ck], np_)
+    if check(r.returncode == 0 and os.path.exists(ck), f"np {np_}: the triangle on the square rests 2 steps without self-contact ({r.stderr.strip()[-300:]})"):
+        refused(check, exe, scene + ["-msim_steps", "4", "-msim_restart", ck, "-msim_self_contact"], np_, os.path.join(tmp, f"restart_on_{np_}"),
+                ["-msim_self_contact: the surface touches itself (distance 0) in the checkpoint's state (-msim_restart " + ck + ": step 2", "vertex 4 is 0"],
+                "restart touching at distance 0", absent=["smaller gap", "start_gap"])
 
 
-def write_off(path, z0):
-    """the square and the vertical triangle, its lowest vertex 4 at height z0"""
-    pts = SQUARE + [(0.7, 0.3, z0), (0.7, 0.3, z0 + 1), (0.9, 0.25, z0 + 1)]
+def write_off(path, z0, xy=(0.7, 0.3)):
+    """the square and the vertical triangle, its lowest vertex 4 at height z0 over xy"""
+    pts = SQUARE + [(xy[0], xy[1], z0), (xy[0], xy[1], z0 + 1), (0.9, 0.25, z0 + 1)]
     with open(path, "w") as f:
         f.write(f"OFF\n{len(pts)} 3 0\n")
         f.writelines(f"{p[0]:.17g} {p[1]:.17g} {p[2]:.17g}\n" for p in pts)
@@ -94,11 +111,13 @@ def crossings(x, tris):
     return sorted(found)
 
 
-def refused(check, exe, args, np_, out, words, label):
-    """one error line holding words, nothing written, and at np_ > 1 the same line as at 1 rank"""
+def refused(check, exe, args, np_, out, words, label, absent=()):
+    """one error line holding words and none of absent, nothing written, and at np_ > 1 the same
+    line as at 1 rank"""
     r = mt.run(exe, args + ["-msim_output", out], np_)
     err = mt.lines(r.stderr)
-    check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np_}: {label}: refused in one line naming {words} ({err})")
+    check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words) and not any(w in err[0] for w in absent),
+          f"np {np_}: {label}: refused in one line naming {words}{f', not {absent}' if absent else ''} ({err})")
     check(not os.path.exists(out), f"np {np_}: {label}: nothing written ({out})")
     if np_ > 1 and err:
         one = mt.lines(mt.run(exe, args + ["-msim_output", out], 1).stderr)
@@ -126,6 +145,10 @@ def main():
                 ["-msim_self_contact", "passes through itself at the start", "edge (4, 5) passes through triangle (0, 1, 2)"], "crossing mesh")
         refused(check, exe, mesh + ["-msim_mesh_file", touch, "-msim_self_contact_distance", "0.2"], np_, os.path.join(tmp, f"touch_{np_}"),
                 ["touches itself at the start", "vertex 4 is 0.1 m from triangle (0, 1, 2)", "-msim_self_contact_start_gap 0.2"], "touching mesh")
+        on = os.path.join(tmp, "on_start.off")
+        write_off(on, 0.0, ON_SQUARE)
+        refused(check, exe, mesh + ["-msim_mesh_file", on, "-msim_self_contact_start_gap", "0"], np_, os.path.join(tmp, f"on_{np_}"),
+                ["touches itself (distance 0) at the start", "vertex 4 is 0", "from triangle (0, 1, 2)"], "vertex on a triangle, start gap 0", absent=["smaller gap"])
         r = mt.run(exe, mesh + ["-msim_mesh_file", touch, "-msim_self_contact_distance", "0.05"], np_)
         check(r.returncode == 0, f"np {np_}: the same mesh with a contact distance of 0.05 m (< 0.1 m) runs ({r.stderr.strip()[-300:]})")
         refused(check, exe, mesh + ["-msim_mesh_file", touch, "-msim_self_contact_distance", "0.05", "-msim_self_contact_start_gap", "0.2"], np_,

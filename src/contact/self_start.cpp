@@ -165,6 +165,9 @@ PetscErrorCode MSimSelfSurfaceCheckStart(MSimSelfSurface s, const MSimSelfContac
   else PetscCall(PetscStrncpy(where, "at the start", sizeof(where)));
   const char *apart = restart ? "restart from a state where they are apart" : "separate them (e.g. a smaller -msim_perturb)";
   if (worst.kind == 0) PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface passes through itself %s: %s (vertex ids of the input); the barrier would keep them locked through each other: %s", where, what, apart));
+  /* a gap of 0 (a restart's default, or given) notes only elements at distance 0, where no
+     smaller gap exists: the barrier is infinite there */
+  else if (gap == 0) PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface touches itself (distance 0) %s: %s (vertex ids of the input), where the barrier is infinite: %s", where, what, apart));
   else if (!restart) PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface touches itself %s: %s (vertex ids of the input), closer than -msim_self_contact_start_gap %g m (by default the contact distance, -msim_self_contact_distance): %s, or for a start resting in contact give a smaller gap", where, what, (double)gap, apart));
   else PetscCall(PetscSNPrintf(line, sizeof(line), "-msim_self_contact: the surface touches itself %s: %s (vertex ids of the input), closer than -msim_self_contact_start_gap %g m (0 by default at a restart): %s, or give a smaller gap", where, what, (double)gap, apart));
   PetscCall(MSimCollectiveCheck(sys->comm, PETSC_FALSE, line));
