@@ -168,6 +168,9 @@ CASES = [
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "1.5"], "-ts_theta_theta must be in (0, 1]"),
     # a negative tolerance turned bdf's error control off in effect (one internal step per -msim_dt)
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_atol", "-1"], "-ts_atol must be >= 0 (got -1.)"),
+    # a fixed-step TS reads no error tolerance: both 0 were refused as if an error control read them
+    (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_adapt_type", "none", "-ts_atol", "0", "-ts_rtol", "0"], "-ts_atol is not read by a fixed-step TS"),
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_rtol", "1e-3"], "-ts_rtol is not read by a fixed-step TS"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),

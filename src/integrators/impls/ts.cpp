@@ -290,6 +290,36 @@ static PetscErrorCode SetFromOptions_TS(MSimIntegrator integ)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* -ts_atol and -ts_rtol: the error control's tolerance atol + rtol |u| per unknown, which an
+   adaptive TS alone reads (PETSc 3.18's TSErrorWeightedNorm, and SetStageTolerance here). PETSc
+   takes them as given: on a 7 x 7 cloth under bdf (9 internal steps in 5 -msim_dt, 2 rejected, at
+   the default), -ts_atol -1 took one internal step per -msim_dt, none rejected (the control off in
+   effect), -ts_atol -1e-4 ended in a NaN stage, and both 0 again took one step per -msim_dt:
+   TSErrorWeightedNorm skips each unknown whose tolerance is 0 and, with none left, returns an error
+   norm of 0, so every step is accepted at the largest size the controller allows. A fixed-step TS
+   never reads them, and refuses them as it refuses -ts_dt */
+static PetscErrorCode CheckTolerances(MSimIntegrator integ, TSInteg *d)
+{
+  const char *prefix;
+  PetscReal   atol, rtol;
+
+  PetscFunctionBeginUser;
+  if (!d->adaptive) {
+    PetscCall(TSGetOptionsPrefix(d->ts, &prefix));
+    for (const char *name : {"-ts_atol", "-ts_rtol"}) {
+      PetscBool given;
+      PetscCall(PetscOptionsHasName(NULL, prefix, name, &given));
+      PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "%s is not read by a fixed-step TS: it bounds an adaptive TS's error estimate (-ts_adapt_type basic or dsp); a fixed-step one takes one step per -msim_dt", name);
+    }
+    PetscFunctionReturn(PETSC_SUCCESS);
+  }
+  PetscCall(TSGetTolerances(d->ts, &atol, NULL, &rtol, NULL));
+  PetscCheck(atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_atol must be >= 0 (got %g)", (double)atol);
+  PetscCheck(rtol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_rtol must be >= 0 (got %g)", (double)rtol);
+  PetscCheck(atol > 0 || rtol > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_atol and -ts_rtol are both 0: the error control would accept every step (its tolerance atol + rtol |u| must be > 0)");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode Setup_TS(MSimIntegrator integ)
 {
   TSInteg   *d   = (TSInteg *)integ->data;
@@ -324,18 +354,6 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     /* theta 0 is forward Euler written implicitly: its stage Jacobian's shift 1/(theta h) is
        infinite (a NaN residual at the first solve); past 1 the scheme leaves its family */
     PetscCheck(theta > 0 && theta <= 1, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_theta_theta must be in (0, 1] (got %g)", (double)theta);
-  }
-  {
-    /* the adaptive error control divides each unknown's error by atol + rtol |u|, which PETSc
-       takes as given: on a 7 x 7 cloth under bdf (9 internal steps in 5 -msim_dt, 2 rejected, at
-       the default), -ts_atol -1 took one internal step per -msim_dt, none rejected (the control
-       off in effect), -ts_atol -1e-4 ended in a NaN stage, and both 0 (a division by zero) again
-       took one step per -msim_dt */
-    PetscReal atol, rtol;
-    PetscCall(TSGetTolerances(d->ts, &atol, NULL, &rtol, NULL));
-    PetscCheck(atol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_atol must be >= 0 (got %g)", (double)atol);
-    PetscCheck(rtol >= 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_rtol must be >= 0 (got %g)", (double)rtol);
-    PetscCheck(atol > 0 || rtol > 0, integ->comm, PETSC_ERR_ARG_OUTOFRANGE, "-ts_atol and -ts_rtol are both 0: the error control's tolerance atol + rtol |u| must be > 0");
   }
   PetscCall(SetStabilityLimit(integ, d, type));
   PetscCall(CheckAlphaContact(integ, d->ts, type));
@@ -385,6 +403,7 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
     PetscCall(TSGetAdapt(d->ts, &adapt));
     PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTNONE, &known));
     d->adaptive = (PetscBool)!known;
+    PetscCall(CheckTolerances(integ, d));
     if (d->forms) { /* after the options, which could cancel a monitor set before them */
       SNES snes;
       PetscCall(TSGetSNES(d->ts, &snes));
