@@ -168,6 +168,9 @@ CASES = [
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "1.5"], "-ts_theta_theta must be in (0, 1]"),
     # a negative tolerance turned bdf's error control off in effect (one internal step per -msim_dt)
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_atol", "-1"], "-ts_atol must be >= 0 (got -1.)"),
+    # -msim_spectrum alone took the spectrum of inverted tets, whose barrier Hessian K holds (the check was the implicit term's only)
+    (["-msim_scene", "box", "-msim_box_n", "3,2,2", "-msim_box_size", "0.3,0.1,0.1", "-msim_fix_plane", "x_min", "-msim_density", "1000", "-msim_young", "5e4",
+      "-msim_perturb", "0.1", "-msim_volume", "1", "-msim_spectrum"], "-msim_volume: 32 tets are inverted or flat at the start"),
     # a fixed-step TS reads no error tolerance: both 0 were refused as if an error control read them
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_adapt_type", "none", "-ts_atol", "0", "-ts_rtol", "0"], "-ts_atol is not read by a fixed-step TS"),
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_rtol", "1e-3"], "-ts_rtol is not read by a fixed-step TS"),

@@ -17,7 +17,8 @@
 #include <msim/system.h>
 
 /* After the distribution: kv's and kappa's defaults (the start state's check, every tet positive
-   under the barrier, is the implicit term's, on the state a run starts from). Collective. */
+   under the barrier, is MSimSystemVolumeCheckStart's, on the state a run or the spectrum starts
+   from). Collective. */
 PetscErrorCode MSimSystemVolumeSetUp(MSimSystem sys, PetscReal kv_default);
 /* F += w grad E (w = -1: the force) on owned rows, and *e += this rank's E (w not applied; e may
    be NULL; F may be NULL). X at time t (fixed slots from b(t)). Collective when F is given. With
@@ -41,3 +42,7 @@ PetscErrorCode MSimSystemVolumeRowSums(MSimSystem sys, PetscScalar *floc);
 PetscErrorCode MSimSystemVolumeHandleStart(MSimSystem sys, PetscReal t, PetscReal tx, Vec X, PetscInt *ninv, PetscReal *a, PetscReal where[3]);
 /* inverted tets (J <= 0) at X, summed over ranks */
 PetscErrorCode MSimSystemVolumeCountInverted(MSimSystem sys, PetscReal t, Vec X, PetscInt *n);
+/* with the inversion barrier, a one-line refusal where a tet is inverted or flat at X, the state a
+   run or the spectrum starts from (restart: the checkpoint's state as a message names it; NULL:
+   the scene's start). Collective. */
+PetscErrorCode MSimSystemVolumeCheckStart(MSimSystem sys, PetscReal t, Vec X, const char *restart);

@@ -111,6 +111,7 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
   PetscOptionsEnd();
   *ran = on;
   if (!on) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSystemVolumeCheckStart(sys, 0.0, X, NULL)); /* K holds the inversion barrier's Hessian */
   PetscCall(MSimSpectrumLargest(sys, X, nlargest, lambda));
   const PetscReal wmax = PetscSqrtReal(PetscMax(lambda[0], 0.0));
   PetscCall(VecMax(sys->mass, NULL, &mmax));

@@ -146,6 +146,24 @@ PetscErrorCode MSimSystemVolumeCountInverted(MSimSystem sys, PetscReal t, Vec X,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The barrier is infinite at an inverted or flat tet: a run cannot start there, at the scene's
+   start (a -msim_perturb or -msim_prestretch that inverts tets) or at a checkpoint's state (one
+   written without the barrier: a box squashed by 50 g held 48 inverted tets at step 3, and a
+   restart with the barrier from there failed its first step's line search), and neither can the
+   spectrum, whose K holds the barrier's Hessian there (the implicit term's check_start and
+   MSimSpectrumFromOptions both call this) */
+PetscErrorCode MSimSystemVolumeCheckStart(MSimSystem sys, PetscReal t, Vec X, const char *restart)
+{
+  PetscInt bad;
+
+  PetscFunctionBeginUser;
+  if (!sys->tets.ntet || sys->tets.kappa == 0) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSystemVolumeCountInverted(sys, t, X, &bad));
+  if (restart) PetscCheck(!bad, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_volume: %" PetscInt_FMT " tets are inverted or flat in %s (written without the inversion barrier?): the barrier needs every tet positive (-msim_volume_kappa 0 turns it off)", bad, restart);
+  PetscCheck(!bad, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_volume: %" PetscInt_FMT " tets are inverted or flat at the start (-msim_perturb or -msim_prestretch?): the inversion barrier needs every tet positive (-msim_volume_kappa 0 turns it off)", bad);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The handles' move over a step (-msim_fix_velocity w, from t to tx) with the free vertices at X:
    each tet inverted or flat at (X, b(tx)) is flattened somewhere along that move, at the first
    zero a of its volume along (X + w dt, b(tx)) - a (w dt on the free slots), a in [0, 1]: the

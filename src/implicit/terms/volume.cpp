@@ -214,19 +214,11 @@ static PetscErrorCode FeasibleStart_Volume(MSimImplicitTerm term, Vec A)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The barrier is infinite at an inverted or flat tet: a run cannot start there, at the scene's
-   start (a -msim_perturb or -msim_prestretch that inverts tets) or at a checkpoint's state (one
-   written without the barrier: a box squashed by 50 g held 48 inverted tets at step 3, and a
-   restart with the barrier from there failed its first step's line search) */
+/* the start's check is the system's (MSimSystemVolumeCheckStart), which the spectrum shares */
 static PetscErrorCode CheckStart_Volume(MSimImplicitTerm term, PetscReal t, Vec X, const char *restart)
 {
-  MSimSystem sys = term->imp->sys;
-  PetscInt   bad;
-
   PetscFunctionBeginUser;
-  PetscCall(MSimSystemVolumeCountInverted(sys, t, X, &bad));
-  if (restart) PetscCheck(!bad, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_volume: %" PetscInt_FMT " tets are inverted or flat in %s (written without the inversion barrier?): the barrier needs every tet positive (-msim_volume_kappa 0 turns it off)", bad, restart);
-  PetscCheck(!bad, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_volume: %" PetscInt_FMT " tets are inverted or flat at the start (-msim_perturb or -msim_prestretch?): the inversion barrier needs every tet positive (-msim_volume_kappa 0 turns it off)", bad);
+  PetscCall(MSimSystemVolumeCheckStart(term->imp->sys, t, X, restart));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
