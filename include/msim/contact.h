@@ -32,8 +32,8 @@ void MSimMeshObstacleSetCache(MSimMeshObstacle mesh, PetscBool use);
    came from (src/contact/mesh_obstacle.cpp, ShellSide) */
 void MSimMeshObstacleSetPenalty(MSimMeshObstacle mesh, PetscBool on);
 /* whether the mesh keeps its vertices' sides (a shell with the penalty); *lost: some vertex of the
-   rank entered the shell from beyond band in one query since the last call (its side unknown, the
-   nearer taken), x that point */
+   rank entered the shell from beyond band in one query (its side unknown, the nearer taken), x the
+   first such point */
 PetscBool MSimMeshObstacleKeepsSides(MSimMeshObstacle mesh, PetscBool *lost, PetscReal x[3]);
 /* file name, triangles, closed (every edge in two triangles: the cloth stays outside) */
 void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *ntri, PetscBool *closed);
@@ -138,6 +138,13 @@ void MSimBarrier(PetscReal d, PetscReal dhat, PetscReal *b, PetscReal *db, Petsc
 /* F += the explicit penalty force kc max(0, -d) n per free owned vertex and obstacle at time t
    (nothing without obstacles). */
 PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Vec F);
+/* Whether a vertex of this rank entered a shell (a mesh obstacle with -msim_contact_thickness under
+   the penalty) from farther than the contact distance in one query since the run began, its side
+   unknown (no communication: MSimSystemComputeEnergy's reduction carries it); Check (collective,
+   where some rank has one) stops the run in one line naming the first such vertex's point and
+   time. */
+PetscErrorCode MSimContactShellSideLost(MSimSystem sys, PetscBool *lost);
+PetscErrorCode MSimContactCheckShellSides(MSimSystem sys);
 /* K += kc n n^T on every free owned vertex for every obstacle (n its normal at X, at time t): the
    penalty's stiffness as if each vertex were pressed into each obstacle, an upper bound of every
    contact state's (Weyl: adding PSD blocks only raises eigenvalues), which the SLEPc stability guard

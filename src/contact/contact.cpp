@@ -675,18 +675,40 @@ PetscErrorCode MSimContactAddPenaltyForce(MSimSystem sys, PetscReal t, Vec X, Ve
   PetscCall(VecRestoreArray(F, &f));
   PetscCall(VecRestoreArrayRead(X, &x));
   /* a shell whose side some vertex lost (it entered the shell from farther than dhat in one
-     query, mesh_obstacle.cpp's ShellSide) cannot be held: the run stops rather than let the
-     cloth pass through. Collective, where some mesh keeps sides (every rank has the same meshes) */
-  for (size_t k = 0; k < ct->obs.size(); k++) {
+     query, mesh_obstacle.cpp's ShellSide) cannot be held: the run stops rather than let the cloth
+     pass through. The first loss is noted here, with no communication (a reduction per force
+     evaluation cost a collective per stage); the step's energy reduction says it
+     (MSimContactCheckShellSides) */
+  for (size_t k = 0; k < ct->obs.size() && ct->side_lost.empty(); k++) {
     PetscBool lost;
     PetscReal p[3];
-    if (ct->obs[k].kind != MSIM_OBSTACLE_MESH || !MSimMeshObstacleKeepsSides(ct->obs[k].mesh, &lost, p)) continue;
+    if (ct->obs[k].kind != MSIM_OBSTACLE_MESH || !MSimMeshObstacleKeepsSides(ct->obs[k].mesh, &lost, p) || !lost) continue;
     const char *file;
     char        msg[512];
     MSimMeshObstacleInfo(ct->obs[k].mesh, &file, NULL, NULL);
     PetscCall(PetscSNPrintf(msg, sizeof(msg), "a vertex entered the shell of obstacle %d (-msim_contact_mesh %s, thickness %g) at (%g, %g, %g), t = %g s, from farther than the contact distance %g in one step, so the penalty cannot tell which side it came from: reduce -msim_dt or raise -msim_contact_distance", (int)k, file, (double)ct->thickness, (double)p[0], (double)p[1], (double)p[2], (double)t, (double)ct->dhat));
-    PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)!lost, msg));
+    ct->side_lost = msg;
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactShellSideLost(MSimSystem sys, PetscBool *lost)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Query(sys, &ct));
+  *lost = (PetscBool)(ct && !ct->side_lost.empty());
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactCheckShellSides(MSimSystem sys)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  PetscCall(Query(sys, &ct));
+  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(!ct || ct->side_lost.empty()), ct ? ct->side_lost : std::string()));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

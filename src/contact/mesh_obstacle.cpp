@@ -166,7 +166,7 @@ struct _n_MSimMeshObstacle {
   };
   enum { SIDE_NEW, SIDE_OUT, SIDE_IN, SIDE_FAR };
   std::vector<Side> side;
-  PetscInt          lost = -1; /* a rank's vertex that entered the shell from beyond band in one step (-1: none since MSimMeshObstacleKeepsSides last said) */
+  PetscInt          lost = -1; /* the rank's first vertex that entered the shell from beyond band in one step (-1: none) */
   PetscReal         lost_x[3];
 };
 
@@ -1683,6 +1683,5 @@ PetscBool MSimMeshObstacleKeepsSides(MSimMeshObstacle mo, PetscBool *lost, Petsc
   *lost = (PetscBool)(mo->lost >= 0);
   if (mo->lost >= 0)
     for (int c = 0; c < 3; c++) x[c] = mo->lost_x[c];
-  mo->lost = -1;
   return (PetscBool)mo->sides;
 }

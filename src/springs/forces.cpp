@@ -127,7 +127,8 @@ PetscErrorCode MSimSystemSpringEnergy(MSimSystem sys, PetscReal t, Vec X, PetscR
 PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V, PetscReal *kinetic, PetscReal *potential)
 {
   const PetscScalar *x, *m, *v;
-  PetscReal          local[2] = {0, 0}, Es;
+  PetscReal          local[3] = {0, 0, 0}, Es;
+  PetscBool          lost;
 
   PetscFunctionBeginUser;
   PetscCall(MSimSystemSpringEnergy(sys, t, X, &Es));
@@ -142,7 +143,12 @@ PetscErrorCode MSimSystemComputeEnergy(MSimSystem sys, PetscReal t, Vec X, Vec V
   }
   PetscCall(VecRestoreArrayRead(sys->mass, &m));
   PetscCall(VecRestoreArrayRead(X, &x));
-  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, local, 2, MPIU_REAL, MPIU_SUM, sys->comm));
+  /* the time loop's check of each checked step: its reduction also says whether a rank lost a
+     shell's side, which the penalty force notes without communicating (msim/contact.h) */
+  PetscCall(MSimContactShellSideLost(sys, &lost));
+  local[2] = lost ? 1 : 0;
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, local, 3, MPIU_REAL, MPIU_SUM, sys->comm));
+  if (local[2] > 0) PetscCall(MSimContactCheckShellSides(sys));
   *potential = Es + local[0];
   *kinetic   = local[1];
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -6,6 +6,7 @@
 #include <msim/contact.h>
 #include <cmath>
 #include <vector>
+#include <string>
 
 struct _n_MSimContact {
   MSimSystem                sys;
@@ -29,6 +30,9 @@ struct _n_MSimContact {
   /* the first fixed vertex this rank saw enter an obstacle (MSimContactWatchHandles): the step
      (-1: none yet), its input id and the obstacle's index */
   PetscInt                  handle_step = -1, handle_id = 0, handle_obstacle = 0;
+  /* the first shell side this rank lost (MSimContactAddPenaltyForce's one-line message; empty:
+     none), said by MSimContactCheckShellSides */
+  std::string               side_lost;
   /* friction's last step (set by its term at every evaluation, non-owning): x_n, the step's start
      and unknown's times and h, so that the output's force at the step's result includes friction;
      and the lag point its normal forces and tangent bases were taken at, with the obstacles' time
