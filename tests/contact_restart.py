@@ -12,6 +12,11 @@ at step 13 in contact and restarted to step 30, likewise: the restart must put t
 before its first step. Assembled at that step's first gradient, A changed there where the run's did
 not, so the fused gradient took it for a new A, computed that step by the product and dropped its
 pairs: the restarted run ended 1.9e-4 m away.
+The explicit penalty on a shell (an open sheet with -msim_contact_thickness: a heavy cloth lands
+on it with symplectic Euler, its vertices sinking past the sheet's mid-surface), checkpointed at
+step 150 with vertices past the surface and restarted to step 300, likewise: the checkpoint must
+carry each vertex's side. Before it did, the restarted vertices past the surface took the nearer
+side, were pushed out below, and the cloth fell through the sheet (1.5 m away at step 600).
 Usage: contact_restart.py path/to/msim [--np N]"""
 import tempfile
 import os
@@ -27,6 +32,10 @@ SPLIT, END = 24, 36
 LBFGS = ["-msim_cloth_n", "11", "-msim_fix", "none", "-msim_dt", "0.02", "-msim_integrator", "implicit_euler",
          "-snes_type", "pd", "-snes_pd_lbfgs", "5", "-msim_contact_sphere", "0.5,0.5,-0.3,0.2"]
 LBFGS_SPLIT, LBFGS_END = 13, 30
+SHEET_Z = -0.1
+SHELL = ["-msim_cloth_n", "11", "-msim_fix", "none", "-msim_mass", "300", "-msim_integrator", "symplectic_euler", "-msim_dt", "1e-3",
+         "-msim_contact_thickness", "0.01", "-msim_progress", "0"]
+SHELL_SPLIT, SHELL_END = 150, 300
 check = mt.Checks()
 
 
@@ -54,12 +63,22 @@ def restart_matches(tmp, np_, scene, split, end, tag):
 
 def main():
     with tempfile.TemporaryDirectory() as tmp:
+        sheet = os.path.join(tmp, "sheet.obj")
+        with open(sheet, "w") as f:
+            f.write(f"v -1 -1 {SHEET_Z}\nv 2 -1 {SHEET_Z}\nv 2 2 {SHEET_Z}\nv -1 2 {SHEET_Z}\nf 1 2 3\nf 1 3 4\n")
         for np_ in mt.ranks():
             for name, obstacle in OBSTACLES.items():
                 for rule in ("4", "0"):
                     restart_matches(tmp, np_, BASE + obstacle + ["-msim_contact_pd_refactor", rule], SPLIT, END,
                                     f"np {np_}, {name}, -msim_contact_pd_refactor {rule}")
             restart_matches(tmp, np_, LBFGS, LBFGS_SPLIT, LBFGS_END, f"np {np_}, ball, -snes_pd_lbfgs 5 (fused gradient)")
+            shell = SHELL + ["-msim_contact_mesh", sheet]
+            # the premise: at the checkpoint some vertex is past the sheet's surface
+            r = mt.run(MSIM, shell + ["-msim_steps", str(SHELL_SPLIT), "-msim_view_final", f"binary:{tmp}/split.bin"], np_, cwd=tmp)
+            if check(r.returncode == 0, f"np {np_}: the shell run to step {SHELL_SPLIT} ({r.stderr.strip()[-300:]})"):
+                low = min(final(f"{tmp}/split.bin")[2::3])
+                check(low < SHEET_Z, f"np {np_}: shell: a vertex past the surface z = {SHEET_Z} at step {SHELL_SPLIT} (lowest z {low:.4g})")
+            restart_matches(tmp, np_, shell, SHELL_SPLIT, SHELL_END, f"np {np_}, shell, symplectic_euler's penalty")
     return check.exit_code()
 
 

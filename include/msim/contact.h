@@ -35,6 +35,11 @@ void MSimMeshObstacleSetPenalty(MSimMeshObstacle mesh, PetscBool on);
    rank entered the shell from beyond band in one query (its side unknown, the nearer taken), x the
    first such point */
 PetscBool MSimMeshObstacleKeepsSides(MSimMeshObstacle mesh, PetscBool *lost, PetscReal x[3]);
+/* a shell's sides of the rank's vertices [0, n) for checkpoints, as two arrays in X's layout (3
+   numbers a vertex): each vertex's last gradient m and its state (in its first number); Set puts
+   them back at a restart */
+void MSimMeshObstacleGetSides(MSimMeshObstacle mesh, PetscInt n, PetscScalar m[], PetscScalar state[]);
+void MSimMeshObstacleSetSides(MSimMeshObstacle mesh, PetscInt n, const PetscScalar m[], const PetscScalar state[]);
 /* file name, triangles, closed (every edge in two triangles: the cloth stays outside) */
 void MSimMeshObstacleInfo(MSimMeshObstacle mesh, const char **file, PetscInt *ntri, PetscBool *closed);
 /* distance - thickness (negative inside a closed surface or within the shell), unit gradient n,

@@ -1612,9 +1612,9 @@ PetscReal MSimMeshObstacleSafeStepVertex(MSimMeshObstacle mo, PetscInt v, const 
    tree's closest point. A vertex going round the surface's rim outside the shell turns m a little
    at each answer, and keeps its side; one that entered the shell from beyond band in one query
    (moved more than dhat) has no known side: it takes the nearer, and MSimMeshObstacleKeepsSides
-   says so. A vertex's first answer (the start, which has every vertex outside, or a restart) takes
-   the nearer side: a checkpoint does not carry the sides, so a restart repeats the run bit for bit
-   unless some vertex was past the surface at the checkpoint (then it goes out the near side). */
+   says so. A vertex's first answer (the start, which has every vertex outside) takes the nearer
+   side; a checkpoint carries the sides (MSimMeshObstacleGetSides), so a restart goes on with each
+   vertex's, past the surface too. */
 static inline PetscReal ShellSide(MSimMeshObstacle mo, PetscInt v, const PetscReal x[3], PetscReal d, PetscReal n[3], PetscReal H[9])
 {
   typedef _n_MSimMeshObstacle M;
@@ -1684,4 +1684,31 @@ PetscBool MSimMeshObstacleKeepsSides(MSimMeshObstacle mo, PetscBool *lost, Petsc
   if (mo->lost >= 0)
     for (int c = 0; c < 3; c++) x[c] = mo->lost_x[c];
   return (PetscBool)mo->sides;
+}
+
+/* The sides go into a checkpoint as two vectors shaped like X: each vertex's m, and its state in
+   the first of its three numbers (a small integer, exact in a double). A vertex no query has
+   reached yet is SIDE_NEW, as its entry would be when created. */
+void MSimMeshObstacleGetSides(MSimMeshObstacle mo, PetscInt n, PetscScalar m[], PetscScalar state[])
+{
+  typedef _n_MSimMeshObstacle M;
+  for (PetscInt v = 0; v < n; v++) {
+    const M::Side s = (size_t)v < mo->side.size() ? mo->side[(size_t)v] : M::Side{{0, 0, 0}, M::SIDE_NEW};
+    for (int c = 0; c < 3; c++) {
+      m[3 * v + c]     = s.m[c];
+      state[3 * v + c] = c ? 0 : (PetscScalar)s.state;
+    }
+  }
+}
+
+void MSimMeshObstacleSetSides(MSimMeshObstacle mo, PetscInt n, const PetscScalar m[], const PetscScalar state[])
+{
+  typedef _n_MSimMeshObstacle M;
+  mo->side.assign((size_t)n, M::Side{{0, 0, 0}, M::SIDE_NEW});
+  for (PetscInt v = 0; v < n; v++) {
+    const PetscScalar code = state[3 * v];
+    M::Side          &s    = mo->side[(size_t)v];
+    s.state                = code == M::SIDE_OUT ? M::SIDE_OUT : code == M::SIDE_IN ? M::SIDE_IN : code == M::SIDE_FAR ? M::SIDE_FAR : M::SIDE_NEW; /* any other number (a damaged file): no side known */
+    for (int c = 0; c < 3; c++) s.m[c] = m[3 * v + c];
+  }
 }

@@ -10,7 +10,12 @@
    carries from one step's solve to the next (MSimSolverHistory: SNES pd's L-BFGS pairs, ntr's
    radius), under its name, its scalars then its vectors (in input vertex order too, so that
    another rank count gets them redistributed as x and v); a restart whose solver would carry the
-   same takes it, another solver starts afresh. Nothing else carries from step to step (Anderson's
+   same takes it, another solver starts afresh. So do the shells' sides (a mesh obstacle with
+   -msim_contact_thickness under the penalty keeps each vertex on the side it came from, past the
+   surface too: msim/contact.h), two vectors per shell under what identifies the shells (each one's
+   index, file and thickness); a restart with the same shells takes them, other obstacles start
+   with no side known (the obstacles are options a restart may change, msim/contact.h's
+   MSimContactCheckRestart). Nothing else carries from step to step (Anderson's
    history and the other SNES types' start afresh each solve; PETSc's qn keeps its pairs in a Mat
    whose contents PETSc 3.18 does not expose, so qn alone does not restart bit for bit, and a
    restart with it says so in one line), so a restarted run repeats the uninterrupted one bit for
@@ -23,6 +28,7 @@
 #include <msim/log.h>
 #include <msim/private/integratorimpl.h>
 #include <msim/private/systemimpl.h>
+#include <msim/private/contactimpl.h>
 #include <sstream>
 #include <string>
 #include <sys/stat.h>
@@ -30,8 +36,8 @@
 #include <cstring>
 
 static const PetscInt MSIM_CHECKPOINT_MAGIC   = 0x6d73696d; /* "msim" */
-static const PetscInt MSIM_CHECKPOINT_VERSION = 3; /* 2: the integrator's history; 3: the solver's */
-enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC, H_COUNT };
+static const PetscInt MSIM_CHECKPOINT_VERSION = 4; /* 2: the integrator's history; 3: the solver's; 4: the shells' sides */
+enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC, H_SHELLS, H_NSIDE, H_COUNT };
 
 struct _n_MSimCheckpoint {
   MSimSystem sys;
@@ -76,6 +82,30 @@ static PetscErrorCode Solver(MSimCheckpoint ck, SNES *snes)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* the mesh obstacles that keep their vertices' sides (shells under the penalty) and what
+   identifies them, one line each: a restart gives the sides back to the same shells only */
+static PetscErrorCode Shells(MSimCheckpoint ck, std::vector<MSimMeshObstacle> &shells, std::string &ident)
+{
+  MSimContact ct;
+
+  PetscFunctionBeginUser;
+  shells.clear();
+  ident.clear();
+  PetscCall(MSimContactGet(ck->sys, &ct));
+  for (size_t k = 0; ct && k < ct->obs.size(); k++) {
+    PetscBool   lost;
+    PetscReal   p[3];
+    const char *file;
+    char        line[PETSC_MAX_PATH_LEN + 64];
+    if (ct->obs[k].kind != MSIM_OBSTACLE_MESH || !MSimMeshObstacleKeepsSides(ct->obs[k].mesh, &lost, p)) continue;
+    MSimMeshObstacleInfo(ct->obs[k].mesh, &file, NULL, NULL);
+    PetscCall(PetscSNPrintf(line, sizeof(line), "%d %s %.17g\n", (int)k, file, (double)ct->thickness));
+    shells.push_back(ct->obs[k].mesh);
+    ident += line;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
 {
   PetscBool set;
@@ -116,6 +146,8 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   const char       *integ;
   SNES              snes;
   MSimSolverHistory solver;
+  std::vector<MSimMeshObstacle> shells;
+  std::string                   shell_ident;
 
   PetscFunctionBeginUser;
   if (!ck->path[0]) PetscFunctionReturn(PETSC_SUCCESS);
@@ -134,6 +166,9 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   header[H_SOLVER]  = (PetscInt)solver.name.size();
   header[H_SREAL]   = header[H_SOLVER] ? (PetscInt)solver.real.size() : 0;
   header[H_SVEC]    = header[H_SOLVER] ? (PetscInt)solver.vec.size() : 0;
+  PetscCall(Shells(ck, shells, shell_ident));
+  header[H_SHELLS]  = (PetscInt)shell_ident.size();
+  header[H_NSIDE]   = 2 * (PetscInt)shells.size();
   PetscCall(PetscViewerCreate(sys->comm, &v));
   PetscCall(PetscViewerSetType(v, PETSCVIEWERBINARY));
   PetscCall(PetscViewerSetFromOptions(v)); /* -viewer_binary_mpiio */
@@ -146,6 +181,7 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   if (header[H_INTEG]) PetscCall(PetscViewerBinaryWrite(v, integ, header[H_INTEG], PETSC_CHAR));
   if (header[H_SOLVER]) PetscCall(PetscViewerBinaryWrite(v, solver.name.data(), header[H_SOLVER], PETSC_CHAR));
   if (header[H_SREAL]) PetscCall(PetscViewerBinaryWrite(v, solver.real.data(), header[H_SREAL], PETSC_REAL));
+  if (header[H_SHELLS]) PetscCall(PetscViewerBinaryWrite(v, shell_ident.data(), header[H_SHELLS], PETSC_CHAR));
   PetscCall(MSimSystemNaturalPositions(sys, t, X));
   PetscCall(VecView(sys->natural, v));
   PetscCall(MSimSystemNaturalVector(sys, V));
@@ -157,6 +193,25 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   for (PetscInt k = 0; k < header[H_SVEC]; k++) {
     PetscCall(MSimSystemNaturalVector(sys, solver.vec[k]));
     PetscCall(VecView(sys->natural, v));
+  }
+  if (!shells.empty()) {
+    Vec          w[2];
+    PetscScalar *a[2];
+    PetscCall(VecDuplicate(X, &w[0]));
+    PetscCall(VecDuplicate(X, &w[1]));
+    for (MSimMeshObstacle mo : shells) {
+      PetscCall(VecGetArray(w[0], &a[0]));
+      PetscCall(VecGetArray(w[1], &a[1]));
+      MSimMeshObstacleGetSides(mo, sys->nown, a[0], a[1]);
+      PetscCall(VecRestoreArray(w[0], &a[0]));
+      PetscCall(VecRestoreArray(w[1], &a[1]));
+      for (Vec wk : w) {
+        PetscCall(MSimSystemNaturalVector(sys, wk));
+        PetscCall(VecView(sys->natural, v));
+      }
+    }
+    PetscCall(VecDestroy(&w[0]));
+    PetscCall(VecDestroy(&w[1]));
   }
   PetscCall(PetscViewerDestroy(&v)); /* collective: the file is complete here */
   if (sys->rank == 0) ok = rename(tmp.c_str(), ck->path) == 0;
@@ -240,9 +295,9 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   }
   /* counts no larger than the file keep the size below from overflowing */
   bool sane = true;
-  for (PetscInt k : {H_IDENT, H_NV, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC}) sane = sane && header[k] >= 0 && header[k] <= size;
-  const long long expect = sane ? head + (long long)header[H_IDENT] + (long long)header[H_INTEG] + (long long)header[H_SOLVER] + (long long)header[H_SREAL] * (long long)sizeof(PetscReal) +
-                                    (2 + (long long)header[H_NHIST] + (long long)header[H_SVEC]) * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar))
+  for (PetscInt k : {H_IDENT, H_NV, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC, H_SHELLS, H_NSIDE}) sane = sane && header[k] >= 0 && header[k] <= size;
+  const long long expect = sane ? head + (long long)header[H_IDENT] + (long long)header[H_INTEG] + (long long)header[H_SOLVER] + (long long)header[H_SREAL] * (long long)sizeof(PetscReal) + (long long)header[H_SHELLS] +
+                                    (2 + (long long)header[H_NHIST] + (long long)header[H_SVEC] + (long long)header[H_NSIDE]) * (2 * (long long)sizeof(PetscInt) + 3 * (long long)header[H_NV] * (long long)sizeof(PetscScalar))
                                 : -1;
   if (!sane || size != expect) {
     PetscCall(PetscViewerDestroy(&v));
@@ -282,11 +337,26 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
       solver.vec.push_back(NULL);
       PetscCall(VecDuplicate(X, &solver.vec.back()));
     }
+  /* the shells' sides go back to the same shells, whole */
+  std::vector<MSimMeshObstacle> shells;
+  std::string                   shell_ident, shells_there((size_t)header[H_SHELLS], '\0');
+  std::vector<Vec>              sides;
+  PetscCall(Shells(ck, shells, shell_ident));
+  if (header[H_SHELLS]) PetscCall(PetscViewerBinaryRead(v, &shells_there[0], header[H_SHELLS], NULL, PETSC_CHAR));
+  const PetscBool load_sides = (PetscBool)(!shells.empty() && header[H_NSIDE] == 2 * (PetscInt)shells.size() && shells_there == shell_ident);
+  if (!shells.empty() && !load_sides) PetscCall(PetscInfo(NULL, "-msim_restart %s: the checkpoint's shells are not this run's: every vertex starts with no side known\n", F));
+  if (load_sides)
+    for (PetscInt k = 0; k < header[H_NSIDE]; k++) {
+      sides.push_back(NULL);
+      PetscCall(VecDuplicate(X, &sides.back()));
+    }
   /* the file's vectors in order; NULL: one to read past (another integrator's history) */
   std::vector<Vec> targets = {X, V};
   targets.insert(targets.end(), (size_t)header[H_NHIST], NULL);
   if (load_hist) std::copy(hist, hist + nhist, targets.begin() + 2);
   targets.insert(targets.end(), solver.vec.begin(), solver.vec.end());
+  if (load_sides) targets.insert(targets.end(), sides.begin(), sides.end());
+  else targets.insert(targets.end(), (size_t)header[H_NSIDE], NULL);
   /* a vector the file's size admits but VecLoad refuses still closes the file */
   PetscErrorCode load = PETSC_SUCCESS;
   PetscCall(MSimSystemNaturalSetUp(sys));
@@ -303,6 +373,16 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     if (!taken) PetscCall(PetscInfo(NULL, "-msim_restart %s: the checkpoint's %s state is not this solver's: it starts afresh\n", F, solver.name.c_str()));
   }
   for (Vec &w : solver.vec) PetscCall(VecDestroy(&w));
+  if (!load)
+    for (size_t k = 0; k < sides.size(); k += 2) {
+      const PetscScalar *a[2];
+      PetscCall(VecGetArrayRead(sides[k], &a[0]));
+      PetscCall(VecGetArrayRead(sides[k + 1], &a[1]));
+      MSimMeshObstacleSetSides(shells[k / 2], sys->nown, a[0], a[1]);
+      PetscCall(VecRestoreArrayRead(sides[k], &a[0]));
+      PetscCall(VecRestoreArrayRead(sides[k + 1], &a[1]));
+    }
+  for (Vec &w : sides) PetscCall(VecDestroy(&w));
   PetscCall(load);
   if (snes) {
     PetscBool complete;
