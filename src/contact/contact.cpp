@@ -33,6 +33,8 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -286,6 +288,33 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The refusal of the first flagged vertex in input order, whatever the rank count: flag (the
+   free layout) holds per vertex 3 entries, the first non-zero where it is flagged; the message is
+   made from the vertex's input id and its entries by the rank that holds it in the natural
+   layout, and raised on every rank. Collective; flag is overwritten. */
+static PetscErrorCode RefuseFirstFlagged(MSimSystem sys, Vec flag, const std::function<std::string(PetscInt, const PetscScalar *)> &message)
+{
+  const PetscScalar *nat;
+  PetscInt           lo, hi, first = PETSC_MAX_INT;
+  std::string        msg;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimSystemNaturalVector(sys, flag));
+  PetscCall(VecGetOwnershipRange(sys->natural, &lo, &hi));
+  PetscCall(VecGetArrayRead(sys->natural, &nat));
+  for (PetscInt i = 0; i < (hi - lo) / 3 && first == PETSC_MAX_INT; i++)
+    if (PetscRealPart(nat[3 * i]) != 0) {
+      const PetscInt id = lo / 3 + i, fid = sys->nat_file_id.empty() ? id : sys->nat_file_id[i];
+      first = id;
+      msg   = message(fid >= 0 ? fid : id, nat + 3 * i);
+    }
+  PetscCall(VecRestoreArrayRead(sys->natural, &nat));
+  PetscInt gfirst = first;
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &gfirst, 1, MPIU_INT, MPI_MIN, sys->comm));
+  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(first != gfirst), msg));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* every free vertex at X (time t) outside every obstacle of obs (outside the shell of a mesh);
    for the barrier, by more than a millionth of dhat: nearer, its force at the start is beyond any
    step's scale (a vertex 2e-16 from a box gave a first step with 2.5e9 N and |g| 3e5, accepted on
@@ -298,12 +327,12 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
 static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstacle> &obs, PetscBool barrier, PetscReal t, Vec X, const char *when, PetscBool *near = NULL)
 {
   MSimSystem         sys = ct->sys;
-  const PetscScalar *x, *nat;
+  const PetscScalar *x;
   PetscScalar       *f;
-  PetscInt           bad = 0, lo, hi, first = PETSC_MAX_INT, counts[2] = {0, 0};
-  const PetscReal    tol = 1e-6 * ct->dhat;
+  PetscInt           counts[2] = {0, 0};
+  const PetscReal    tol       = 1e-6 * ct->dhat;
   Vec                flag;
-  std::string        msg;
+  PetscErrorCode     ierr;
 
   PetscFunctionBeginUser;
   PetscCall(VecDuplicate(X, &flag));
@@ -323,30 +352,49 @@ static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstac
   PetscCall(VecRestoreArray(flag, &f));
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, counts, 2, MPIU_INT, MPI_SUM, sys->comm));
-  bad = counts[0];
   if (near) *near = (PetscBool)(counts[1] > 0);
-  if (bad) { /* name the vertex by its input id: through the natural (input-order) layout */
-    PetscCall(MSimSystemNaturalVector(sys, flag));
-    PetscCall(VecGetOwnershipRange(sys->natural, &lo, &hi));
-    PetscCall(VecGetArrayRead(sys->natural, &nat));
-    for (PetscInt i = 0; i < (hi - lo) / 3 && first == PETSC_MAX_INT; i++)
-      if (PetscRealPart(nat[3 * i]) != 0) {
-        const PetscInt  k  = (PetscInt)(PetscRealPart(nat[3 * i]) + 0.5) - 1, id = lo / 3 + i;
-        const PetscInt  fid = sys->nat_file_id.empty() ? id : sys->nat_file_id[i];
-        const PetscReal d   = PetscRealPart(nat[3 * i + 1]);
-        char            buf[512];
-        first = id;
-        if (d < 0) PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (int)k, KindOption(obs[k].kind), (double)d));
-        else PetscCall(PetscSNPrintf(buf, sizeof(buf), "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)(fid >= 0 ? fid : id), when, (double)d, (int)k, KindOption(obs[k].kind), (double)ct->dhat));
-        msg = buf;
-      }
-    PetscCall(VecRestoreArrayRead(sys->natural, &nat));
-    PetscInt gfirst = first;
-    PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &gfirst, 1, MPIU_INT, MPI_MIN, sys->comm));
-    PetscCall(VecDestroy(&flag));
-    PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(first != gfirst), msg));
-  }
+  ierr = counts[0] ? RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e) {
+    const PetscInt  k = (PetscInt)(PetscRealPart(e[0]) + 0.5) - 1;
+    const PetscReal d = PetscRealPart(e[1]);
+    char            buf[512];
+    if (d < 0) std::snprintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)id, when, (int)k, KindOption(obs[k].kind), (double)d);
+    else std::snprintf(buf, sizeof(buf), "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)id, when, (double)d, (int)k, KindOption(obs[k].kind), (double)ct->dhat);
+    return std::string(buf);
+  })
+                   : PETSC_SUCCESS;
   PetscCall(VecDestroy(&flag));
+  PetscCall(ierr);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactRefuseSqueezed(MSimContact ct, PetscReal tx, const std::vector<MSimSqueezed> &squeezed)
+{
+  MSimSystem     sys = ct->sys;
+  PetscInt       any = !squeezed.empty();
+  PetscScalar   *f;
+  Vec            flag;
+  PetscErrorCode ierr;
+
+  PetscFunctionBeginUser;
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, &any, 1, MPIU_INT, MPI_MAX, sys->comm));
+  if (!any) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(VecDuplicate(sys->X0, &flag));
+  PetscCall(VecZeroEntries(flag));
+  PetscCall(VecGetArray(flag, &f));
+  for (const MSimSqueezed &q : squeezed) f[3 * q.v] = (PetscScalar)(q.inside + 1), f[3 * q.v + 1] = (PetscScalar)(q.carrier + 1);
+  PetscCall(VecRestoreArray(flag, &f));
+  ierr = RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e) {
+    const PetscInt k = (PetscInt)(PetscRealPart(e[0]) + 0.5) - 1, c = (PetscInt)(PetscRealPart(e[1]) + 0.5) - 1;
+    char           buf[768];
+    /* carried by the obstacle it ends in: it keeps its distance, so it is inside by roundoff */
+    if (c < 0 || c == k) std::snprintf(buf, sizeof(buf), "vertex %d, pushed by the moving obstacle %d (%s), is inside it at t = %g s: no position outside it (a smaller -msim_dt)", (int)id, (int)k, KindOption(ct->obs[k].kind), (double)tx);
+    /* the carry keeps the vertex's distance to its carrier whatever the step, so a smaller step
+       does not help where the two come that near */
+    else std::snprintf(buf, sizeof(buf), "vertex %d is squeezed between obstacles %d (%s), which carries it, and %d (%s) at t = %g s: they come within its distance to the first, so no position is outside both, whatever the step: move them apart or change their -msim_contact_velocity", (int)id, (int)c, KindOption(ct->obs[c].kind), (int)k, KindOption(ct->obs[k].kind), (double)tx);
+    return std::string(buf);
+  });
+  PetscCall(VecDestroy(&flag));
+  PetscCall(ierr);
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 

@@ -48,6 +48,16 @@ struct _n_MSimContact {
    kappa, friction's smoothing and the obstacles' speeds checked against the step there */
 PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *ct);
 
+/* Moving obstacles' feasible start (obstacles.cpp): the rank's vertex v, carried by obstacle
+   carrier (-1: none), ends inside or passes through obstacle inside at tx */
+struct MSimSqueezed {
+  PetscInt v, inside, carrier;
+};
+
+/* Collective: where some rank has squeezed vertices, one error naming the first of all of them
+   in input order (so the same vertex at every rank count) by its input id, and its obstacles */
+PetscErrorCode MSimContactRefuseSqueezed(MSimContact ct, PetscReal tx, const std::vector<MSimSqueezed> &squeezed);
+
 /* obstacle o's contacts with the rank's vertex v at xv (o where it is at time t): f(d, n, H) for
    each with d < reach, its distance, unit gradient and (when hessian) Hessian: the nearest point's,
    then, on a mesh, those of the concave creases v sits in (msim/contact.h's MSimMeshCreases,

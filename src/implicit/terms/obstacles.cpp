@@ -24,14 +24,12 @@
    step's result by src/contact/contact_force.cpp with the same loop and clamp. */
 #include <msim/implicit.h>
 #include <msim/contact.h>
-#include <msim/errors.h>
 #include <climits>
 #include <cstdint>
 #include <cstring>
 #if defined(__AVX__)
   #include <immintrin.h>
 #endif
-#include <string>
 #include <vector>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
@@ -1184,15 +1182,15 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
   MSimContact    ct;
   PetscScalar   *a;
   const PetscReal dt = imp->step.tx - imp->step.t;
-  PetscInt       bad = -1;
+  std::vector<MSimSqueezed> squeezed; /* every one: the error names the first in input order, which the local order need not follow */
 
   PetscFunctionBeginUser;
   PetscCall(Contact(term, &ct));
   if (!ct || !ct->moving) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(VecGetArray(A, &a));
-  for (PetscInt v = 0; v < sys->nown && bad < 0; v++) {
+  for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal x0[3]   = {PetscRealPart(a[3 * v]), PetscRealPart(a[3 * v + 1]), PetscRealPart(a[3 * v + 2])};
-    PetscBool       carried = PETSC_FALSE;
+    PetscInt        carrier = -1;
     for (const MSimObstacle &o : ct->obs) {
       if (o.v[0] == 0 && o.v[1] == 0 && o.v[2] == 0) continue;
       PetscReal       n[3];
@@ -1212,22 +1210,24 @@ static PetscErrorCode FeasibleStart_Obstacles(MSimImplicitTerm term, Vec A)
       }
       if (carry) {
         for (int c = 0; c < 3; c++) a[3 * v + c] += o.v[c] * dt;
-        carried = PETSC_TRUE;
+        carrier = (PetscInt)(&o - ct->obs.data());
       }
     }
     /* squeezed: inside an obstacle at tx, or carried through one (a box rising 6 cm a step carried
        the cloth through a 5 mm ceiling, which the check at tx alone let pass, exit 0) */
-    for (const MSimObstacle &o : ct->obs) {
+    for (size_t k = 0; k < ct->obs.size(); k++) {
       PetscReal       n[3];
       const PetscReal x1[3] = {PetscRealPart(a[3 * v]), PetscRealPart(a[3 * v + 1]), PetscRealPart(a[3 * v + 2])};
-      if (MSimObstacleDistanceAt(&o, imp->step.tx, x1, n, NULL) <= 0 || (carried && MoveCrosses(o, ct->thickness, imp->step.t, imp->step.tx, x0, x1))) bad = v;
+      if (MSimObstacleDistanceAt(&ct->obs[k], imp->step.tx, x1, n, NULL) <= 0 || (carrier >= 0 && MoveCrosses(ct->obs[k], ct->thickness, imp->step.t, imp->step.tx, x0, x1))) {
+        squeezed.push_back({v, (PetscInt)k, carrier});
+        break;
+      }
     }
   }
   PetscCall(VecRestoreArray(A, &a));
   /* with one obstacle nothing squeezes: a vertex it carries keeps its distance, so it is inside
      only where that distance was within roundoff of 0 */
-  const std::string at = " at t = " + std::to_string((double)imp->step.tx);
-  PetscCall(MSimCollectiveCheck(sys->comm, (PetscBool)(bad < 0), ct->obs.size() == 1 ? "a vertex pushed by the moving obstacle is inside it" + at + ": no position outside it (a smaller -msim_dt)" : "a vertex is squeezed between moving obstacles" + at + ": no position outside all of them (a smaller -msim_dt or obstacles farther apart)"));
+  PetscCall(MSimContactRefuseSqueezed(ct, imp->step.tx, squeezed));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
