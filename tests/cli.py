@@ -11,7 +11,8 @@
   which msim chooses by the scene's size;
 - -log_view names every stage it prints (those no rank pushed printed as "Unknown") and has the
   run's frames, the first one's too, in Stepping, none in the main stage (the first frame and the
-  run's set-up were there)."""
+  run's set-up were there), and the system's setup event (MSimSetup) in Setup, where it ran in the
+  main stage until the stage was pushed before the event began."""
 import os
 import subprocess
 import sys
@@ -61,11 +62,11 @@ def main():
             if l.startswith("--- Event Stage "):
                 stage = l.split(": ", 1)[1].strip()
                 stages.append(stage)
-            elif stage and l.split()[:1] == ["MSimOutput"]:
-                events.setdefault(stage, 0)
-                events[stage] += int(l.split()[1])
-        check(r.returncode == 0 and stages and "Unknown" not in stages and events == {"Stepping": 3},
-              f"-log_view: stages {sorted(set(stages))}, MSimOutput's count by stage {events} (the 3 frames, in Stepping)")
+            elif stage and l.split()[:1] in (["MSimOutput"], ["MSimSetup"]):
+                events.setdefault((l.split()[0], stage), 0)
+                events[(l.split()[0], stage)] += int(l.split()[1])
+        check(r.returncode == 0 and stages and "Unknown" not in stages and events == {("MSimOutput", "Stepping"): 3, ("MSimSetup", "Setup"): 1},
+              f"-log_view: stages {sorted(set(stages))}, MSimOutput's and MSimSetup's counts by stage {events} (the 3 frames, in Stepping; the one setup, in Setup)")
     return check.exit_code()
 
 

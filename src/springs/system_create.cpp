@@ -66,6 +66,8 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   MSimLocalPart        L;
 
   PetscFunctionBeginUser;
+  /* the whole setup, reading and distribution included, in -log_view's Setup stage */
+  PetscCall(PetscLogStagePush(MSIM_StageSetup));
   PetscCall(PetscLogEventBegin(MSIM_Setup, 0, 0, 0, 0));
   sys->comm = comm;
   PetscCallMPI(MPI_Comm_rank(comm, &sys->rank));
@@ -117,7 +119,6 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
   sys->self_contact = S.self_contact;
   if (S.self_contact.on && S.cell_size) PetscCall(MSimSelfSurfaceTriangles(comm, S, sys->self_tris));
   PetscCall(MSimSystemDistribute(comm, S, partitioner, morton, L));
-  PetscCall(PetscLogStagePush(MSIM_StageSetup));
   sys->nfree          = L.nfree;
   sys->nfix_global    = L.nfix_global;
   sys->nown           = L.nown;
@@ -271,13 +272,13 @@ static PetscErrorCode SystemBuild(MPI_Comm comm, MSimScene scene, MSimSystem sys
       }
     sys->nat_gnum = std::move(L.dir_gnum);
   }
-  PetscCall(PetscLogStagePop());
   if (view_partition) {
     const char *type;
     PetscCall(MSimPartitionerGetType(partitioner, &type));
     PetscCall(MSimSystemViewPartition(sys, type, L.cut, L.between_free));
   }
   PetscCall(PetscLogEventEnd(MSIM_Setup, 0, 0, 0, 0));
+  PetscCall(PetscLogStagePop());
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
