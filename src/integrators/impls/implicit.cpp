@@ -822,21 +822,19 @@ static PetscErrorCode CountSaddle(MSimIntegrator integ, ImplicitData *ie, Vec X)
    searches (bt, l2, cp) get Newton's direction already cut by the pre-check
    (LineSearchPreCheckMaxStep), and their lambda is of the cut direction: bt ends on -snes_stol
    with lambda = 1 when the cut direction is below -snes_stol |x|, so the locked cloth's steps
-   passed as converged with bt until the pre-check's cut was counted here too. */
-static PetscErrorCode StepStalled(ImplicitData *ie, SNESConvergedReason reason, PetscReal residual, PetscBool *stalled, PetscReal *lambda, PetscReal *target)
+   passed as converged with bt until the pre-check's cut was counted here too.
+   atol and rtol: the tolerances the last solve ran to (a friction lag's solve has its own atol). */
+static PetscErrorCode StepStalled(ImplicitData *ie, SNESConvergedReason reason, PetscReal residual, PetscReal atol, PetscReal rtol, PetscBool *stalled, PetscReal *lambda, PetscReal *target)
 {
   SNESLineSearch   ls;
   const PetscReal *hist;
   PetscInt         nhist;
-  PetscReal        atol, rtol, stol;
-  PetscInt         maxit, maxf;
 
   PetscFunctionBeginUser;
   *stalled = PETSC_FALSE;
   *lambda  = 1;
   *target  = 0;
   if (reason != SNES_CONVERGED_SNORM_RELATIVE) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
   PetscCall(SNESGetConvergenceHistory(ie->snes, (PetscReal **)&hist, NULL, &nhist));
   *target = PetscMax(atol, nhist > 0 ? rtol * hist[0] : 0.0);
   if (!(residual > *target)) PetscFunctionReturn(PETSC_SUCCESS);
@@ -941,10 +939,12 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
      the iteration counts are the solves' sums. A lag's solve starts next to the step's solution,
      at a |g0| that is only the lag's change: it is converged to the first solve's tolerance,
      max(atol, rtol |g0|) of the step's own start, not to rtol of its own small |g0|, which asks
-     for more digits than the step has; the user's tolerances are back at the step's end */
-  PetscReal atol0, rtol0, stol0;
+     for more digits than the step has. The user's tolerances are back after the last solve: the
+     messages below and the roundoff rule name and use them, the stall test is given atol_solve */
+  PetscReal atol0, rtol0, stol0, atol_solve;
   PetscInt  maxit0, maxf0, solves = 0;
   PetscCall(SNESGetTolerances(ie->snes, &atol0, &rtol0, &stol0, &maxit0, &maxf0));
+  atol_solve = atol0;
   integ->nonlinear_its = integ->linear_its = 0;
   for (PetscBool again = PETSC_TRUE; again; solves++) {
     ie->ls_cut = 1;
@@ -962,11 +962,15 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
       const PetscReal *hist;
       PetscInt         nhist;
       PetscCall(SNESGetConvergenceHistory(ie->snes, (PetscReal **)&hist, NULL, &nhist));
-      if (nhist > 0) PetscCall(SNESSetTolerances(ie->snes, PetscMax(atol0, rtol0 * hist[0]), rtol0, stol0, maxit0, maxf0));
+      if (nhist > 0) {
+        atol_solve = PetscMax(atol0, rtol0 * hist[0]);
+        PetscCall(SNESSetTolerances(ie->snes, atol_solve, rtol0, stol0, maxit0, maxf0));
+      }
     }
     /* Phi at X changed with the lag: what solvers keep for X's state (PD's Phi) is stale */
     if (again) PetscCall(PetscObjectStateIncrease((PetscObject)X));
   }
+  if (atol_solve != atol0) PetscCall(SNESSetTolerances(ie->snes, atol0, rtol0, stol0, maxit0, maxf0));
   PetscCall(SNESGetType(ie->snes, &type));
   /* plus the Krylov iterations of PD's global steps (iterative -pd_ksp_type only), which no SNES
      counts, also where pd runs as another SNES's nonlinear preconditioner */
@@ -994,7 +998,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   {
     PetscBool stalled;
     PetscReal lambda, target;
-    PetscCall(StepStalled(ie, reason, integ->residual, &stalled, &lambda, &target));
+    PetscCall(StepStalled(ie, reason, integ->residual, atol_solve, rtol0, &stalled, &lambda, &target));
     if (stalled) {
       integ->stalled_steps++;
       PetscCall(PetscSNPrintf(integ->stall, sizeof(integ->stall), "step %" PetscInt_FMT " ended on -snes_stol with its step cut to %g of Newton's (a contact barrier's largest feasible step, or backtracking) at |g| = %g > its tolerance %g: elements locked against each other (crossing or touching at the start?)", integ->step, (double)lambda, (double)integ->residual, (double)target));
@@ -1002,23 +1006,20 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   }
   if (integ->want_phi && ie->imp->scheme->no_objective) integ->phi = NAN; /* the monitor's phi: none */
   else if (integ->want_phi) PetscCall(MSimImplicitObjective(ie->imp, X, &integ->phi));
-  PetscReal atol, rtol, stol;
-  PetscInt  maxit, maxf;
-  PetscCall(SNESGetTolerances(ie->snes, &atol, &rtol, &stol, &maxit, &maxf));
-  if (reason == SNES_DIVERGED_LINE_SEARCH && integ->residual <= 10 * atol) {
+  if (reason == SNES_DIVERGED_LINE_SEARCH && integ->residual <= 10 * atol0) {
     /* within a decade of -snes_atol Phi's decrease along any direction is below its roundoff
        (|g|^2 / |H| against eps |Phi|), so no line search can accept a step: the iterate is as
        converged as this precision allows. Counted with the steps that stopped short, not failed. */
     integ->unconverged_steps++;
-    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (roundoff)", type, (double)integ->residual, (double)atol));
+    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (roundoff)", type, (double)integ->residual, (double)atol0));
   }
   else if (reason == SNES_DIVERGED_MAX_IT) {
-    if (atol > 0 || rtol > 0 || ie->step_atol > 0) {
+    if (atol0 > 0 || rtol0 > 0 || ie->step_atol > 0) {
       integ->unconverged_steps++;
       char step_rule[96] = "";
       if (ie->step_atol > 0 && ie->step_gtol < PETSC_MAX_REAL) PetscCall(PetscSNPrintf(step_rule, sizeof(step_rule), " or |dx| < %g with |g| <= %g", (double)ie->step_atol, (double)ie->step_gtol));
       else if (ie->step_atol > 0) PetscCall(PetscSNPrintf(step_rule, sizeof(step_rule), " or |dx| < %g", (double)ie->step_atol));
-      PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)%s", type, maxit, (double)atol, (double)rtol, step_rule));
+      PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)%s", type, maxit0, (double)atol0, (double)rtol0, step_rule));
     }
   }
   else if (reason < 0) {
@@ -1041,7 +1042,6 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
       PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-snes_type %s: its result has %" PetscInt_FMT " inverted tet(s), where the inversion barrier of -msim_volume is infinite: a solver that keeps its feasible set, e.g. newtonls or pd)", type, bad));
     }
   }
-  if (solves > 1) PetscCall(SNESSetTolerances(ie->snes, atol0, rtol0, stol0, maxit0, maxf0));
   PetscCall(MSimImplicitEndStep(ie->imp, X, V));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
