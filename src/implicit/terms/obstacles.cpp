@@ -1058,7 +1058,7 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
     }
     for (const MSimObstacle &o : ct->obs) {
       const PetscReal t = SafeStep(o, term->imp->step.tx, v, x + 3 * v, u, a);
-      if (t < a) {
+      if (t < a || (t == a && blocker >= 0 && pw->input_id[v] < pw->input_id[blocker])) { /* ties: the least input id, as across ranks */
         a       = t;
         blocker = v;
       }
@@ -1068,8 +1068,8 @@ static PetscErrorCode MaxStep_Obstacles(MSimImplicitTerm term, Vec X, Vec Y, Pet
      global step decides, tested on its rank. One reduction as before (MINLOC of alpha with the
      key 2 id + (stale ? 0 : 1), where it was the MIN of alpha and a flag: no other collective)
      keeps the least alpha and, where several ranks' blockers cut it alike, the least input id
-     (within a rank the first blocker met, the least id there: owned vertices are numbered in
-     input order), so 1 and P ranks test the same vertex. The MIN of every rank's flag let each
+     (within a rank too, by the loop's tie rule: owned vertices are not in input order under
+     -msim_vertex_order morton), so 1 and P ranks test the same vertex. The MIN of every rank's flag let each
      rank's own blocker, also one that cut no step, take the weights again: on the cloth over two
      balls (tests/contact_pd_small_dhat.py) 2 ranks did so where 1 did not and were 1.1e-5 m from
      it after 11 steps (1.1e-9 m now). A rank with no blocker sends an odd key: not stale. */
