@@ -9,9 +9,14 @@ series restarted at another rank count stays right:
   rank; the bending springs after the edges);
 - a tet series written at 2 ranks to a checkpoint and continued at 1 rank (which rewrites mesh.h5):
   every frame's volume_ratio, those before the checkpoint too, is V/V0 of mesh.h5's cells at that
-  frame's positions (V0 at frame 0's, the rest state).
+  frame's positions (V0 at frame 0's, the rest state);
+- a restart from an earlier checkpoint with another -msim_output_every: one note names the frames
+  of the abandoned run that leave series.pvd and are not written again, whose files stay; a restart
+  with the other -msim_output_format in the same directory is refused in one line naming the
+  format to give, and writes nothing there.
 Usage: output_order.py path/to/msim [--no-tetgen]"""
 import os
+import shutil
 import sys
 import tempfile
 
@@ -87,6 +92,28 @@ def restart(tmp):
           f"restart 2 -> 1 rank: every frame's volume_ratio is V/V0 of mesh.h5's cells (max error by frame {', '.join(f'{e:.1e}' for e in errs)}; ratios spread {spread:.1e})")
 
 
+def restart_series(tmp):
+    out, ck, ck10 = (os.path.join(tmp, n) for n in ("stale", "stale.ck", "stale10.ck"))
+    args = ["-msim_scene", "cloth", "-msim_cloth_n", "6", "-msim_integrator", "symplectic_euler", "-msim_dt", "1e-3", "-msim_spectrum_check", "0",
+            "-msim_output", out]
+    r = mt.run(MSIM, args + ["-msim_steps", "10", "-msim_output_every", "2", "-msim_checkpoint", ck10])
+    shutil.copy(ck10, ck)
+    r2 = mt.run(MSIM, args + ["-msim_steps", "14", "-msim_output_every", "2", "-msim_checkpoint", ck, "-msim_restart", ck])
+    if not check(r.returncode == 0 and r2.returncode == 0, "cloth to step 10, then on to 14, every 2: runs"):
+        return
+    r = mt.run(MSIM, args + ["-msim_steps", "15", "-msim_output_every", "5", "-msim_restart", ck10])
+    notes = [l for l in mt.lines(r.stderr) if l.startswith("msim: note:")]
+    check(r.returncode == 0 and len(notes) == 1 and "frame_000012, frame_000014," in notes[0] and "stay on disk" in notes[0],
+          f"restart from step 10 every 5: one note names frames 12 and 14 ({notes})")
+    check(mt.frames(out) == [f"frame_{k:06d}.vtu" for k in (0, 2, 4, 6, 8, 10, 15)] and all(os.path.exists(os.path.join(out, f"frame_{k:06d}.vtu")) for k in (12, 14)),
+          f"series.pvd lists frames 0-10 and 15 ({mt.frames(out)}); the files of 12 and 14 stay")
+    before = sorted(os.listdir(out))
+    r = mt.run(MSIM, args + ["-msim_steps", "20", "-msim_restart", ck10, "-msim_output_format", "hdf5"])
+    err = mt.lines(r.stderr)
+    check(r.returncode != 0 and len(err) == 1 and "-msim_output_format vtu" in err[0] and sorted(os.listdir(out)) == before,
+          f"restart of a .vtu series with -msim_output_format hdf5: refused in one line, nothing written ({err})")
+
+
 def main():
     tet = ["-msim_scene", "tet", "-msim_mesh_file", BUNNY, "-msim_mesh_scale", "0.01", "-msim_fix_plane", "y_max", "-msim_gravity", "0,-30,0",
            "-msim_young", "1e4", "-msim_density", "1000", "-msim_steps", "2"] + STEP
@@ -97,6 +124,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         series("cube5 refined", refined, tmp, "volume_ratio", 1e-12)
         series("bunny surface", surface, tmp, None, 1e-12)
+        restart_series(tmp)
         if not mt.without_tetgen("output_order.py"):
             series("bunny", tet, tmp, "volume_ratio", 1e-9)
             restart(tmp)

@@ -1,7 +1,7 @@
 /* The series at scale: every rank writes its part at once through PETSc's HDF5 viewer (MPI-IO),
    nothing is gathered. DIR/mesh.h5 holds the cells ("/cells", n x k input vertex ids), a mesh's
    springs ("/springs", pairs of input ids), the fixed flags ("/fixed") and the file ids
-   ("/file_id"), written once (cells and springs in the scene's order at any rank count, each rank
+   ("/file_id"), written once with the first frame (cells and springs in the scene's order at any rank count, each rank
    a block of it: MSimSceneDrawnCells, so a restart at another rank count rewrites mesh.h5 as it
    was under the frames written before); each frame is DIR/frame_NNNNNN.h5 with "/positions" and
    "/velocity" (nv x 3, input order, from the natural Vec), "/strain" (one per spring, in the order
@@ -66,15 +66,14 @@ static PetscErrorCode CellVec(MPI_Comm comm, size_t n, const char name[], Vec *v
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char dir[])
+/* DIR/mesh.h5, with the first frame: a restart refused before it leaves the directory as it was */
+static PetscErrorCode WriteMesh(MSimHDF5Series *h)
 {
+  const MSimSystem      sys = h->sys;
   PetscViewer           v;
   std::vector<PetscInt> flags(sys->nat_fixed_flag.begin(), sys->nat_fixed_flag.end()), ids;
 
   PetscFunctionBeginUser;
-  h->sys = sys;
-  h->dir = dir;
-  PetscCall(MSimContactHasObstacles(sys, &h->contact));
   PetscCall(MSimSystemBlockFileIds(sys, ids));
   PetscCall(OpenTemporary(sys->comm, h->dir + "/mesh.h5", &v));
   PetscCall(ViewInts(sys->comm, v, "cells", sys->out_cells, sys->out_cell_size));
@@ -82,6 +81,16 @@ PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char
   PetscCall(ViewInts(sys->comm, v, "fixed", flags, 1));
   PetscCall(ViewInts(sys->comm, v, "file_id", ids, 1));
   PetscCall(CloseAndRename(sys->comm, h->dir + "/mesh.h5", &v));
+  h->mesh_written = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char dir[])
+{
+  PetscFunctionBeginUser;
+  h->sys = sys;
+  h->dir = dir;
+  PetscCall(MSimContactHasObstacles(sys, &h->contact));
   PetscInt n[2] = {(PetscInt)(sys->out_cells.size() / sys->out_cell_size), sys->cell_size ? (PetscInt)(sys->out_springs.size() / 2) : 0};
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, n, 2, MPIU_INT, MPI_SUM, sys->comm));
   h->ncells   = n[0];
@@ -185,6 +194,7 @@ static PetscErrorCode WriteFields(MSimHDF5Series *h, const std::string &name, Pe
   PetscScalar       *f;
 
   PetscFunctionBeginUser;
+  if (!h->mesh_written) PetscCall(WriteMesh(h));
   PetscCall(OpenTemporary(sys->comm, h->dir + "/" + name, &v));
   PetscCall(MSimSystemNaturalPositions(sys, t, X));
   PetscCall(VecView(sys->natural, v));

@@ -12,6 +12,7 @@
 #include <msim/private/systemimpl.h>
 #include <string>
 #include <vector>
+#include <msim/errors.h>
 #include <cerrno>
 #include <cstdlib>
 #include <cstdint>
@@ -126,12 +127,27 @@ static long FrameStep(const std::string &entry)
 PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
 {
   PetscFunctionBeginUser;
-  if (!out || out->sys->rank) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!out) PetscFunctionReturn(PETSC_SUCCESS);
+  {
+    /* the series goes on in the format the run before the checkpoint wrote: in the other one it
+       would begin again beside it, its first frames missing (nothing here has been written yet) */
+    const std::string mine = out->hdf5 ? "series.xdmf" : "series.pvd", other = out->hdf5 ? "series.pvd" : "series.xdmf";
+    const std::string dir(out->dir);
+    const PetscBool   ok = (PetscBool)(out->sys->rank || access((dir + "/" + other).c_str(), F_OK) != 0 || access((dir + "/" + mine).c_str(), F_OK) == 0);
+    PetscCall(MSimCollectiveCheck(out->sys->comm, ok, "-msim_output " + dir + " holds the " + other + " series of the run before the checkpoint, and this restart writes " + mine + ": give -msim_output_format " + (out->hdf5 ? "vtu" : "hdf5") + " as that run did, or another -msim_output directory"));
+  }
+  if (out->sys->rank) PetscFunctionReturn(PETSC_SUCCESS);
   /* the collection as the earlier run left it, its entries after the checkpoint dropped (their
      frames are written again). The checkpoint's own frame stays only where this run's schedule
      has it: a first run that ended there off the schedule wrote it as its last frame, which the
      run it continues would not have (the series then matches an uninterrupted run's) */
   auto keep = [&](long k) { return k >= 0 && (k < step || (k == step && step % out->every == 0)); };
+  /* the dropped frames this run does not write again (off its schedule): their files stay, as
+     msim deletes no file it did not write in this run; a note names them */
+  std::vector<long> stale;
+  auto drop = [&](long k) {
+    if (k >= 0 && k % out->every != 0 && (stale.empty() || stale.back() != k)) stale.push_back(k);
+  };
   const std::string path = std::string(out->dir) + (out->hdf5 ? "/series.xdmf" : "/series.pvd");
   FILE             *fp   = fopen(path.c_str(), "r");
   std::string       text, kept;
@@ -148,6 +164,7 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
       if (end == std::string::npos) break;
       const std::string grid = text.substr(at, end + close.size() - at);
       if (keep(FrameStep(grid))) kept += grid;
+      else drop(FrameStep(grid));
       at = end + close.size();
     }
     out->h5.grids = kept;
@@ -156,11 +173,24 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
     while (at < text.size()) {
       size_t            nl   = text.find('\n', at);
       const std::string line = text.substr(at, nl == std::string::npos ? std::string::npos : nl + 1 - at);
-      if (line.find("<DataSet ") != std::string::npos && keep(FrameStep(line))) kept += line;
+      if (line.find("<DataSet ") != std::string::npos) {
+        if (keep(FrameStep(line))) kept += line;
+        else drop(FrameStep(line));
+      }
       if (nl == std::string::npos) break;
       at = nl + 1;
     }
     out->pvd_entries = kept;
+  }
+  if (!stale.empty()) {
+    std::string names;
+    for (size_t q = 0; q < stale.size() && q < 3; q++) {
+      char name[32];
+      snprintf(name, sizeof(name), "%sframe_%06ld", q ? ", " : "", stale[q]);
+      names += name;
+    }
+    if (stale.size() > 3) names += " and " + std::to_string(stale.size() - 3) + " more";
+    PetscCall(PetscFPrintf(PETSC_COMM_SELF, PETSC_STDERR, "msim: note: -msim_output %s: %s, an earlier run's frames from the checkpoint's step %" PetscInt_FMT " on and off this run's schedule (every %" PetscInt_FMT "), are no longer in %s; their files stay on disk\n", out->dir, names.c_str(), step, out->every, out->hdf5 ? "series.xdmf" : "series.pvd"));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
