@@ -45,6 +45,10 @@ PetscErrorCode MSimImplicitSchemeIsRegistered(const char type[], PetscBool *is);
    (default: every registered term; a term whose physics the scene lacks costs nothing). */
 PetscErrorCode MSimImplicitCreate(MSimSystem sys, MSimImplicit *imp);
 PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[], MSimImplicit *imp);
+/* Refuse a -msim_implicit_terms that leaves out a term the scene needs (drag, obstacles, friction,
+   self-contact, self-friction, volume): for a run's integrator; the problem alone may leave
+   any out, as tests of Phi's parts do. Collective. */
+PetscErrorCode MSimImplicitCheckTermsCoverScene(MSimImplicit imp);
 PetscErrorCode MSimImplicitDestroy(MSimImplicit *imp);
 PetscErrorCode MSimImplicitView(MSimImplicit imp, PetscViewer viewer);
 /* Project each Hessian block to PSD in the Jacobian (the default) or not (-msim_psd) */

@@ -3,6 +3,7 @@
 #include <msim/implicit.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
+#include <msim/private/contactimpl.h>
 
 static PetscFunctionList MSimSchemeList = NULL, MSimTermList = NULL;
 static PetscBool         MSimImplicitRegistered = PETSC_FALSE;
@@ -103,25 +104,73 @@ PetscErrorCode MSimImplicitSchemeIsRegistered(const char type[], PetscBool *is)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The position of the term called name in imp's Phi, -1 if absent */
+static PetscErrorCode FindTerm(MSimImplicit imp, const char name[], PetscInt *at)
+{
+  PetscFunctionBeginUser;
+  *at = -1;
+  for (PetscInt k = 0; k < imp->nterms && *at < 0; k++) {
+    PetscBool same;
+    PetscCall(PetscStrcmp(imp->terms[k]->type, name, &same));
+    if (same) *at = k;
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode AddTerm(MSimImplicit imp, const char name[])
 {
   PetscErrorCode (*create)(MSimImplicitTerm);
   MSimImplicitTerm term;
+  PetscInt         at;
 
   PetscFunctionBeginUser;
   PetscCall(PetscFunctionListFind(MSimTermList, name, &create));
   PetscCheck(create, imp->sys->comm, PETSC_ERR_ARG_UNKNOWN_TYPE, "-msim_implicit_terms: no energy term '%s' (see -help for the list)", name);
   PetscCheck(imp->nterms < (PetscInt)(sizeof(imp->terms) / sizeof(imp->terms[0])), imp->sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_implicit_terms: at most %d terms", (int)(sizeof(imp->terms) / sizeof(imp->terms[0])));
-  for (PetscInt k = 0; k < imp->nterms; k++) {
-    PetscBool same;
-    PetscCall(PetscStrcmp(imp->terms[k]->type, name, &same));
-    PetscCheck(!same, imp->sys->comm, PETSC_ERR_ARG_WRONG, "-msim_implicit_terms: '%s' given twice", name);
-  }
+  PetscCall(FindTerm(imp, name, &at));
+  PetscCheck(at < 0, imp->sys->comm, PETSC_ERR_ARG_WRONG, "-msim_implicit_terms: '%s' given twice", name);
   term      = new _n_MSimImplicitTerm();
   term->imp = imp;
   PetscCall(PetscStrncpy(term->type, name, sizeof(term->type)));
   imp->terms[imp->nterms++] = term;
   PetscCall((*create)(term));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimImplicitCheckTermsCoverScene(MSimImplicit imp)
+{
+  MSimSystem     sys = imp->sys;
+  MSimContact    ct  = NULL, any = NULL;
+  PetscContainer container;
+  PetscInt       self_at, self_friction_at;
+
+  PetscFunctionBeginUser;
+  /* the contact object carries -msim_friction even where there is no obstacle (self-friction reads it there) */
+  PetscCall(MSimContactGet(sys, &ct));
+  PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));
+  if (container) PetscCall(PetscContainerGetPointer(container, (void **)&any));
+  const struct {
+    const char *term, *what;
+    PetscBool   needed;
+  } need[] = {
+    {MSIMTERMDRAG,    "-msim_drag",                                          (PetscBool)(sys->drag != 0)                         },
+    {"obstacles",     "the obstacles (-msim_contact_*)",                     (PetscBool)(ct != NULL)                             },
+    {"friction",      "-msim_friction with obstacles",                      (PetscBool)(ct && ct->mu > 0)                       },
+    {"self_contact",  "-msim_self_contact",                                  sys->self_contact.on                                },
+    {"self_friction", "-msim_friction with -msim_self_contact",              (PetscBool)(sys->self_contact.on && any && any->mu > 0)},
+    {"volume",        "the tets' volume (-msim_volume)",                (PetscBool)(sys->tets.ntet > 0)                     },
+  };
+  /* a term left out drops its physics without a trace, and the monitor and frames would still
+     report its contact force from the state: refuse it instead */
+  for (const auto &n : need) {
+    PetscInt at;
+    PetscCall(FindTerm(imp, n.term, &at));
+    PetscCheck(!n.needed || at >= 0, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_implicit_terms leaves out '%s', the term of %s: add it to the list (or leave -msim_implicit_terms out for every term)", n.term, n.what);
+  }
+  /* self_friction reads self_contact's pairs, so it comes after it (before it, it would act nowhere) */
+  PetscCall(FindTerm(imp, "self_contact", &self_at));
+  PetscCall(FindTerm(imp, "self_friction", &self_friction_at));
+  PetscCheck(!sys->self_contact.on || self_friction_at < 0 || self_friction_at > self_at, sys->comm, PETSC_ERR_ARG_WRONG, "-msim_implicit_terms: 'self_friction' must come after 'self_contact', whose pairs it reads");
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -160,7 +209,7 @@ PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[],
     PetscCall(PetscStrlcat(help, k ? ", " : " ", sizeof(help)));
     PetscCall(PetscStrlcat(help, names[k], sizeof(help)));
   }
-  PetscCall(PetscStrlcat(help, ")", sizeof(help)));
+  PetscCall(PetscStrlcat(help, "); a term the scene needs (its drag, obstacles, friction, self-contact, volume) cannot be left out", sizeof(help)));
   PetscOptionsBegin(sys->comm, NULL, "msim implicit problem", NULL);
   PetscCall(PetscOptionsStringArray("-msim_implicit_terms", help, NULL, list, &nlist, &set));
   PetscCall(PetscOptionsEList("-msim_implicit_guess", "First iterate of each implicit step: constant_velocity (x_n + h v_n), extrapolate (the scheme's position at v_{n+1} = 2 v_n - v_{n-1}: O(h^3), exact under constant acceleration), filtered (v_{n+1} = v_n + A^-1 M (v_n - v_{n-1}), A the PD matrix: one PD solve a step, stable with PD-10) or inertial (the scheme's y)", NULL, kGuessTypes, 4, kGuessTypes[(*imp)->guess_type], &(*imp)->guess_type, NULL));

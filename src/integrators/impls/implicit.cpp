@@ -756,6 +756,7 @@ static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
 
   PetscFunctionBeginUser;
   PetscCall(MSimImplicitCreateWithScheme(sys, integ->type, &ie->imp));
+  PetscCall(MSimImplicitCheckTermsCoverScene(ie->imp));
   ie->imp->h = integ->dt;
   if (!integ->help_listing) {
     /* the barrier's stiffness kappa (its default needs beta h^2) now rather than at the first
