@@ -33,7 +33,6 @@
 #include <msim/private/systemimpl.h>
 #include <msim/private/contactimpl.h>
 #include <cmath>
-#include <cstdio>
 #include <functional>
 #include <string>
 #include <vector>
@@ -292,11 +291,11 @@ static PetscErrorCode DefaultPenalty(MSimSystem sys, PetscReal *kc)
    free layout) holds per vertex 3 entries, the first non-zero where it is flagged; the message is
    made from the vertex's input id and its entries by the rank that holds it in the natural
    layout, and raised on every rank. Collective; flag is overwritten. */
-static PetscErrorCode RefuseFirstFlagged(MSimSystem sys, Vec flag, const std::function<std::string(PetscInt, const PetscScalar *)> &message)
+static PetscErrorCode RefuseFirstFlagged(MSimSystem sys, Vec flag, const std::function<PetscErrorCode(PetscInt, const PetscScalar *, char *, size_t)> &message)
 {
   const PetscScalar *nat;
   PetscInt           lo, hi, first = PETSC_MAX_INT;
-  std::string        msg;
+  char               msg[768] = "";
 
   PetscFunctionBeginUser;
   PetscCall(MSimSystemNaturalVector(sys, flag));
@@ -306,7 +305,7 @@ static PetscErrorCode RefuseFirstFlagged(MSimSystem sys, Vec flag, const std::fu
     if (PetscRealPart(nat[3 * i]) != 0) {
       const PetscInt id = lo / 3 + i, fid = sys->nat_file_id.empty() ? id : sys->nat_file_id[i];
       first = id;
-      msg   = message(fid >= 0 ? fid : id, nat + 3 * i);
+      PetscCall(message(fid >= 0 ? fid : id, nat + 3 * i, msg, sizeof(msg)));
     }
   PetscCall(VecRestoreArrayRead(sys->natural, &nat));
   PetscInt gfirst = first;
@@ -353,13 +352,12 @@ static PetscErrorCode CheckVertices(MSimContact ct, const std::vector<MSimObstac
   PetscCall(VecRestoreArrayRead(X, &x));
   PetscCall(MPIU_Allreduce(MPI_IN_PLACE, counts, 2, MPIU_INT, MPI_SUM, sys->comm));
   if (near) *near = (PetscBool)(counts[1] > 0);
-  ierr = counts[0] ? RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e) {
+  ierr = counts[0] ? RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e, char *buf, size_t len) -> PetscErrorCode {
     const PetscInt  k = (PetscInt)(PetscRealPart(e[0]) + 0.5) - 1;
     const PetscReal d = PetscRealPart(e[1]);
-    char            buf[512];
-    if (d < 0) std::snprintf(buf, sizeof(buf), "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)id, when, (int)k, KindOption(obs[k].kind), (double)d);
-    else std::snprintf(buf, sizeof(buf), "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)id, when, (double)d, (int)k, KindOption(obs[k].kind), (double)ct->dhat);
-    return std::string(buf);
+    if (d < 0) PetscCall(PetscSNPrintf(buf, len, "vertex %d %s inside obstacle %d (%s, distance %g): move the scene or the obstacle", (int)id, when, (int)k, KindOption(obs[k].kind), (double)d));
+    else PetscCall(PetscSNPrintf(buf, len, "vertex %d %s at distance %g from obstacle %d (%s), below 1e-6 of the contact distance %g: move the scene or the obstacle", (int)id, when, (double)d, (int)k, KindOption(obs[k].kind), (double)ct->dhat));
+    return PETSC_SUCCESS;
   })
                    : PETSC_SUCCESS;
   PetscCall(VecDestroy(&flag));
@@ -383,15 +381,14 @@ PetscErrorCode MSimContactRefuseSqueezed(MSimContact ct, PetscReal tx, const std
   PetscCall(VecGetArray(flag, &f));
   for (const MSimSqueezed &q : squeezed) f[3 * q.v] = (PetscScalar)(q.inside + 1), f[3 * q.v + 1] = (PetscScalar)(q.carrier + 1);
   PetscCall(VecRestoreArray(flag, &f));
-  ierr = RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e) {
+  ierr = RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e, char *buf, size_t len) -> PetscErrorCode {
     const PetscInt k = (PetscInt)(PetscRealPart(e[0]) + 0.5) - 1, c = (PetscInt)(PetscRealPart(e[1]) + 0.5) - 1;
-    char           buf[768];
     /* carried by the obstacle it ends in: it keeps its distance, so it is inside by roundoff */
-    if (c < 0 || c == k) std::snprintf(buf, sizeof(buf), "vertex %d, pushed by the moving obstacle %d (%s), is inside it at t = %g s: no position outside it (a smaller -msim_dt)", (int)id, (int)k, KindOption(ct->obs[k].kind), (double)tx);
+    if (c < 0 || c == k) PetscCall(PetscSNPrintf(buf, len, "vertex %d, pushed by the moving obstacle %d (%s), is inside it at t = %g s: no position outside it (a smaller -msim_dt)", (int)id, (int)k, KindOption(ct->obs[k].kind), (double)tx));
     /* the carry keeps the vertex's distance to its carrier whatever the step, so a smaller step
        does not help where the two come that near */
-    else std::snprintf(buf, sizeof(buf), "vertex %d is squeezed between obstacles %d (%s), which carries it, and %d (%s) at t = %g s: they come within its distance to the first, so no position is outside both, whatever the step: move them apart or change their -msim_contact_velocity", (int)id, (int)c, KindOption(ct->obs[c].kind), (int)k, KindOption(ct->obs[k].kind), (double)tx);
-    return std::string(buf);
+    else PetscCall(PetscSNPrintf(buf, len, "vertex %d is squeezed between obstacles %d (%s), which carries it, and %d (%s) at t = %g s: they come within its distance to the first, so no position is outside both, whatever the step: move them apart or change their -msim_contact_velocity", (int)id, (int)c, KindOption(ct->obs[c].kind), (int)k, KindOption(ct->obs[k].kind), (double)tx));
+    return PETSC_SUCCESS;
   });
   PetscCall(VecDestroy(&flag));
   PetscCall(ierr);
