@@ -131,6 +131,19 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_stiffness", "10"], "-msim_contact_stiffness with -msim_integrator implicit_euler is not supported: it is the penalty's stiffness"),
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_bounds", "-msim_contact_kappa", "5"], "-msim_contact_kappa with obstacles as variable bounds (-msim_contact_bounds, or a VI -snes_type) is not supported"),
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_friction_eps", "0.5"], "-msim_friction_eps has no effect without -msim_friction"),
+    # the barrier's PD and Newton options where the run's solver takes none of them (exit 0 without
+    # a word): decided from what the run uses (-msim_pc_pd is ntr's default; ACCEPTED keeps the uses)
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pc_pd_weight"], "-msim_contact_pc_pd_weight with -snes_type newtonls is not supported: it puts the barrier's weights in the PD factor"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pc_pd_weight"], "-msim_contact_pc_pd_weight with -snes_type pd is not supported"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_pc_pd", "-msim_contact_pc_pd_weight", "-msim_contact_pd_weight", "0"], "-msim_contact_pc_pd_weight with -msim_contact_pd_weight 0 is not supported"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pd_weight", "0"], "-msim_contact_pd_weight with -snes_type newtonls is not supported: it sets the barrier's weights in PD's matrix"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_psd_curvature", "0"], "-msim_contact_psd_curvature with -snes_type pd is not supported: it clamps the barrier's curvature in the PSD-projected Hessian"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "ntr", "-msim_contact_psd_curvature", "0"], "-msim_contact_psd_curvature with -snes_type ntr -msim_psd 0 is not supported"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pd_refactor", "2"], "-msim_contact_pd_refactor with -snes_type newtonls is not supported: it says when the barrier's weights in PD's matrix are refactored"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pd_weight", "0", "-msim_contact_pd_refactor", "2"], "-msim_contact_pd_refactor with -snes_type pd -msim_contact_pd_weight 0 is not supported"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pd_bound", "0"], "-msim_contact_pd_bound with -snes_type newtonls is not supported: it sets how PD's global step"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pd_refactor_selective", "3"], "-msim_contact_pd_refactor_selective with -snes_type newtonls is not supported"),
+    (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pd_refactor", "0", "-msim_contact_pd_refactor_selective", "3"], "-msim_contact_pd_refactor_selective with -snes_type pd -msim_contact_pd_refactor 0 is not supported"),
     # absurd but finite contact values: their products overflowed or fell below the coordinates'
     # roundoff, and the run failed steps later in the solver (DIVERGED_FNORM_NAN, "diverged"),
     # naming no option, its frames written
@@ -238,6 +251,11 @@ ONE_RANK = {tuple(a) for a in (
     ["-msim_contact_plane", "0,0,1,-1", "-msim_contact_thickness", "0.01"],
     ["-msim_contact_distance", "0.1"], ["-msim_integrator", "implicit_euler", "-msim_contact_pd_refactor", "2"],
     ["-msim_integrator", "ts", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pd_weight", "0"],
+    ["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pc_pd_weight"],
+    ["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "ntr", "-msim_contact_psd_curvature", "0"],
+    ["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pd_weight", "0", "-msim_contact_pd_refactor", "2"],
+    ["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_pd_refactor_selective", "3"],
+    ["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pd_refactor", "0", "-msim_contact_pd_refactor_selective", "3"],
     ["-msim_integrator", "implicit_euler", "-snes_type", "qn", "-snes_qn_type", "badbroyden", "-msim_contact_sphere", "0.5,0.5,-0.4,0.3"],
     ["-msim_fix", "list", "-msim_fix_list", "3", "-msim_fix_list", "7"])}
 # -msim_implicit_terms: the obstacles' and self_friction's order cases are kept at 2 ranks; the
@@ -259,6 +277,14 @@ ACCEPTED = [
     ["-snes_type", "pd", "-snes_pd_lbfgs", "3", "-snes_pd_lbfgs_scale_max", "2", "-snes_pd_lbfgs_fused", "0"],
     ["-snes_type", "newtonls", "-msim_psd", "0", "-msim_psd_fallback", "0", "-msim_pc_pd", "0"],
     ["-snes_type", "newtonls", "-msim_psd", "0", "-ksp_type", "preonly", "-pc_type", "cholesky", "-pc_factor_mat_solver_type", "mumps", "-msim_check_saddle", "0"],
+    # the barrier's PD and Newton options where the run takes them: ntr's default PD preconditioner,
+    # PD as Newton's nonlinear preconditioner, the PSD fallback's projected Hessian
+    ["-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "ntr", "-msim_contact_pc_pd_weight", "-msim_contact_pd_refactor", "2"],
+    ["-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "newtonls", "-ksp_type", "cg", "-msim_pc_pd", "-msim_contact_pc_pd_weight", "0"],
+    ["-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "newtonls", "-npc_snes_type", "pd", "-npc_snes_pd_fixed", "-npc_snes_max_it", "1", "-msim_psd", "1",
+     "-msim_contact_pd_weight", "0", "-msim_contact_pd_bound", "0"],
+    ["-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "pd", "-msim_contact_pd_refactor", "4", "-msim_contact_pd_refactor_selective", "0", "-msim_contact_pd_bound", "0"],
+    ["-msim_contact_plane", "0,0,1,-0.1", "-snes_type", "newtonls", "-msim_psd", "0", "-msim_psd_fallback", "-msim_contact_psd_curvature", "0"],
 ]
 # factorizations a matrix spread over several ranks has no package for: checked at set-up, before
 # any output (on one rank these run)

@@ -714,6 +714,47 @@ static PetscErrorCode SNESTypes(SNES snes, char buf[], size_t len)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* The barrier's PD and Newton options (-msim_contact_*, read by contact.cpp), refused where the run
+   would go on without them: decided from what the run uses, not from which options are set
+   (-msim_pc_pd is the default for qn and ntr). PD's own steps (-snes_type pd, or pd as the
+   nonlinear preconditioner, the one a barrier allows) take the weights, refactor rule,
+   selective refresh and step bound; Newton's PD preconditioner on an assembled Hessian takes the
+   weights and refactor rule with -msim_contact_pc_pd_weight; the PSD-projected Hessian (-msim_psd,
+   or the fallback's projected direction) takes the curvature clamp. Without a barrier (no
+   obstacle, or VI bounds) MSimContactRefuseUnread refuses them. */
+static PetscErrorCode RefuseUnreadContact(MSimIntegrator integ, ImplicitData *ie, const char types[], PetscBool hessian, PetscBool projected)
+{
+  MSimContact ct;
+  PetscBool   pd, npc_pd = PETSC_FALSE, has_npc;
+  PetscBool   set[6];
+  char        where[192];
+  static const char *const names[] = {"-msim_contact_pd_weight", "-msim_contact_pd_refactor", "-msim_contact_pd_refactor_selective", "-msim_contact_pd_bound", "-msim_contact_pc_pd_weight", "-msim_contact_psd_curvature"};
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimContactGet(integ->sys, &ct));
+  if (!ct) PetscFunctionReturn(PETSC_SUCCESS);
+  for (int k = 0; k < 6; k++) PetscCall(PetscOptionsHasName(NULL, NULL, names[k], &set[k]));
+  PetscCall(PetscObjectTypeCompare((PetscObject)ie->snes, SNESPD, &pd));
+  PetscCall(SNESHasNPC(ie->snes, &has_npc));
+  if (has_npc) {
+    SNES npc;
+    PetscCall(SNESGetNPC(ie->snes, &npc));
+    PetscCall(PetscObjectTypeCompare((PetscObject)npc, SNESPD, &npc_pd));
+  }
+  const PetscBool pd_steps = (PetscBool)(pd || npc_pd);
+  const PetscBool pc_pd    = (PetscBool)(ie->imp->pd_pc && hessian); /* the PD factor preconditions solves with the Hessian the obstacles add to */
+  const PetscBool weighted = (PetscBool)(pd_steps || (pc_pd && ct->pc_pd_weight)); /* where -msim_contact_pd_weight 1 puts weights in a factor */
+  PetscCall(PetscSNPrintf(where, sizeof(where), "%s%s", types, weighted && !ct->pd_weight ? " -msim_contact_pd_weight 0" : ""));
+  PetscCheck(!set[0] || weighted, integ->comm, PETSC_ERR_SUP, "-msim_contact_pd_weight with %s is not supported: it sets the barrier's weights in PD's matrix, which only PD's steps (-snes_type pd or -npc_snes_type pd) and, with -msim_contact_pc_pd_weight, Newton's PD preconditioner (-msim_pc_pd) use", types);
+  PetscCheck(!set[4] || pc_pd, integ->comm, PETSC_ERR_SUP, "-msim_contact_pc_pd_weight with %s is not supported: it puts the barrier's weights in the PD factor that preconditions Newton's solves with the assembled Hessian (-msim_pc_pd with newtonls, or ntr's default), and this run has none", types);
+  PetscCheck(!set[4] || !ct->pc_pd_weight || ct->pd_weight, integ->comm, PETSC_ERR_SUP, "-msim_contact_pc_pd_weight with -msim_contact_pd_weight 0 is not supported: the one puts the barrier's weights in the PD preconditioner, the other leaves them out");
+  PetscCheck(!set[1] || (weighted && ct->pd_weight), integ->comm, PETSC_ERR_SUP, "-msim_contact_pd_refactor with %s is not supported: it says when the barrier's weights in PD's matrix are refactored, and this run puts none there (they are in PD's steps, -snes_type pd or -npc_snes_type pd, and with -msim_contact_pc_pd_weight in Newton's PD preconditioner; -msim_contact_pd_weight 1)", where);
+  PetscCheck(!set[2] || (pd_steps && ct->pd_weight && ct->pd_refactor > 0), integ->comm, PETSC_ERR_SUP, "-msim_contact_pd_refactor_selective with %s%s is not supported: it picks the vertices whose weights PD's own steps (-snes_type pd or -npc_snes_type pd) refresh at a refactorization, with -msim_contact_pd_weight 1 and -msim_contact_pd_refactor > 0", pd_steps ? where : types, pd_steps && ct->pd_weight ? " -msim_contact_pd_refactor 0" : "");
+  PetscCheck(!set[3] || pd_steps, integ->comm, PETSC_ERR_SUP, "-msim_contact_pd_bound with %s is not supported: it sets how PD's global step (-snes_type pd or -npc_snes_type pd) takes its length, and this run takes no PD step", types);
+  PetscCheck(!set[5] || (hessian && (ie->imp->psd || projected)), integ->comm, PETSC_ERR_SUP, "-msim_contact_psd_curvature with %s%s is not supported: it clamps the barrier's curvature in the PSD-projected Hessian (-msim_psd 1, or -msim_psd_fallback's projected direction), and this run assembles none", types, hessian ? " -msim_psd 0" : "");
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* msim's options that only some solvers read, refused in one line naming the option and the
    SNES's type where the user set them and the run would go on without them (-msim_psd and
    -msim_pc_pd with pd: the same steps as without). Read after the SNES is set up (SetUpJacobian,
@@ -745,6 +786,7 @@ static PetscErrorCode RefuseUnread(MSimIntegrator integ, ImplicitData *ie)
   PetscCheck(!ie->psd_fallback_set || (newton && ls_shell && hessian && !ie->imp->psd && !ie->inertia_correction), integ->comm, PETSC_ERR_SUP,
              "-msim_psd_fallback with %s%s is not supported: it replaces the exact Hessian's Newton direction in msim's line search, which needs -snes_type newtonls, -msim_psd 0, no -snes_linesearch_type and no -msim_inertia_correction", types, ie->imp->psd ? " and -msim_psd 1" : "");
   PetscCheck(!ie->check_saddle_set || ie->exact_mumps, integ->comm, PETSC_ERR_SUP, "-msim_check_saddle with %s is not supported here: it reads the inertia of Newton's factor of the exact Hessian, which needs -snes_type newtonls -msim_psd 0 -ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps", types);
+  PetscCall(RefuseUnreadContact(integ, ie, types, hessian, (PetscBool)(newton && ls_shell && ie->ls.descent)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
