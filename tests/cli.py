@@ -12,7 +12,8 @@
 - -log_view names every stage it prints (those no rank pushed printed as "Unknown") and has the
   run's frames, the first one's too, in Stepping, none in the main stage (the first frame and the
   run's set-up were there), and the system's setup event (MSimSetup) in Setup, where it ran in the
-  main stage until the stage was pushed before the event began."""
+  main stage until the stage was pushed before the event began;
+- a friction lag's unconverged steps are reported with the user's -snes_atol, not the lag solves'."""
 import os
 import subprocess
 import sys
@@ -55,6 +56,14 @@ def main():
         got = [l.strip() for l in r.stdout.splitlines() if "energy terms:" in l or "global solve:" in l]
         want = [f"implicit problem: scheme implicit_euler (beta 1.), energy terms: {terms}"] + ([f"projective dynamics' global solve: {solve}"] if solve else [])
         check(r.returncode == 0 and got == want, f"-msim_view with {' '.join(extra)}: {got!r}")
+    # a friction lag's solves run to their own atol (the first solve's max(atol, rtol |g0|), here
+    # 4.3e-11): the unconverged steps' warning names the user's -snes_atol, not the lag's
+    r = mt.run(MSIM, ["-msim_cloth_n", "5", "-msim_cloth_size", "0.2", "-msim_fix", "none", "-msim_integrator", "implicit_euler",
+                      "-msim_gravity", "2.899,0,-9.372", "-msim_contact_plane", "0,0,1,-0.004", "-msim_friction", "0.4", "-msim_dt", "0.02",
+                      "-msim_steps", "20", "-msim_friction_lag_iterations", "10", "-snes_max_it", "3", "-snes_atol", "2e-11"])
+    warned = [l for l in mt.lines(r.stderr) if "stopped at -snes_max_it 3" in l]
+    check(r.returncode == 0 and len(warned) == 1 and "before |g| <= max(2e-11, 1e-08 |g0|)" in warned[0],
+          f"friction lag with -snes_max_it 3 -snes_atol 2e-11: the warning names the user's tolerances ({warned!r})")
     with tempfile.TemporaryDirectory() as tmp:
         r = mt.run(MSIM, ["-msim_cloth_n", "5", "-msim_steps", "4", "-msim_output", os.path.join(tmp, "out"), "-msim_output_every", "2", "-log_view"])
         stages, events, stage = [], {}, None
