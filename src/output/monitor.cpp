@@ -1,6 +1,7 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
    with wall time. Energies: kinetic, potential (springs + gravity), total. */
 #include <msim/output.h>
+#include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <algorithm>
 #include <cerrno>
@@ -10,9 +11,14 @@
 #include <string>
 #include <unistd.h>
 
+/* a step's line and row, formatted and written: -log_view shows them next to MSimEnergy (the
+   monitored energies) */
+static PetscLogEvent MSIM_Monitor = -1;
+
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
 {
   PetscFunctionBeginUser;
+  if (MSIM_Monitor < 0) PetscCall(PetscLogEventRegister("MSimMonitor", MSIM_CLASSID, &MSIM_Monitor));
   mon->ascii       = PETSC_FALSE;
   mon->csv         = NULL;
   mon->csv_path[0] = 0;
@@ -137,6 +143,7 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
   PetscLogDouble now;
 
   PetscFunctionBeginUser;
+  PetscCall(PetscLogEventBegin(MSIM_Monitor, 0, 0, 0, 0));
   if (mon->ascii) PetscCall(PetscPrintf(comm, "step %6" PetscInt_FMT " t %.6e kinetic %.10e potential %.10e total %.10e nl %" PetscInt_FMT " lin %" PetscInt_FMT " residual %.4e phi %.10e\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi));
   /* the obstacles' total contact force and vertices in contact at the step's result
      (msim/contact_force.h; zeros without obstacles) */
@@ -147,6 +154,7 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
     const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.9e,%.9e,%.9e,%" PetscInt_FMT ",%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, (double)fc[0], (double)fc[1], (double)fc[2], nc, now - mon->wall0);
     PetscCheck(wrote > 0 && fflush(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
   }
+  PetscCall(PetscLogEventEnd(MSIM_Monitor, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
