@@ -10,6 +10,8 @@
   ranks), from which it goes on to the same end;
 - a checkpoint of another scene, a damaged or foreign file, a missing one and one with nothing
   left to run are refused with one line, and no output directory is made;
+- the mesh file is compared by content, not by path: its copy under another name restarts bit for
+  bit, the file scaled by 1.01 in place (the same counts and options) is refused;
 - BDF2 restarted at another -msim_dt starts up again, saying so once;
 - the clock through a restart at another -msim_dt and a second restart from that run's
   checkpoint: the monitor's t runs on, and moving handles end at x0 + v T;
@@ -184,6 +186,32 @@ def main():
                 lines = mt.lines(r.stderr)
                 check(r.returncode != 0 and len(lines) == 1 and message in lines[0] and not os.path.exists(out),
                       f"np={np}: refused: {message} ({lines[:2]})")
+        # the mesh file by content: a copy elsewhere is the same scene, the file scaled in place
+        # another (restarted on it, the energy jumped from 1.86 to 2.02 J in one step)
+        beam = ["-msim_scene", "tet", "-msim_fix_plane", "x_min", "-msim_density", "1000", "-msim_young", "5e5", "-msim_integrator", "implicit_euler",
+                "-msim_dt", "0.005", "-snes_type", "pd", "-snes_max_it", "10", "-snes_pd_fixed"]
+        for np in (1, 2):
+            mesh, moved, ck, ref, xf = (os.path.join(tmp, f"beam_{np}{e}") for e in (".msh", "_moved.msh", ".ck", "_ref.bin", ".bin"))
+            shutil.copy(os.path.join(mt.ROOT, "examples", "meshes", "beam.msh"), mesh)
+            shutil.copy(mesh, moved)
+            rs = [run(np, beam + ["-msim_mesh_file", mesh, "-msim_steps", "7", "-msim_view_final", f"binary:{ref}"], tmp),
+                  run(np, beam + ["-msim_mesh_file", mesh, "-msim_steps", "5", "-msim_checkpoint", ck], tmp),
+                  run(np, beam + ["-msim_mesh_file", moved, "-msim_steps", "7", "-msim_restart", ck, "-msim_view_final", f"binary:{xf}"], tmp)]
+            ok = all(r.returncode == 0 for r in rs)
+            check(ok and final(xf) == final(ref), f"np={np}: restarted on a copy of the mesh file under another name, bit for bit ({[r.stderr.strip()[:200] for r in rs]})")
+            text = open(mesh).read().split("\n")
+            at = text.index("$Nodes") + 1  # Gmsh 4.1: blocks of a header, the tags, the coordinates
+            for _ in range(int(text[at].split()[0])):
+                n = int(text[at + 1].split()[3])
+                at += 1 + n
+                for k in range(at + 1, at + 1 + n):
+                    text[k] = " ".join(repr(1.01 * float(c)) for c in text[k].split()[:3])
+                at += n
+            open(mesh, "w").write("\n".join(text))
+            r = run(np, beam + ["-msim_mesh_file", mesh, "-msim_steps", "7", "-msim_restart", ck], tmp)
+            lines = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(lines) == 1 and f"a checkpoint of another scene (-msim_mesh_file {mesh}: the rest state differs: free vertices' mass" in lines[0],
+                  f"np={np}: the mesh file scaled by 1.01 in place is refused ({lines[:2]})")
         # BDF2 restarted at another -msim_dt: its history (x_{n-1}, v_{n-1}) is one old step back,
         # so it starts up again, saying so once; BDF2 damps, so the undamped chain's energy does not
         # rise after the restart (taking the old history as one new step back, it rose from

@@ -15,7 +15,8 @@
    surface too: msim/contact.h), two vectors per shell under what identifies the shells (each one's
    index, file and thickness); a restart with the same shells takes them, other obstacles start
    with no side known (the obstacles are options a restart may change, msim/contact.h's
-   MSimContactCheckRestart). Nothing else carries from step to step (Anderson's
+   MSimContactCheckRestart). The rest state goes with them too (RestState): a mesh file edited in
+   place keeps its counts and options, so its path says nothing and only its content counts. Nothing else carries from step to step (Anderson's
    history and the other SNES types' start afresh each solve; PETSc's qn keeps its pairs in a Mat
    whose contents PETSc 3.18 does not expose, so qn alone does not restart bit for bit, and a
    restart with it says so in one line), so a restarted run repeats the uninterrupted one bit for
@@ -34,10 +35,19 @@
 #include <sys/stat.h>
 #include <cerrno>
 #include <cstring>
+#include <algorithm>
 
 static const PetscInt MSIM_CHECKPOINT_MAGIC   = 0x6d73696d; /* "msim" */
-static const PetscInt MSIM_CHECKPOINT_VERSION = 4; /* 2: the integrator's history; 3: the solver's; 4: the shells' sides */
+static const PetscInt MSIM_CHECKPOINT_VERSION = 4; /* 2: the integrator's history; 3: the solver's; 4: the shells' sides and the rest state */
 enum { H_MAGIC, H_VERSION, H_NV, H_NSPRING, H_STEP, H_IDENT, H_NHIST, H_INTEG, H_SOLVER, H_SREAL, H_SVEC, H_SHELLS, H_NSIDE, H_COUNT };
+
+/* What identifies the rest state besides the counts and options: a mesh file scaled, translated or
+   edited in place has the same counts and options, and restarting its checkpoint's positions on
+   another rest shape jumps the energy. The free vertices' mass and the moving springs' rest
+   lengths summed (compensated on each rank, so that the sums agree to a few roundoffs at any rank
+   count), and the bounding box of the positions at t = 0 (exact: minima and maxima) */
+enum { R_MASS, R_LENGTH, R_LO, R_HI = R_LO + 3, R_COUNT = R_HI + 3 };
+static const char *const rest_name[R_COUNT] = {"free vertices' mass", "sum of rest lengths", "least x at t = 0", "least y at t = 0", "least z at t = 0", "greatest x at t = 0", "greatest y at t = 0", "greatest z at t = 0"};
 
 struct _n_MSimCheckpoint {
   MSimSystem sys;
@@ -45,6 +55,7 @@ struct _n_MSimCheckpoint {
   char       restart[PETSC_MAX_PATH_LEN]; /* "" : a fresh run */
   PetscInt   every;
   std::string ident;
+  PetscReal   rest[R_COUNT]; /* RestState's, once */
   MSimIntegrator integ; /* whose history goes with x and v (NULL: none) */
 };
 
@@ -106,6 +117,44 @@ static PetscErrorCode Shells(MSimCheckpoint ck, std::vector<MSimMeshObstacle> &s
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+static PetscErrorCode RestState(MSimSystem sys, PetscReal rest[R_COUNT])
+{
+  PetscReal          sum[4] = {0, 0, 0, 0}; /* mass, its compensation; length, its compensation */
+  PetscReal          box[6];                /* least x, y, z and greatest ones negated: one MIN */
+  const PetscScalar *a;
+  PetscInt           n;
+  auto add = [](PetscReal *s, PetscReal x) { /* Neumaier */
+    const PetscReal t = s[0] + x;
+    s[1] += PetscAbsReal(s[0]) >= PetscAbsReal(x) ? (s[0] - t) + x : (x - t) + s[0];
+    s[0] = t;
+  };
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetLocalSize(sys->mass, &n));
+  PetscCall(VecGetArrayRead(sys->mass, &a));
+  for (PetscInt i = 0; i < n; i += 3) add(&sum[0], PetscRealPart(a[i])); /* per dof: one a vertex */
+  PetscCall(VecRestoreArrayRead(sys->mass, &a));
+  MSimSpringsForEach(sys->springs, [&](PetscInt, PetscInt, PetscReal, PetscReal L) { add(&sum[2], L); });
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, sum, 4, MPIU_REAL, MPIU_SUM, sys->comm));
+  rest[R_MASS]   = sum[0] + sum[1];
+  rest[R_LENGTH] = sum[2] + sum[3];
+  for (PetscReal &b : box) b = PETSC_MAX_REAL;
+  PetscCall(MSimSystemNaturalPositions(sys, 0, sys->X0)); /* every vertex, the fixed ones too */
+  PetscCall(VecGetLocalSize(sys->natural, &n));
+  PetscCall(VecGetArrayRead(sys->natural, &a));
+  for (PetscInt i = 0; i < n; i++) {
+    box[i % 3]     = PetscMin(box[i % 3], PetscRealPart(a[i]));
+    box[3 + i % 3] = PetscMin(box[3 + i % 3], -PetscRealPart(a[i]));
+  }
+  PetscCall(VecRestoreArrayRead(sys->natural, &a));
+  PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, box, 6, MPIU_REAL, MPIU_MIN, sys->comm));
+  for (int c = 0; c < 3; c++) {
+    rest[R_LO + c] = box[c];
+    rest[R_HI + c] = -box[3 + c];
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
 {
   PetscBool set;
@@ -123,6 +172,7 @@ PetscErrorCode MSimCheckpointCreate(MSimSystem sys, MSimCheckpoint *ck)
   PetscCheck(!set || (*ck)->path[0], sys->comm, PETSC_ERR_ARG_WRONG, "-msim_checkpoint_every needs -msim_checkpoint F");
   /* the options that define the scene, from where the scene read them */
   (*ck)->ident = sys->scene_identity;
+  if ((*ck)->path[0] || (*ck)->restart[0]) PetscCall(RestState(sys, (*ck)->rest)); /* collective: every rank has the options */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -139,7 +189,7 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscViewer       v;
   const std::string tmp = std::string(ck->path) + ".tmp";
   PetscInt          header[H_COUNT];
-  PetscReal         reals[3] = {t, dt, E0};
+  PetscReal         reals[3 + R_COUNT] = {t, dt, E0};
   int               ok       = 1;
   PetscInt          nhist;
   Vec              *hist;
@@ -169,6 +219,7 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscCall(Shells(ck, shells, shell_ident));
   header[H_SHELLS]  = (PetscInt)shell_ident.size();
   header[H_NSIDE]   = 2 * (PetscInt)shells.size();
+  std::copy(ck->rest, ck->rest + R_COUNT, reals + 3);
   PetscCall(PetscViewerCreate(sys->comm, &v));
   PetscCall(PetscViewerSetType(v, PETSCVIEWERBINARY));
   PetscCall(PetscViewerSetFromOptions(v)); /* -viewer_binary_mpiio */
@@ -176,7 +227,7 @@ PetscErrorCode MSimCheckpointWrite(MSimCheckpoint ck, PetscInt step, PetscReal t
   PetscCall(PetscViewerFileSetMode(v, FILE_MODE_WRITE));
   PetscCall(PetscViewerFileSetName(v, tmp.c_str()));
   PetscCall(PetscViewerBinaryWrite(v, header, H_COUNT, PETSC_INT));
-  PetscCall(PetscViewerBinaryWrite(v, reals, 3, PETSC_REAL));
+  PetscCall(PetscViewerBinaryWrite(v, reals, 3 + R_COUNT, PETSC_REAL));
   if (header[H_IDENT]) PetscCall(PetscViewerBinaryWrite(v, ck->ident.data(), header[H_IDENT], PETSC_CHAR));
   if (header[H_INTEG]) PetscCall(PetscViewerBinaryWrite(v, integ, header[H_INTEG], PETSC_CHAR));
   if (header[H_SOLVER]) PetscCall(PetscViewerBinaryWrite(v, solver.name.data(), header[H_SOLVER], PETSC_CHAR));
@@ -244,16 +295,17 @@ PetscErrorCode MSimCheckpointCheckWritable(MSimCheckpoint ck)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* The first option line that differs between two identities, as "-a x there, -a y here" */
+/* The first option line that differs between two identities, as "-a x there, -a y here"; the
+   mesh file's path is not compared (a moved copy is the same scene): its content is (RestState) */
 static std::string FirstDifference(const std::string &there, const std::string &here)
 {
   std::stringstream a(there), b(here);
   std::string       la, lb;
+  auto              opt = [](const std::string &l) { return l.substr(0, l.find(' ')); };
   while (true) {
     const bool ga = (bool)std::getline(a, la), gb = (bool)std::getline(b, lb);
     if (!ga && !gb) return "";
-    if (ga && gb && la == lb) continue;
-    auto opt = [](const std::string &l) { return l.substr(0, l.find(' ')); };
+    if (ga && gb && (la == lb || (opt(la) == opt(lb) && opt(la) == "-msim_mesh_file"))) continue;
     if (ga && gb && opt(la) == opt(lb)) return la + " there, " + lb.substr(lb.find(' ') + 1) + " here";
     if (!gb || (ga && la < lb)) return la + " there, not here";
     return lb + " here, not there";
@@ -265,7 +317,7 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   MSimSystem  sys = ck->sys;
   PetscViewer v;
   PetscInt    header[H_COUNT];
-  PetscReal   reals[3];
+  PetscReal   reals[3 + R_COUNT];
   long long   size = -1;
   const char *F    = ck->restart;
 
@@ -280,11 +332,11 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
   }
   PetscCallMPI(MPI_Bcast(&size, 1, MPI_LONG_LONG, 0, sys->comm));
   PetscCheck(size >= 0, sys->comm, PETSC_ERR_FILE_OPEN, "-msim_restart %s: cannot open it", F);
-  const long long head = (long long)(H_COUNT * sizeof(PetscInt) + 3 * sizeof(PetscReal));
+  const long long head = (long long)(H_COUNT * sizeof(PetscInt) + (3 + R_COUNT) * sizeof(PetscReal));
   PetscCheck(size >= head, sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: not an msim checkpoint (%lld bytes, too short)", F, size);
   PetscCall(PetscViewerBinaryOpen(sys->comm, F, FILE_MODE_READ, &v));
   PetscCall(PetscViewerBinaryRead(v, header, H_COUNT, NULL, PETSC_INT));
-  PetscCall(PetscViewerBinaryRead(v, reals, 3, NULL, PETSC_REAL));
+  PetscCall(PetscViewerBinaryRead(v, reals, 3 + R_COUNT, NULL, PETSC_REAL));
   if (header[H_MAGIC] != MSIM_CHECKPOINT_MAGIC) {
     PetscCall(PetscViewerDestroy(&v));
     SETERRQ(sys->comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_restart %s: not an msim checkpoint", F);
@@ -310,6 +362,20 @@ PetscErrorCode MSimCheckpointRestart(MSimCheckpoint ck, PetscInt steps, Vec X, V
     PetscCall(PetscViewerDestroy(&v));
     if (!diff.empty()) SETERRQ(sys->comm, PETSC_ERR_ARG_INCOMP, "-msim_restart %s: a checkpoint of another scene (%s)", F, diff.c_str());
     SETERRQ(sys->comm, PETSC_ERR_ARG_INCOMP, "-msim_restart %s: a checkpoint of another scene (%" PetscInt_FMT " vertices and %" PetscInt_FMT " moving springs there, %" PetscInt_FMT " and %" PetscInt_FMT " here)", F, header[H_NV], header[H_NSPRING], sys->nv, sys->nspring_global);
+  }
+  /* the same counts and options, the same rest state? Relative to the value (mass, length) or to
+     the box's extent (its corners), 1e-12: rounding at another rank count stays far below */
+  const PetscReal *rest   = ck->rest;
+  PetscReal        extent = 0;
+  for (int c = 0; c < 3; c++) extent = PetscMax(extent, rest[R_HI + c] - rest[R_LO + c]);
+  for (int k = 0; k < R_COUNT; k++) {
+    const PetscReal scale = k < R_LO ? PetscMax(PetscAbsReal(rest[k]), PetscAbsReal(reals[3 + k])) : extent;
+    if (PetscAbsReal(rest[k] - reals[3 + k]) <= 1e-12 * scale) continue;
+    const std::string lines = "\n" + ck->ident; /* the mesh file's line, if any, named */
+    const size_t      at    = lines.find("\n-msim_mesh_file ");
+    const std::string mesh  = at == std::string::npos ? "" : lines.substr(at + 1, lines.find('\n', at + 1) - at - 1) + ": ";
+    PetscCall(PetscViewerDestroy(&v));
+    SETERRQ(sys->comm, PETSC_ERR_ARG_INCOMP, "-msim_restart %s: a checkpoint of another scene (%sthe rest state differs: %s %.15g there, %.15g here)", F, mesh.c_str(), rest_name[k], (double)reals[3 + k], (double)rest[k]);
   }
   if (header[H_STEP] >= steps) {
     PetscCall(PetscViewerDestroy(&v));
