@@ -106,8 +106,8 @@ static void BoxSprings(MSimSceneData *s, const PetscInt n[3], const PetscReal si
 
 PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
 {
-  PetscInt    n[3] = {4, 4, 4}, nn = 3, nl = 3;
-  PetscReal   size[3] = {1, 1, 1};
+  PetscInt    n[4] = {4, 4, 4, 0}, nn = 4, nl = 4; /* one more than needed: PETSc drops values past nn, nl silently */
+  PetscReal   size[4] = {1, 1, 1, 0};
   PetscBool   nset, lset;
   PetscMPIInt rank, nranks;
   PetscInt    way = 0;
@@ -120,8 +120,8 @@ PetscErrorCode MSimSceneGenerate_Box(MPI_Comm comm, MSimSceneData *s)
   PetscCall(PetscOptionsEList("-msim_box_springs", "How the box gets its springs and masses: direct (from its structure) or cells (the edges of its tets, as a mesh)", NULL, ways, 2, ways[0], &way, NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCheck(!nset || nn == 3, comm, PETSC_ERR_ARG_WRONG, "-msim_box_n needs three comma-separated integers nx,ny,nz (got %" PetscInt_FMT ")", nn);
-  PetscCheck(!lset || nl == 3, comm, PETSC_ERR_ARG_WRONG, "-msim_box_size needs three comma-separated numbers lx,ly,lz (got %" PetscInt_FMT ")", nl);
+  PetscCheck(!nset || nn == 3, comm, PETSC_ERR_ARG_WRONG, "-msim_box_n needs three comma-separated integers nx,ny,nz (got %" PetscInt_FMT "%s)", nn, nn > 3 ? " or more" : "");
+  PetscCheck(!lset || nl == 3, comm, PETSC_ERR_ARG_WRONG, "-msim_box_size needs three comma-separated numbers lx,ly,lz (got %" PetscInt_FMT "%s)", nl, nl > 3 ? " or more" : "");
   for (int d = 0; d < 3; d++) {
     PetscCheck(n[d] >= 1 && n[d] <= 100000, comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_box_n: %c count %" PetscInt_FMT " is not in [1, 100000]", "xyz"[d], n[d]);
     PetscCheck(size[d] > 0 && PetscIsNormalReal(size[d]), comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_box_size: %c side must be > 0 m (got %g)", "xyz"[d], (double)size[d]);

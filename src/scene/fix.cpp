@@ -34,8 +34,8 @@ PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s)
   const char *fixes[]  = {"corners", "edge", "none", "list"};
   const char *planes[] = {"x_min", "x_max", "y_min", "y_max", "z_min", "z_max"};
   const bool  grid     = !s->corners.empty();
-  PetscInt    ifix = grid ? 0 : 2, iplane = 0, nbox = 6;
-  PetscReal   tol = 1e-6 * s->diameter, box[6] = {0, 0, 0, 0, 0, 0};
+  PetscInt    ifix = grid ? 0 : 2, iplane = 0, nbox = 7; /* one more than needed: PETSc drops values past nbox silently */
+  PetscReal   tol = 1e-6 * s->diameter, box[7] = {0, 0, 0, 0, 0, 0, 0};
   PetscBool   fix_set, plane_set, box_set, list_set;
   PetscMPIInt rank;
   std::vector<PetscInt> list;
@@ -86,7 +86,7 @@ PetscErrorCode MSimSceneSelectFixed(MPI_Comm comm, MSimSceneData *s)
   }
   if (box_set) {
     PetscInt inside = 0;
-    PetscCheck(nbox == 6, comm, PETSC_ERR_ARG_WRONG, "-msim_fix_box needs six comma-separated numbers x0,x1,y0,y1,z0,z1 (got %" PetscInt_FMT ")", nbox);
+    PetscCheck(nbox == 6, comm, PETSC_ERR_ARG_WRONG, "-msim_fix_box needs six comma-separated numbers x0,x1,y0,y1,z0,z1 (got %" PetscInt_FMT "%s)", nbox, nbox > 6 ? " or more" : "");
     for (int c = 0; c < 3; c++) PetscCheck(box[2 * c] <= box[2 * c + 1], comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_fix_box: %c0 = %g is above %c1 = %g", "xyz"[c], (double)box[2 * c], "xyz"[c], (double)box[2 * c + 1]);
     for (PetscInt v = 0; v < count; v++) {
       const PetscReal *p = &s->x0[3 * v];

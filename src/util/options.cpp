@@ -103,12 +103,14 @@ PetscErrorCode MSimOptionsIntArray_Private(PetscOptionItems *PetscOptionsObject,
 
 PetscErrorCode MSimOptionsVec3_Private(PetscOptionItems *PetscOptionsObject, const char name[], const char help[], PetscReal v[3], PetscBool *set)
 {
-  PetscInt  n = 3;
+  PetscInt  n    = 4; /* one more than needed: PETSc drops values past n silently (-msim_gravity 0,0,-9.81,1 ran) */
+  PetscReal w[4] = {v[0], v[1], v[2], 0};
   PetscBool flg;
 
   PetscFunctionBeginUser;
-  PetscCall(MSimOptionsRealArray(name, help, NULL, v, &n, &flg));
-  PetscCheck(!flg || n == 3, PetscOptionsObject->comm, PETSC_ERR_ARG_WRONG, "%s needs three comma-separated numbers x,y,z (got %" PetscInt_FMT ")", name, n);
+  PetscCall(MSimOptionsRealArray(name, help, NULL, w, &n, &flg));
+  PetscCheck(!flg || n == 3, PetscOptionsObject->comm, PETSC_ERR_ARG_WRONG, "%s needs three comma-separated numbers x,y,z (got %" PetscInt_FMT "%s)", name, n, n > 3 ? " or more" : "");
+  for (int c = 0; c < 3; c++) v[c] = w[c];
   if (set) *set = flg;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
