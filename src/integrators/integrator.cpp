@@ -151,6 +151,7 @@ PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec 
   integ->phi                               = 0;
   integ->failed                            = PETSC_FALSE;
   integ->failed_what                       = NULL;
+  integ->stopped                           = PETSC_FALSE;
   integ->step++;
   PetscCall((*integ->ops.step)(integ, t, X, V));
   PetscCall(PetscLogEventEnd(MSIM_Step, X, V, 0, 0));

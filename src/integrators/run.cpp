@@ -245,6 +245,27 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     PetscCall(MSimContactWarnHandles(sys));
     return PETSC_SUCCESS;
   };
+  /* the run stopped by a signal after step k, the last whole one (cut: the signal came inside step
+     k + 1, which was given up): its checkpoint written where asked, one line (quiet for a closed
+     standard output) */
+  auto Stop = [&](int signal_seen, PetscInt k, PetscReal tk, PetscBool cut) -> PetscErrorCode {
+    PetscCall(MSimCheckpointWrite(ck, k, tk, integ->dt, E0, X, V));
+    info->steps_done = k;
+    info->t          = tk;
+    if (signal_seen == SIGPIPE) { /* standard output's reader left: stop as for SIGTERM, quietly */
+      PetscCall(EndEarly());
+      return PETSC_ERR_SIG;
+    }
+    /* SIGINT or SIGTERM (a batch system's time limit) */
+    char how[PETSC_MAX_PATH_LEN + 96], when[128];
+    PetscCall(MSimCheckpointPath(ck, how, sizeof(how)));
+    /* C's %g: PETSc's prints 1 as "1." */
+    if (cut) snprintf(when, sizeof(when), "t = %g s, step %" PetscInt_FMT " given up where it came", (double)tk, k + 1);
+    else snprintf(when, sizeof(when), "t = %g s", (double)tk);
+    PetscCall(Summarise(k));
+    PetscCall(EndEarly());
+    SETERRQ(sys->comm, PETSC_ERR_SIG, "stopped by %s after step %" PetscInt_FMT " of %" PetscInt_FMT " (%s); %s", signal_seen == SIGINT ? "SIGINT" : "SIGTERM", k, integ->steps, when, how);
+  };
   PetscCall(MSimProgressBegin(&progress, step0));
   PetscCall(MSimStopSignalBegin(sys->comm, &stop));
   for (PetscInt n = step0 + 1; n <= integ->steps; n++) {
@@ -257,7 +278,6 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(VecCopy(V, Vprev));
     }
     PetscCall(MSimIntegratorStep(integ, t0, X, V));
-    PetscCall(MSimContactWatchHandles(sys, n, t0, t));
     if (n == 1) {
       /* the energy the contact barriers held at the start (known once the first step began),
          which pairs that start within the contact distance release as kinetic energy: part of
@@ -265,6 +285,10 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       E0 += integ->barrier_energy0;
       scale += integ->barrier_energy0;
     }
+    if (integ->stopped) { /* a signal inside the step: X, V are step n - 1's again */
+      PetscFunctionReturn(Stop(MSimStopSignalAgreedInStep(), n - 1, t0, PETSC_TRUE));
+    }
+    PetscCall(MSimContactWatchHandles(sys, n, t0, t));
     solver_failed = integ->failed; /* the implicit solver gave up on this step */
     if (solver_failed) bad = PETSC_TRUE;
     if (check && !bad) PetscCall(Diverged(t, X, V, &kin, &pot, &Ug, &bad));
@@ -312,24 +336,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X, V));
     PetscCall(MSimStopSignalPoll(&stop, &signal_seen));
     PetscCall(MSimCheckpointWanted(ck, n, integ->steps, &want_out));
-    if (want_out || signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));
-    if (signal_seen == SIGPIPE) { /* standard output's reader left: stop as for SIGTERM, quietly */
-      PetscCall(EndEarly());
-      info->steps_done = n;
-      info->t          = t;
-      PetscFunctionReturn(PETSC_ERR_SIG);
-    }
-    if (signal_seen) {
-      /* SIGINT or SIGTERM (a batch system's time limit): stopped after a whole step, its state
-         kept where a checkpoint was asked for */
-      char how[PETSC_MAX_PATH_LEN + 96];
-      PetscCall(MSimCheckpointPath(ck, how, sizeof(how)));
-      PetscCall(Summarise(n));
-      PetscCall(EndEarly());
-      info->steps_done = n;
-      info->t          = t;
-      SETERRQ(sys->comm, PETSC_ERR_SIG, "stopped by %s after step %" PetscInt_FMT " of %" PetscInt_FMT " (t = %g s); %s", signal_seen == SIGINT ? "SIGINT" : "SIGTERM", n, integ->steps, (double)t, how);
-    }
+    if (want_out && !signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));
+    if (signal_seen) PetscFunctionReturn(Stop(signal_seen, n, t, PETSC_FALSE));
     PetscCall(MSimProgressUpdate(&progress, n, t));
   }
   PetscCall(MSimStopSignalEnd(&stop));

@@ -165,6 +165,18 @@ PetscErrorCode MSimSNESSetUpPD(SNES snes)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* a monitor that stops the solve sets a failed reason (msim's stop signal inside a step,
+   msim/signals.h): pd then stops as PETSc's types stop for their convergence test */
+static PetscErrorCode MonitorStop(SNES snes, SNESConvergedReason *reason)
+{
+  SNESConvergedReason set;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetConvergedReason(snes, &set));
+  if (set < 0) *reason = set;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
 {
   MSimPDProblem      *pd;
@@ -215,6 +227,7 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
     lbp->check     = opts->lbfgs_check;
   }
   PetscCall(SNESSetIterationNumber(snes, 0));
+  PetscCall(SNESSetConvergedReason(snes, SNES_CONVERGED_ITERATING)); /* a monitor may set a stop (below) */
   /* plain PD with -snes_pd_fixed: every global step is followed by a local step at X or by the
      end of the loop, and nothing reads X between (no residual; a monitor of the solution would
      see the step before its check), so the global step's Phi check
@@ -235,6 +248,7 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
     if (fnorm <= atol) reason = SNES_CONVERGED_FNORM_ABS;
   }
   PetscCall(SNESMonitor(snes, 0, fnorm));
+  PetscCall(MonitorStop(snes, &reason));
   /* with Anderson, rhs always holds the local step at the current X and phi its Phi */
   if (m > 0 && reason == SNES_CONVERGED_ITERATING) PetscCall((*pd->rhs)(pd->ctx, X, rhs, &phi));
   if (lm > 0 && reason == SNES_CONVERGED_ITERATING) {
@@ -295,6 +309,7 @@ static PetscErrorCode SNESSolve_PD(SNES snes, Vec X)
       else if (fnorm <= rtol * fnorm0) reason = SNES_CONVERGED_FNORM_RELATIVE;
     }
     PetscCall(SNESMonitor(snes, k, fnorm));
+    PetscCall(MonitorStop(snes, &reason));
   }
   if (pd->defer_check) {
     PetscCall((*pd->finish)(pd->ctx)); /* the SNES never returns an unchecked iterate */

@@ -44,6 +44,9 @@ struct _n_MSimIntegrator {
   PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
   char              failure[256]; /* why, in the solver's words (" (-snes_type qn: DIVERGED_LINE_SEARCH)") */
   const char       *failed_what; /* what gave up, where not the nonlinear solver (a TS's error control); NULL: the solver */
+  /* a stop signal cut the step short (msim/signals.h, MSimStopSignalAgreedInStep): X and V are
+     the step's start again and the step counts as not taken */
+  PetscBool         stopped;
   /* steps whose solver stopped at its iteration cap short of the tolerance it was given (a
      fixed iteration count, asked for with zero tolerances or -snes_pd_fixed, is not counted),
      and that tolerance in words, for the warning at the end of the run */

@@ -11,6 +11,7 @@
 #include <msim/contact_bounds.h>
 #include <msim/volume.h>
 #include <msim/private/integratorimpl.h>
+#include <msim/signals.h>
 #include <msim/private/systemimpl.h>
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h> /* MSimContactGetForStep: kappa at set-up */
@@ -829,6 +830,7 @@ static PetscErrorCode Setup_Implicit(MSimIntegrator integ)
     PetscCall(SNESSetJacobian(ie->snes, ie->J, ie->J, FormJacobianInertiaCorrected, ie));
   }
   PetscCall(RefuseUnread(integ, ie));
+  PetscCall(MSimStopSignalSetSNES(ie->snes)); /* last: it wraps the convergence test set above */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -992,6 +994,17 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
   for (PetscBool again = PETSC_TRUE; again; solves++) {
     ie->ls_cut = 1;
     PetscCall(SNESSolve(ie->snes, NULL, X));
+    if (MSimStopSignalAgreedInStep()) {
+      /* a stop signal inside the step: the step is taken back to its start, x_n (V still holds
+         v_n and the scheme's history is the step before's until EndStep), and the time loop keeps
+         that state. What the terms and the solver carry changed in the step (PD's contact
+         weights, L-BFGS's pairs) is kept as it is, so a restart repeats this step to the solver's
+         tolerance, not bit for bit */
+      PetscCall(VecCopy(ie->imp->Xn, X));
+      if (atol_solve != atol0) PetscCall(SNESSetTolerances(ie->snes, atol0, rtol0, stol0, maxit0, maxf0));
+      integ->stopped = PETSC_TRUE;
+      PetscFunctionReturn(PETSC_SUCCESS);
+    }
     PetscCall(SNESGetConvergedReason(ie->snes, &reason));
     PetscCall(SNESGetIterationNumber(ie->snes, &its));
     PetscCall(SNESGetLinearSolveIterations(ie->snes, &lits));

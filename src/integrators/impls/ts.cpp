@@ -411,6 +411,7 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       PetscCall(TSSetApplicationContext(d->ts, integ));
       PetscCall(TSAdaptSetCheckStage(adapt, CheckStage));
       if (d->adaptive && strcmp(type, TSROSW)) PetscCall(SetStageTolerance(integ, d, snes, type)); /* rosw's stages are linear solves */
+      PetscCall(MSimStopSignalSetSNES(snes)); /* after the stage test it wraps */
     }
     /* a fixed-step TS takes one step per -msim_dt unless a stage solve fails, each failure
        retrying at a quarter of the step: a box landing with -msim_volume under beuler (a scene ts
@@ -468,7 +469,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 {
   TSInteg            *d    = (TSInteg *)integ->data;
   const PetscReal     tend = t + integ->dt, eps = 1e-12 * PetscMax(1.0, PetscAbsReal(tend));
-  PetscReal           tcur = t, h;
+  PetscReal           tcur = t, h, h_next0;
   PetscInt            snes0, ksp0, snes1, ksp1, rej0, rej1, n = 0;
   TSConvergedReason   reason;
 
@@ -479,6 +480,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   /* a fixed-step TS tries the whole -msim_dt again in every interval (a failed solve shortens only
      the step that failed) */
   if (!d->adaptive) d->h_next = integ->dt;
+  h_next0 = d->h_next; /* what a stop inside the step restores */
   PetscCall(TSGetSNESIterations(d->ts, &snes0));
   PetscCall(TSGetKSPIterations(d->ts, &ksp0));
   PetscCall(TSGetStepRejections(d->ts, &rej0));
@@ -486,15 +488,8 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   while (tend - tcur > eps) {
     if (n > 0) { /* SIGINT or SIGTERM: the time loop polls after each step, which may never end here */
       int sig;
-      PetscCall(MSimStopSignalPending(integ->comm, &sig));
-      if (sig) {
-        TSType type;
-        PetscCall(TSGetType(d->ts, &type));
-        integ->failed      = PETSC_TRUE;
-        integ->failed_what = sig == SIGINT ? "stopped by SIGINT" : "stopped by SIGTERM";
-        PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " inside the step (-ts_type %s: %" PetscInt_FMT " internal steps reached t = %g of %g, the last of h = %g; no checkpoint of a state between intervals)", type, n, (double)tcur, (double)tend, (double)d->h_next));
-        break;
-      }
+      PetscCall(MSimStopSignalPollInStep(&sig));
+      if (sig) break;
     }
     if (n >= d->max_substeps) { /* stops as a failed step does, the last finite state kept (was an error from inside the step: no such state, no frame of it) */
       TSType type;
@@ -508,6 +503,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
     if (tend - tcur - h <= eps) h = tend - tcur;
     PetscCall(TSSetTimeStep(d->ts, h));
     PetscCall(TSStep(d->ts));
+    if (MSimStopSignalAgreedInStep()) break; /* inside a stage solve */
     PetscCall(TSGetConvergedReason(d->ts, &reason));
     if (reason < 0) break;
     PetscCall(TSGetTime(d->ts, &tcur));
@@ -515,6 +511,15 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
     /* a step shortened to land on t + dt says little of the next: keep the proposal before it */
     if (tend - tcur > eps || n == 0) d->h_next = h > 0 ? h : d->h_next;
     n++;
+  }
+  if (MSimStopSignalAgreedInStep()) {
+    /* stopped inside the step: X and V still hold its start (the TS's internal steps between
+       intervals are no state a checkpoint keeps), and its proposal for the next step is the
+       start's; the time loop keeps that state */
+    d->h_next      = h_next0;
+    integ->stopped = PETSC_TRUE;
+    PetscCall(TSSetConvergedReason(d->ts, TS_CONVERGED_ITERATING));
+    PetscFunctionReturn(PETSC_SUCCESS);
   }
   d->substeps += n;
   PetscCall(TSGetSNESIterations(d->ts, &snes1));
