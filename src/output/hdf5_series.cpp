@@ -10,8 +10,9 @@
    for ParaView (XDMF 3, a temporal collection; a mesh's frame is a spatial collection of two
    grids, its cells and its springs, on the same points). Each rank computes the fields of its
    own cells and springs from the positions of the vertices they touch. Each file is written
-   under a temporary name and renamed once closed, and series.xdmf is rewritten whole after each
-   frame: a killed run leaves no truncated file and a collection of exactly the frames on disk. */
+   under a temporary name and renamed once closed, and each frame adds its grid to series.xdmf in
+   place (collection.cpp): a killed run leaves no truncated file and a collection of exactly the
+   frames on disk. */
 #include "hdf5_series.h"
 #include "frame_fields.h"
 #include <msim/contact_force.h>
@@ -88,8 +89,11 @@ static PetscErrorCode WriteMesh(MSimHDF5Series *h)
 PetscErrorCode MSimHDF5SeriesSetUp(MSimHDF5Series *h, MSimSystem sys, const char dir[])
 {
   PetscFunctionBeginUser;
-  h->sys = sys;
-  h->dir = dir;
+  h->sys        = sys;
+  h->dir        = dir;
+  h->xdmf.path  = h->dir + "/series.xdmf";
+  h->xdmf.head  = "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n  <Grid Name=\"msim\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
+  h->xdmf.close = "    \n  </Grid>\n  </Domain>\n</Xdmf>\n";
   PetscCall(MSimContactHasObstacles(sys, &h->contact));
   PetscInt n[2] = {(PetscInt)(sys->out_cells.size() / sys->out_cell_size), sys->cell_size ? (PetscInt)(sys->out_springs.size() / 2) : 0};
   PetscCallMPI(MPI_Allreduce(MPI_IN_PLACE, n, 2, MPIU_INT, MPI_SUM, sys->comm));
@@ -125,6 +129,7 @@ PetscErrorCode MSimHDF5SeriesDestroy(MSimHDF5Series *h)
 {
   PetscFunctionBeginUser;
   PetscCall(MSimDestroy(&h->fetch, &h->xcell, &h->strain, &h->ratio));
+  PetscCall(MSimCollectionClose(&h->xdmf));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -180,9 +185,10 @@ static std::string GridXML(const MSimHDF5Series *h, const char name[], PetscReal
   return head + UniformXML(h, "      ", "cells", "", "cells", h->ncells, k, k == 4 ? "volume_ratio" : NULL, file) + UniformXML(h, "      ", "springs", "", "springs", h->nsprings, 2, "strain", file) + "    </Grid>\n";
 }
 
-static std::string Document(const std::string &grids, bool temporal)
+/* NAME.xdmf: one grid outside the series */
+static std::string Document(const std::string &grid)
 {
-  return std::string("<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n") + (temporal ? "  <Grid Name=\"msim\" GridType=\"Collection\" CollectionType=\"Temporal\">\n" : "") + grids + (temporal ? "  </Grid>\n" : "") + "  </Domain>\n</Xdmf>\n";
+  return "<?xml version=\"1.0\" ?>\n<Xdmf Version=\"3.0\">\n  <Domain>\n" + grid + "  </Domain>\n</Xdmf>\n";
 }
 
 /* the frame's fields in input order to DIR/NAME.h5 */
@@ -239,11 +245,7 @@ PetscErrorCode MSimHDF5SeriesWriteFrame(MSimHDF5Series *h, PetscInt step, PetscR
   PetscCall(PetscSNPrintf(name, sizeof(name), "frame_%06" PetscInt_FMT, step));
   const std::string file = std::string(name) + ".h5";
   PetscCall(WriteFields(h, file, t, X, V));
-  h->grids += GridXML(h, name, t, file);
-  if (h->sys->rank == 0) {
-    const std::string doc = Document(h->grids, true);
-    PetscCall(MSimWriteFileAtomic((h->dir + "/series.xdmf").c_str(), doc.data(), doc.size()));
-  }
+  if (h->sys->rank == 0) PetscCall(MSimCollectionAppend(&h->xdmf, GridXML(h, name, t, file)));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -254,7 +256,7 @@ PetscErrorCode MSimHDF5SeriesWriteExtra(MSimHDF5Series *h, const char name[], Pe
   PetscFunctionBeginUser;
   PetscCall(WriteFields(h, file, t, X, V));
   if (h->sys->rank == 0) {
-    const std::string doc = Document(GridXML(h, name, t, file), false);
+    const std::string doc = Document(GridXML(h, name, t, file));
     PetscCall(MSimWriteFileAtomic((h->dir + "/" + name + ".xdmf").c_str(), doc.data(), doc.size()));
   }
   PetscFunctionReturn(PETSC_SUCCESS);

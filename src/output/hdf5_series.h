@@ -1,12 +1,13 @@
 /* The parallel series (HDF5 + XDMF): see hdf5_series.cpp. */
 #pragma once
+#include "collection.h"
 #include <msim/output.h>
 #include <string>
 
 struct MSimHDF5Series {
   MSimSystem  sys = NULL;
   std::string dir;
-  std::string grids;        /* the XDMF grids of the frames written so far */
+  MSimCollection xdmf;      /* series.xdmf (on rank 0): the XDMF grids of the frames written so far */
   PetscInt    ncells = 0;   /* cells drawn, over all ranks */
   PetscInt    nsprings = 0; /* a mesh's springs (its second grid), over all ranks; 0 for grids and chains */
   PetscBool   contact  = PETSC_FALSE; /* obstacles: each frame holds "/contact_force" (msim/contact_force.h) */

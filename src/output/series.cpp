@@ -2,9 +2,11 @@
    DIR/frame_NNNNNN_springs.vtu) and DIR/series.pvd, written by rank 0 from positions and
    velocities gathered whole (small runs; the topology, file ids, rest lengths and volumes
    gathered once), or the parallel HDF5 + XDMF series of hdf5_series.cpp that every rank writes
-   its part of (any size). The fields each frame holds: msim/output.h. The collection is rewritten
-   whole after each frame so that it always lists exactly the frames written (a restart drops the
-   entries after its checkpoint, and the checkpoint's own frame where it is off the schedule). */
+   its part of (any size). The fields each frame holds: msim/output.h. The collection always
+   lists exactly the frames written: each frame adds its entry in place (collection.cpp), and a
+   run's first frame writes it whole, so that a restart drops the entries after its checkpoint (and
+   the checkpoint's own frame where it is off the schedule). */
+#include "collection.h"
 #include "hdf5_series.h"
 #include "frame_fields.h"
 #include <msim/contact_force.h>
@@ -24,7 +26,7 @@ struct _n_MSimOutput {
   MSimSystem            sys;
   char                  dir[PETSC_MAX_PATH_LEN];
   PetscInt              every;
-  std::string           pvd_entries;
+  MSimCollection        pvd; /* series.pvd, on rank 0 */
   PetscBool             hdf5;
   MSimHDF5Series        h5;
   /* .vtu: on rank 0, every vertex's flag and file id, the cells drawn (input ids) and their rest
@@ -58,6 +60,9 @@ PetscErrorCode MSimOutputCreate(MSimSystem sys, MSimOutput *out)
   (*out)->every = every;
   (*out)->hdf5  = (PetscBool)(format == 2 || (format == 0 && sys->nv > 1000000));
   PetscCall(PetscStrncpy((*out)->dir, dir, sizeof((*out)->dir)));
+  (*out)->pvd.path  = std::string(dir) + "/series.pvd";
+  (*out)->pvd.head  = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
+  (*out)->pvd.close = "    \n  </Collection>\n</VTKFile>\n";
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -155,6 +160,9 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
   if (!fp) PetscFunctionReturn(PETSC_SUCCESS);
   while (fgets(buf, sizeof(buf), fp)) text += buf;
   fclose(fp);
+  /* the entries only: a killed run may have left comments and an entry not yet listed inside a
+     processing instruction (collection.cpp) */
+  text = MSimCollectionStripMarkup(text);
   if (out->hdf5) { /* grids from "    <Grid Name=" to "    </Grid>" */
     /* a frame's grid may hold grids of its own (a mesh's cells and springs): its end is the
        first closing tag at its own depth */
@@ -167,7 +175,7 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
       else drop(FrameStep(grid));
       at = end + close.size();
     }
-    out->h5.grids = kept;
+    out->h5.xdmf.entries = kept;
   } else {
     size_t at = 0;
     while (at < text.size()) {
@@ -180,7 +188,7 @@ PetscErrorCode MSimOutputResume(MSimOutput out, PetscInt step)
       if (nl == std::string::npos) break;
       at = nl + 1;
     }
-    out->pvd_entries = kept;
+    out->pvd.entries = kept;
   }
   if (!stale.empty()) {
     std::string names;
@@ -249,7 +257,7 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], Pets
 
 PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, Vec X, Vec V)
 {
-  char base[64], line[512], path[PETSC_MAX_PATH_LEN];
+  char base[64], line[512];
 
   PetscFunctionBeginUser;
   if (!out) PetscFunctionReturn(PETSC_SUCCESS);
@@ -265,14 +273,12 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
     /* a mesh's springs are part 1 of the timestep: ParaView's .pvd reader makes the two a
        multiblock data set */
     PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"0\" file=\"%s.vtu\"/>\n", (double)t, base));
-    out->pvd_entries += line;
+    std::string entry = line;
     if (!out->springs.empty()) {
       PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"1\" file=\"%s_springs.vtu\"/>\n", (double)t, base));
-      out->pvd_entries += line;
+      entry += line;
     }
-    std::string pvd = "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n" + out->pvd_entries + "  </Collection>\n</VTKFile>\n";
-    PetscCall(PetscSNPrintf(path, sizeof(path), "%s/series.pvd", out->dir));
-    PetscCall(MSimWriteFileAtomic(path, pvd.data(), pvd.size()));
+    PetscCall(MSimCollectionAppend(&out->pvd, entry));
   }
   PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -294,6 +300,7 @@ PetscErrorCode MSimOutputDestroy(MSimOutput *out)
 {
   PetscFunctionBeginUser;
   if (*out && (*out)->hdf5) PetscCall(MSimHDF5SeriesDestroy(&(*out)->h5));
+  if (*out) PetscCall(MSimCollectionClose(&(*out)->pvd));
   delete *out;
   *out = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
