@@ -1,6 +1,6 @@
-/* A series' collection (series.pvd, series.xdmf) that grows by O(1) bytes a frame and is, at any
-   moment a kill -9 can stop the run, a well-formed XML document listing every frame already
-   listed (and perhaps the one being added), nothing else.
+/* A series' collection file (series.pvd, series.xdmf) to which a frame adds O(1) bytes, and which
+   is, whenever a kill -9 stops the run, a well-formed XML document listing the frames added so
+   far: a frame is listed from one write on, and stays listed.
 
    The file is HEAD ENTRIES CLOSE, CLOSE beginning with a slot of 4 spaces ("    \n  </Collection>
    \n</VTKFile>\n"). The first frame a run writes rewrites it whole (a temporary file renamed, as
