@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages msim needs, only those missing. Needs root (or sudo).
 set -euo pipefail
 pkgs=(build-essential cmake pkg-config petsc-dev slepc-dev libeigen3-dev libcgal-dev libmetis-dev libtet1.5-dev tetgen
-      openmpi-bin libopenmpi-dev libhdf5-openmpi-dev libopenblas0-pthread python3-matplotlib python3-numpy python3-h5py ffmpeg)
+      openmpi-bin libopenmpi-dev libhdf5-openmpi-dev libopenblas0-pthread python3-matplotlib python3-numpy python3-h5py ffmpeg strace)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
