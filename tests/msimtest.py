@@ -182,9 +182,10 @@ def write_box_obj(path, b):
 
 
 def frames(out):
-    """the frame files series.pvd in the output directory out lists, in order"""
-    with open(os.path.join(out, "series.pvd")) as f:
-        return [l.split('file="')[1].split('"')[0] for l in f if 'file="' in l]
+    """the frame files series.pvd in the output directory out lists, in order (read as XML: a killed
+    run's collection may hold an entry not yet listed, inside a processing instruction)"""
+    import xml.etree.ElementTree as ET
+    return [d.get("file") for d in ET.parse(os.path.join(out, "series.pvd")).getroot().iter("DataSet")]
 
 
 class Checks:
