@@ -1,7 +1,9 @@
 /* Output layer: ParaView series, per-step monitors, final positions. Everything is in input vertex
    order, so files do not depend on the rank count (a .vtu series is written by rank 0 from data
    gathered there, the HDF5 series by every rank at once). Files
-   are written whole (temporary file, then rename): a killed run never leaves a truncated frame. */
+   are written whole (temporary file, then rename): a killed run never leaves a truncated frame. The
+   series' collection (series.pvd, series.xdmf) grows in place by each frame's entry, so that its
+   writes stay O(1) a frame; a kill leaves it well-formed (src/output/collection.cpp). */
 #pragma once
 #include <msim/system.h>
 #include <cstdio>
