@@ -18,7 +18,8 @@
    the old document into the new one (whole or not at all). It is as long as what it covers, or
    padded with spaces to it, so nothing of the old ending stays behind.
 
-   Across a page, in four writes, each leaving a well-formed document:
+   Across a page, E CLOSE in one write could stop at the boundary, leaving part of E over part of
+   the old closing tags; instead, four writes, each leaving a well-formed document:
    1. spaces from the end of the file to the next page boundary, where needed so that 2. fits in one
       page: trailing whitespace, allowed after the root element;
    2. after them, in one page (so whole or not at all), the processing instruction
@@ -26,14 +27,16 @@
       content (E and CLOSE hold no "?>") ends at the first "?>";
    3. "!--" into the slot's last 3 bytes: text inside the root element;
    4. "<" into the slot's first byte, one byte: the slot is now "<!--", opening a comment that runs
-      over the old closing tags, the spaces and the "<?msim " of 2. (none holds "--") to the "-->"
-      there. E is now inside the root, CLOSE closes it, and "<?msim ?>" is a processing
-      instruction after it.
+      over the old closing tags, the "<?msim ?>" an earlier crossing left after them, the spaces
+      and the "<?msim " of 2. (none holds "--") to the "-->" there. E is now inside the root,
+      CLOSE closes it, and "<?msim ?>" is a processing instruction after it.
    Until 4. the document lists the old entries; from 4. on, the new one too. The next frame's write
    in the page covers the "<?msim ?>" left after CLOSE. The comments and instructions are dropped by
    a rewrite at the run's end (MSimCollectionClose), and by a restart, which reads the entries
    through MSimCollectionStripMarkup. An entry that would not fit in one page or would end the
-   instruction early (none does) is written with the whole file instead. */
+   instruction early (none does) is written with the whole file instead. What this gives up: a
+   program reading the file while a write is being copied (ParaView reloading mid-run) may see it
+   half done and have to read again, where the rename it replaces was atomic for readers too. */
 #include "collection.h"
 #include <msim/output.h>
 #include <algorithm>
