@@ -158,6 +158,11 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_friction", "1e300"], "-msim_friction must be in [0, 6.71089e+07]"),
     (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_friction", "0.3", "-msim_friction_eps", "1e-300"], "-msim_friction_eps must be >= "),
     (["-msim_integrator", "implicit_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_velocity", "0,0,1e300"], "-msim_contact_velocity: obstacle 0's speed must be <= "),
+    # the penalty's integrators took it, and their state was not finite at step 10, the frames written
+    (["-msim_integrator", "symplectic_euler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_velocity", "0,0,1e300"], "-msim_contact_velocity: obstacle 0's speed must be <= 4.74531e+09 m/s here, a travel in a step (h = 0.0002 s)"),
+    (["-msim_integrator", "explicit_euler", "-msim_drag", "1", "-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_contact_velocity", "-1e300,0,0"], "-msim_contact_velocity: obstacle 0's speed must be <= "),
+    (["-msim_integrator", "rk4", "-msim_contact_box", "0,1,0,1,-1,-0.2", "-msim_contact_velocity", "0,1e20,0"], "-msim_contact_velocity: obstacle 0's speed must be <= "),
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-msim_contact_plane", "0,0,1,-0.1", "-msim_contact_velocity", "0,0,1e300"], "-msim_contact_velocity: obstacle 0's speed must be <= "),
     (["-msim_integrator", "implicit_euler", "-msim_contact_sphere", "0.43,0.52,-0.35,0.3", "-msim_contact_distance", "1e-9"], "-msim_contact_distance must be >= 1.49012e-08 m here"),
     # a plane whose offset over its normal's length overflows (its normal, scaled by its largest
     # component, no longer does); a mesh obstacle whose lengths overflow was refused as of zero length
@@ -228,6 +233,8 @@ ONE_RANK = {tuple(a) for a in (
     ["-msim_fix", "list", "-msim_fix_list", "-1"], ["-msim_fix", "list"], ["-msim_scene", "chain", "-msim_chain_n", "1"], ["-msim_springs", "structural,twist"],
     ["-msim_drag", "-1"], ["-msim_steps", "3", "-msim_dt"], ["-msim_cloth_n", "2.5"], ["-msim_stiffness", "nan"], ["-msim_gravity", "0,0,-1e999"],
     ["-msim_fix", "list", "-msim_fix_list", "1,x"], ["-msim_checkpoint_every", "10"], ["-msim_progress", "-1"],
+    ["-msim_integrator", "explicit_euler", "-msim_drag", "1", "-msim_contact_sphere", "0.5,0.5,-0.4,0.3", "-msim_contact_velocity", "-1e300,0,0"],
+    ["-msim_integrator", "rk4", "-msim_contact_box", "0,1,0,1,-1,-0.2", "-msim_contact_velocity", "0,1e20,0"],
     ["-msim_integrator", "implicit_euler", "-msim_step_atol", "-1"],
     ["-msim_integrator", "implicit_euler", "-snes_type", "pd", "-msim_pc_pd"],
     ["-msim_integrator", "implicit_euler", "-snes_type", "anderson", "-npc_snes_type", "pd", "-msim_psd", "0"],

@@ -102,6 +102,11 @@ PetscErrorCode MSimContactView(MSimContact contact, PetscViewer viewer);
    with a penalty integrator or with obstacles as VI bounds, the penalty's stiffness with the
    barrier. Collective; nothing without obstacles (MSimContactGet refuses them there). */
 PetscErrorCode MSimContactRefuseUnread(MSimSystem sys, const char type[]);
+/* Integrators of type `type` whose contact is the penalty (the explicit ones and ts), stepping by
+   h: each obstacle's speed against the step, as the implicit integrators check it at their set-up
+   with their step's scale sqrt(beta) h (-msim_contact_velocity refused in one line). Collective;
+   nothing without obstacles or for the implicit integrators. */
+PetscErrorCode MSimContactCheckPenaltyStep(MSimSystem sys, const char type[], PetscReal h);
 /* The start state against the obstacles the barrier takes, with its margin: one error line naming
    the first vertex within 1e-6 dhat of one (MSimContactGet refuses only a vertex inside, as a
    penalty or VI bounds can start on an obstacle; the implicit integrators call this where the

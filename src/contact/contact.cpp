@@ -628,7 +628,7 @@ PetscErrorCode MSimContactGet(MSimSystem sys, MSimContact *contact)
     std::vector<PetscReal> v(3 * ct->obs.size() + 1, 0.0);
     PetscInt               nv = (PetscInt)v.size();
     PetscBool              set;
-    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static. Implicit integrators: a travel in a step |v| sqrt(beta) h of at most dhat / sqrt(eps)", NULL, v.data(), &nv, &set));
+    PetscCall(MSimOptionsRealArray("-msim_contact_velocity", "Obstacles' constant velocities, m/s: one vx,vy,vz per obstacle in -msim_scene_view's order (planes, spheres, boxes, meshes, each as given); default static. A travel in a step |v| s of at most dhat / sqrt(eps): s = sqrt(beta) h for the implicit integrators, h for the explicit ones and ts", NULL, v.data(), &nv, &set));
     if (set) {
       PetscCheck(nv == 3 * (PetscInt)ct->obs.size(), sys->comm, PETSC_ERR_ARG_WRONG, "-msim_contact_velocity takes one vx,vy,vz per obstacle (%d obstacles: %d values); got %s%d values", (int)ct->obs.size(), 3 * (int)ct->obs.size(), nv == (PetscInt)v.size() ? "more than " : "", (int)(nv == (PetscInt)v.size() ? nv - 1 : nv));
       for (size_t k = 0; k < ct->obs.size(); k++)
@@ -811,6 +811,21 @@ PetscErrorCode MSimContactAddPenaltyJacobian(MSimSystem sys, PetscReal t, Vec X,
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* Each obstacle's travel in a step of scale s (named by `scale`), |v| s, at most dhat / sqrt(eps):
+   its position x - v t has roundoff eps |v t|, past sqrt(eps) of the contact distance beyond
+   that, and a speed whose travel in a step outgrows the scene that far is no input a step can
+   resolve (a plane rising 1e300 m/s: NaN at step 1 of the barrier, "the state is not finite" at
+   step 10 of the explicit penalty, the frames written) */
+static PetscErrorCode CheckSpeeds(MSimContact ct, PetscReal s, const char scale[])
+{
+  PetscFunctionBeginUser;
+  for (size_t k = 0; k < ct->obs.size(); k++) {
+    const PetscReal *v = ct->obs[k].v, speed = std::hypot(v[0], std::hypot(v[1], v[2])); /* no overflow at 1e300 */
+    PetscCheck(speed * s <= ct->dhat / PETSC_SQRT_MACHINE_EPSILON, ct->sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_velocity: obstacle %d's speed must be <= %g m/s here, a travel in a step (%s = %g s) of at most the contact distance %g over sqrt(eps), or its roundoff is past sqrt(eps) of the contact distance (got %g m/s)", (int)k, (double)(ct->dhat / PETSC_SQRT_MACHINE_EPSILON / s), scale, (double)s, (double)ct->dhat, (double)speed);
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* The barrier's values against the step, once per h2 (the first call is the implicit integrator's
    set-up, before any output), s = sqrt(h2) = sqrt(beta) h the step's scale kappa's default takes:
    - kappa within [eps, 1/eps] of its default 1/(h2 b''(dhat/2)): beyond, the barrier's stiffness
@@ -819,8 +834,7 @@ PetscErrorCode MSimContactAddPenaltyJacobian(MSimSystem sys, PetscReal t, Vec X,
      the default: the drape failed at steps 5 and 6; 1e15 x and 1e-5 x ran; 1e-300: "diverged");
    - friction's smoothing distance eps_v s at least sqrt(eps) times the largest start coordinate,
      as the contact distance is (friction_eps 1e-300 and 1e-10 m/s: DIVERGED_LINEAR_SOLVE; 1e-8 ran);
-   - each obstacle's travel in a step |v| s at most dhat / sqrt(eps): its position x - v t, with
-     roundoff eps |v t|, then keeps distances to sqrt(eps) of dhat within a step (a plane rising
+   - each obstacle's travel in a step |v| s at most dhat / sqrt(eps) (CheckSpeeds; a plane rising
      1e300 m/s gave NaN at step 1, 1e10 a stalled step). */
 static PetscErrorCode CheckStep(MSimContact ct, PetscReal h2)
 {
@@ -836,10 +850,7 @@ static PetscErrorCode CheckStep(MSimContact ct, PetscReal h2)
     PetscCall(VecNorm(sys->X0, NORM_INFINITY, &xmax));
     PetscCheck(ct->eps_v * s >= PETSC_SQRT_MACHINE_EPSILON * xmax, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_eps must be >= %g m/s here: friction's smoothing distance eps_v sqrt(beta) h (sqrt(beta) h = %g s) below sqrt(eps) times the largest start coordinate %g m is lost in the coordinates' roundoff (got %g)", (double)(PETSC_SQRT_MACHINE_EPSILON * xmax / s), (double)s, (double)xmax, (double)ct->eps_v);
   }
-  for (size_t k = 0; k < ct->obs.size(); k++) {
-    const PetscReal *v = ct->obs[k].v, speed = std::hypot(v[0], std::hypot(v[1], v[2])); /* no overflow at 1e300 */
-    PetscCheck(speed * s <= ct->dhat / PETSC_SQRT_MACHINE_EPSILON, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_contact_velocity: obstacle %d's speed must be <= %g m/s here, a travel in a step (sqrt(beta) h = %g s) of at most the contact distance %g over sqrt(eps), or its roundoff is past sqrt(eps) of the contact distance (got %g m/s)", (int)k, (double)(ct->dhat / PETSC_SQRT_MACHINE_EPSILON / s), (double)s, (double)ct->dhat, (double)speed);
-  }
+  PetscCall(CheckSpeeds(ct, s, "sqrt(beta) h"));
   if (ct->kappa == 0) ct->kappa = k0;
   ct->h2_checked = h2;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -850,5 +861,18 @@ PetscErrorCode MSimContactGetForStep(MSimSystem sys, PetscReal h2, MSimContact *
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, ct));
   if (*ct && (*ct)->h2_checked != h2) PetscCall(CheckStep(*ct, h2));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+PetscErrorCode MSimContactCheckPenaltyStep(MSimSystem sys, const char type[], PetscReal h)
+{
+  MSimContact ct;
+  PetscBool   barrier;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimImplicitSchemeIsRegistered(type, &barrier));
+  if (barrier) PetscFunctionReturn(PETSC_SUCCESS); /* CheckStep, at the integrator's set-up */
+  PetscCall(MSimContactGet(sys, &ct));
+  if (ct) PetscCall(CheckSpeeds(ct, h, "h"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

@@ -102,6 +102,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   integ->want_phi = want_mon;
   PetscCall(MSimIntegratorSetUp(integ));
   PetscCall(MSimContactRefuseUnread(sys, integ->type));
+  PetscCall(MSimContactCheckPenaltyStep(sys, integ->type, integ->dt));
   PetscCall(MSimContactForceSetIntegrator(sys, integ->type)); /* the frames' and monitor's contact force */
   PetscCall(MSimGuard(sys, integ, X, info));
   PetscCall(MSimCheckpointSetIntegrator(ck, integ));
