@@ -362,6 +362,13 @@ def main():
             lines = mt.lines(r.stderr)
             check(r.returncode == 0 and len(lines) == 1 and lines[0].startswith("msim: warning: -msim_stifness was set but never used"),
                   f"np={np} misspelled option: rc {r.returncode}, stderr {lines!r}")
+        # the spectrum's options without -msim_spectrum: read (-help lists them), so PETSc's warning
+        # never named them, and the run stepped without a word; each named in one warning line
+        for np in nps:
+            r = run(["-msim_cloth_n", "5", "-msim_steps", "1", "-msim_spectrum_lowest", "4", "-msim_spectrum_largest", "2", "-msim_spectrum_modes", "modes"], tmp, np)
+            lines = mt.lines(r.stderr)
+            check(r.returncode == 0 and lines == [f"msim: warning: -msim_spectrum_{o} has no effect without -msim_spectrum (which computes the spectrum instead of the run's steps)" for o in ("largest", "lowest", "modes")]
+                  and not os.path.exists(os.path.join(tmp, "modes")), f"np={np} the spectrum's options without -msim_spectrum: rc {r.returncode}, stderr {lines!r}")
         # an option given on two lines of one options file keeps the last value only: named in one
         # warning line (a list option's repeat is an error: the corpus); a file's option given
         # again on the command line is PETSc's ordinary override, and says nothing
