@@ -46,7 +46,7 @@ def main():
                 if os.path.exists(csv) and sum(1 for _ in open(csv)) > 20:
                     break
             mt.kill_all(p)
-            problems = [m for m in (rows_ok(csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s", 14, 0),
+            problems = [m for m in (rows_ok(csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,contact_energy,wall_s", 15, 0),
                                      rows_ok(hist, "step,iteration,wall_s,phi,gnorm", 5, 0)) if m]
             listed = mt.frames(out) if os.path.exists(os.path.join(out, "series.pvd")) else []
             for name in listed:

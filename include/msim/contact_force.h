@@ -11,9 +11,11 @@
    Called once by the time loop with the integrator's type, before the first frame. */
 PetscErrorCode MSimContactForceSetIntegrator(MSimSystem sys, const char type[]);
 /* F (a free-vertex Vec, or NULL) = the obstacles' force on each owned free vertex at X and time t
-   (summed over obstacles); totals (or NULL) = its sum over ranks (x, y, z) and the vertices in contact
-   (barrier: within dhat; penalty: inside). Zeros without obstacles, and for the barrier before its
-   kappa is chosen (at the first step). Collective. */
-PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal totals[4]);
+   (summed over obstacles); totals (or NULL) = its sum over ranks (x, y, z), the vertices in contact
+   (barrier: within dhat; penalty: inside) and the energy whose gradient the normal force is
+   (barrier: kappa m b(d); penalty: kc d^2 / 2; per vertex and obstacle; friction, dissipative, has
+   none; VI bounds' reactions store none: 0). Zeros without obstacles, and for the barrier before
+   its kappa is chosen (at the first step). Collective. */
+PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal totals[5]);
 /* Whether the system has obstacles (collective on first use: reads the contact options). */
 PetscErrorCode MSimContactHasObstacles(MSimSystem sys, PetscBool *has);

@@ -101,8 +101,9 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume
 PetscErrorCode MSimCSVKeepSteps(const char path[], PetscInt last, const PetscReal *t_last, PetscBool *kept, PetscBool *foreign, PetscReal *row_t);
 PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want);
 /* phi: the implicit step's incremental potential at its result (0 for explicit methods); contact
-   (or NULL: zeros): the obstacles' total force x, y, z and vertices in contact (msim/contact_force.h) */
-PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi, const PetscReal contact[4]);
+   (or NULL: zeros): the obstacles' total force x, y, z, vertices in contact and contact energy
+   (msim/contact_force.h) */
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi, const PetscReal contact[5]);
 PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon);
 
 /* -msim_view_final VIEWER: positions of all vertices in msim's vertex order (that of the frames,

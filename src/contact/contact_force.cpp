@@ -75,13 +75,13 @@ PetscErrorCode MSimContactHasObstacles(MSimSystem sys, PetscBool *has)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal totals[4])
+PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, PetscReal totals[5])
 {
   MSimContact        ct;
   PetscObject        mark;
   const PetscScalar *x, *m;
   PetscScalar       *f = NULL;
-  PetscReal          sum[4] = {0, 0, 0, 0};
+  PetscReal          sum[5] = {0, 0, 0, 0, 0}; /* force x, y, z; vertices in contact; energy */
 
   PetscFunctionBeginUser;
   PetscCall(MSimContactGet(sys, &ct));
@@ -101,12 +101,14 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
       touch[v] = (char)(touch[v] | mark);
     };
     if (barrier) {
-      /* the barrier's normal force, the same clamp as obstacles.cpp's gradient */
+      /* the barrier's normal force, the same clamp as obstacles.cpp's gradient, and the energy
+         kappa m b(d) whose gradient it is (obstacles.cpp's E over beta h^2) */
       MSimContactForEachNear(ct, sys->nown, x, t, ct->dhat, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
         PetscReal e, de, d2e, s[3];
         MSimBarrier(PetscMax(d, PETSC_SMALL * ct->dhat), ct->dhat, &e, &de, &d2e);
         for (int c = 0; c < 3; c++) s[c] = -ct->kappa * PetscRealPart(m[3 * v]) * de * n[c];
         add(v, s, 1);
+        sum[4] += ct->kappa * PetscRealPart(m[3 * v]) * e;
       });
       /* and friction's, -mu lambda f1(y)/y u, at this state against the step's x_n, with the
          contacts of the lag point, that its term left (friction.cpp; none before the first step) */
@@ -126,6 +128,7 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
       MSimContactForEachNear(ct, sys->nown, x, t, 0.0, PETSC_FALSE, [&](PetscInt v, const MSimObstacle &, PetscReal d, const PetscReal *n, const PetscReal *) {
         const PetscReal s[3] = {-ct->kc * d * n[0], -ct->kc * d * n[1], -ct->kc * d * n[2]};
         add(v, s, 1);
+        sum[4] += 0.5 * ct->kc * d * d; /* the penalty's energy, whose gradient is -s */
       });
     for (char c : touch) sum[3] += c;
     if (F) PetscCall(VecRestoreArray(F, &f));
@@ -154,7 +157,7 @@ PetscErrorCode MSimContactForce(MSimSystem sys, PetscReal t, Vec X, Vec F, Petsc
     }
   }
   if (totals) {
-    PetscCall(MPIU_Allreduce(sum, totals, 4, MPIU_REAL, MPIU_SUM, sys->comm));
+    PetscCall(MPIU_Allreduce(sum, totals, 5, MPIU_REAL, MPIU_SUM, sys->comm));
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

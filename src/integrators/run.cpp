@@ -164,7 +164,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   PetscCall(PetscLogStagePush(MSIM_StageStep));
   if (!restarted) { /* a restarted run has these from the first */
     if (want_mon) {
-      PetscReal contact[4];
+      PetscReal contact[5];
       PetscCall(MSimContactForce(sys, 0.0, X, NULL, contact));
       PetscCall(MSimMonitorWrite(sys->comm, &mon, 0, 0.0, kin, pot, 0, 0, 0.0, 0.0, contact));
     }
@@ -329,7 +329,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       PetscCall(VecCopy(V, Vgood));
     }
     if (want_mon) {
-      PetscReal contact[4]; /* at the step's result, as the frame's contact_force */
+      PetscReal contact[5]; /* at the step's result, as the frame's contact_force */
       PetscCall(MSimContactForce(sys, t, X, NULL, contact));
       PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi, contact));
     }

@@ -1,5 +1,7 @@
 /* Per-step monitors: a fixed-format line on rank 0 (no timings, so runs can be diffed) and a CSV
-   with wall time. Energies: kinetic, potential (springs + gravity), total. */
+   with wall time. Energies: kinetic, potential (springs, the tets' volume term, gravity), total
+   (their sum, the energy the divergence test compares); the CSV adds the obstacles' contact
+   energy, which potential leaves out (msim/contact_force.h). */
 #include <msim/output.h>
 #include <msim/log.h>
 #include <msim/private/systemimpl.h>
@@ -15,6 +17,8 @@
    monitored energies) */
 static PetscLogEvent MSIM_Monitor = -1;
 
+static const char header[] = "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,contact_energy,wall_s";
+
 PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
 {
   PetscFunctionBeginUser;
@@ -24,7 +28,7 @@ PetscErrorCode MSimMonitorCreate(MPI_Comm comm, MSimMonitor *mon)
   mon->csv_path[0] = 0;
   PetscOptionsBegin(comm, NULL, "msim monitors", NULL);
   PetscCall(PetscOptionsBool("-msim_monitor", "Print one line per step: energies, iterations, residual", NULL, mon->ascii, &mon->ascii, NULL));
-  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
+  PetscCall(PetscOptionsString("-msim_monitor_csv", "Write a CSV per step: step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,contact_energy,wall_s. potential: the springs', the tets' volume term's and gravity's energy, and total = kinetic + potential (what the divergence test compares), without the contact barriers; contact_energy: the obstacles' barrier (implicit) or penalty (explicit, ts) energy", NULL, mon->csv_path, mon->csv_path, sizeof(mon->csv_path), NULL));
   PetscOptionsEnd();
   PetscCall(PetscTime(&mon->wall0));
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -45,18 +49,26 @@ PetscErrorCode MSimMonitorSetUp(MPI_Comm comm, MSimMonitor *mon, PetscInt resume
   if (rank == 0) {
     /* a restarted run keeps the rows up to its checkpoint and goes on from there, if they are the
        checkpoint's run's: a file another run wrote (another scene, another step size) is left
-       as it is and the run refused, not spliced onto */
+       as it is and the run refused, not spliced onto; so is a file whose header has other columns
+       (an older msim's, before contact_energy), which rows of this layout would not fit */
     PetscBool kept = PETSC_FALSE, foreign = PETSC_FALSE;
-    if (resume_step >= 0) PetscCall(MSimCSVKeepSteps(mon->csv_path, resume_step, &resume_t, &kept, &foreign, &row_t));
+    FILE     *old  = resume_step >= 0 ? fopen(mon->csv_path, "r") : NULL;
+    if (old) {
+      char line[4096]; /* a header cut short (no newline) is MSimCSVKeepSteps's: written anew */
+      if (fgets(line, sizeof(line), old) && strchr(line, '\n') && (strncmp(line, header, sizeof(header) - 1) || line[sizeof(header) - 1] != '\n')) ok = -2;
+      fclose(old);
+    }
+    if (ok != -2 && resume_step >= 0) PetscCall(MSimCSVKeepSteps(mon->csv_path, resume_step, &resume_t, &kept, &foreign, &row_t));
     if (foreign) ok = -1;
-    else {
+    else if (ok != -2) {
       mon->csv = fopen(mon->csv_path, kept ? "a" : "w");
-      if (mon->csv && !kept) ok = fprintf(mon->csv, "step,t,kinetic,potential,total,nonlinear_its,linear_its,residual,phi,contact_fx,contact_fy,contact_fz,contact_n,wall_s\n") > 0 && fflush(mon->csv) == 0;
+      if (mon->csv && !kept) ok = fprintf(mon->csv, "%s\n", header) > 0 && fflush(mon->csv) == 0;
       else ok = mon->csv != NULL;
     }
   }
   PetscCallMPI(MPI_Bcast(&ok, 1, MPI_INT, 0, comm));
   PetscCallMPI(MPI_Bcast(&row_t, 1, MPIU_REAL, 0, comm));
+  PetscCheck(ok != -2, comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_monitor_csv %s: its header is not this msim's columns (%s): name another file or remove it", mon->csv_path, header);
   PetscCheck(ok != -1 || !PetscIsNanReal(row_t), comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_monitor_csv %s: another run's monitor (no row for the checkpoint's step %" PetscInt_FMT "): name another file or remove it", mon->csv_path, resume_step);
   PetscCheck(ok != -1, comm, PETSC_ERR_FILE_UNEXPECTED, "-msim_monitor_csv %s: another run's monitor (its step %" PetscInt_FMT " is at t = %g s, the checkpoint's at %g s): name another file or remove it", mon->csv_path, resume_step, (double)row_t, (double)resume_t);
   PetscCheck(ok, comm, PETSC_ERR_FILE_OPEN, "-msim_monitor_csv: cannot write %s", mon->csv_path);
@@ -138,7 +150,7 @@ PetscErrorCode MSimMonitorWanted(MSimMonitor *mon, PetscBool *want)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi, const PetscReal contact[4])
+PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, PetscReal t, PetscReal kinetic, PetscReal potential, PetscInt nl, PetscInt lin, PetscReal residual, PetscReal phi, const PetscReal contact[5])
 {
   PetscLogDouble now;
 
@@ -149,9 +161,10 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
      (msim/contact_force.h; zeros without obstacles) */
   const PetscReal fc[3] = {contact ? contact[0] : 0, contact ? contact[1] : 0, contact ? contact[2] : 0};
   const PetscInt  nc    = contact ? (PetscInt)(contact[3] + 0.5) : 0;
+  const PetscReal ec    = contact ? contact[4] : 0;
   if (mon->csv) {
     PetscCall(PetscTime(&now));
-    const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.9e,%.9e,%.9e,%" PetscInt_FMT ",%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, (double)fc[0], (double)fc[1], (double)fc[2], nc, now - mon->wall0);
+    const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.9e,%.9e,%.9e,%" PetscInt_FMT ",%.12e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, (double)fc[0], (double)fc[1], (double)fc[2], nc, (double)ec, now - mon->wall0);
     PetscCheck(wrote > 0 && fflush(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
   }
   PetscCall(PetscLogEventEnd(MSIM_Monitor, 0, 0, 0, 0));
