@@ -79,6 +79,17 @@ CORPUS = [
     ("version40.msh", "tet", "version40.msh line 2: an ASCII file of version 2.2 or 4.1 expected here"),
     ("quadratic.ele", "tet", "line 2: 10 nodes per tet"),
     ("nan_binary.stl", "tet", "nan_binary.stl: facet 2 (binary, counting from 0): a coordinate is NaN"),
+    # a cell listed twice (in any vertex order) counted its area or volume twice (a surface scene,
+    # an obstacle and a tet file ran on); a closed surface with one was called open. Lines and ids
+    # as the files are written: a face's line, OBJ ids from 1 made ids from 0, an STL facet's
+    # 'facet normal' line, a binary STL's facets counted from 1
+    ("repeated_face.obj", "mesh", "line 9: the face repeats line 7: the same vertices 0 1 2 (its area would count twice"),
+    ("repeated_face.off", "mesh", "line 18: the face repeats line 17: the same vertices"),
+    ("repeated_face.off", "tet", "line 18: the face repeats line 17: the same vertices"),
+    ("repeated_facet.stl", "mesh", "line 86: the facet repeats line 2: the same vertices"),
+    ("repeated_facet.stl", "tet", "line 86: the facet repeats line 2: the same vertices"),
+    ("repeated_facet_binary.stl", "mesh", "repeated_facet_binary.stl: facet 13 (counting from 1) repeats facet 1: the same vertices"),
+    ("repeated_tet.ele", "tet", "line 8: the tet repeats line 4: the same vertices 2 1 3 7 (its volume would count twice"),
 ]
 NEEDS_TETGEN = {"open_surface.off", "self_intersecting.off"}  # found while preparing TetGen's input
 # left out at 2 ranks: rank 0 alone reads, checks and meshes a file (MSimCallOnRankZero in
@@ -147,6 +158,14 @@ def test_corpus(tmp):
             good = (r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: ") and message in lines[0]
                     and os.path.join("tests", "data", "bad", stem) in lines[0] and not os.path.exists(out) and r.returncode < 128)
             check(good, f"np={np} {name}: rc {r.returncode}, stderr {lines!r}, expected one line with '{message}'")
+        # an obstacle goes through the same reader and check: a repeated face is refused there too
+        out = os.path.join(tmp, f"out_{np}")
+        path = os.path.join("tests", "data", "bad", "repeated_face.obj")
+        r = run(["-msim_integrator", "implicit_euler", "-msim_cloth_n", "5", "-msim_contact_mesh", path, "-msim_output", out, "-msim_steps", "1"], np, cwd=ROOT)
+        lines = mt.lines(r.stderr)
+        good = (r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: " + path + " line 9: the face repeats line 7")
+                and not os.path.exists(out) and r.returncode < 128)
+        check(good, f"np={np} -msim_contact_mesh repeated_face.obj: rc {r.returncode}, stderr {lines!r}, expected one line naming its line 9")
 
 
 def test_valid():

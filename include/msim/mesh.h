@@ -92,7 +92,8 @@ static inline PetscInt MSimMeshFileId(const MSimMesh *m, PetscInt v)
 }
 
 /* Validation (rank 0): every index in range, no repeated vertex in a cell, no edge of zero
-   length, no tet of zero or negative volume, no triangle of zero area. Vertices no cell uses are
+   length, no tet of zero or negative volume, no triangle of zero area, no cell listed twice (the
+   same vertices in any order: its measure would count twice). Vertices no cell uses are
    allowed (MSimMeshDropUnused drops them first); messages name vertices by their file ids. */
 PetscErrorCode MSimMeshCheck(const MSimMesh *m);
 /* A surface for TetGen must be closed: every edge in exactly two triangles. */

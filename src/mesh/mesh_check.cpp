@@ -53,6 +53,51 @@ static std::string WhereVertex(const MSimMesh *m, PetscInt v)
   return f + buf;
 }
 
+/* A cell listed twice (the same vertices, in any order: an OBJ's "f 1 2 3" repeated, an STL facet
+   whose three corners weld to those of another) would count its area or volume twice in the
+   lumped masses and in the stiffness of the springs on its edges, and a closed surface with one
+   would be refused as open. Refused, naming the later cell and the first: the repeat found
+   earliest in the file. Sorting the cells' vertex sets costs 20 bytes a tet, transient. */
+static PetscErrorCode CheckRepeatedCells(const MSimMesh *m)
+{
+  struct Key {
+    PetscInt v[4];
+    PetscInt c;
+  };
+  const int        k = m->nper;
+  std::vector<Key> key(m->ncell);
+  PetscInt         first = -1, again = -1;
+
+  PetscFunctionBeginUser;
+  for (PetscInt c = 0; c < m->ncell; c++) {
+    Key &q = key[c];
+    q.v[3] = -1;
+    for (int a = 0; a < k; a++) q.v[a] = m->cell[(size_t)k * c + a];
+    std::sort(q.v, q.v + k);
+    q.c = c;
+  }
+  std::sort(key.begin(), key.end(), [](const Key &a, const Key &b) { return std::lexicographical_compare(a.v, a.v + 4, b.v, b.v + 4) || (std::equal(a.v, a.v + 4, b.v) && a.c < b.c); });
+  /* within a group of equal vertex sets the cells are in file order: its first two are the cell
+     and its earliest repeat */
+  for (size_t q = 0, r; q < key.size(); q = r) {
+    for (r = q + 1; r < key.size() && std::equal(key[r].v, key[r].v + 4, key[q].v);) r++;
+    if (r - q > 1 && (again < 0 || key[q + 1].c < again)) {
+      first = key[q].c;
+      again = key[q + 1].c;
+    }
+  }
+  if (again >= 0) {
+    char            was[64], ids[96];
+    const PetscInt *id = &m->cell[(size_t)k * again];
+    if (m->cline.size() > (size_t)first && m->cline[first] > 0) snprintf(was, sizeof(was), "line %lld", (long long)m->cline[first]);
+    else snprintf(was, sizeof(was), "%s %lld", m->cell_name, (long long)first + 1);
+    if (k == 4) snprintf(ids, sizeof(ids), "%lld %lld %lld %lld", (long long)MSimMeshFileId(m, id[0]), (long long)MSimMeshFileId(m, id[1]), (long long)MSimMeshFileId(m, id[2]), (long long)MSimMeshFileId(m, id[3]));
+    else snprintf(ids, sizeof(ids), "%lld %lld %lld", (long long)MSimMeshFileId(m, id[0]), (long long)MSimMeshFileId(m, id[1]), (long long)MSimMeshFileId(m, id[2]));
+    SETERRQ(PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s repeats %s: the same vertices %s (its %s would count twice in the masses and springs)", WhereCell(m, again).c_str(), was, ids, k == 4 ? "volume" : "area");
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimMeshCheck(const MSimMesh *m)
 {
   const int         k = m->nper;
@@ -92,6 +137,7 @@ PetscErrorCode MSimMeshCheck(const MSimMesh *m)
       PetscCheck(area > 1e-12 * lmax * lmax, PETSC_COMM_SELF, PETSC_ERR_FILE_UNEXPECTED, "%s has zero area (%.3e): its three vertices lie on one line", WhereCell(m, c).c_str(), (double)area);
     }
   }
+  PetscCall(CheckRepeatedCells(m));
   PetscCall(PetscLogEventEnd(MSIM_MeshCheck, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
