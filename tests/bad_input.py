@@ -352,6 +352,18 @@ def main():
                 if os.path.exists(out):
                     problems.append("output directory was created")
                 check(not problems, f"np={np} {' '.join(args)}: " + "; ".join(problems))
+        # fewer free vertices than ranks (a chain of n vertices, fixed at both ends, has n - 2):
+        # refused before partitioning, so that METIS, which asked for more parts than vertices
+        # prints lines of its own on stdout ("Cannot bisect a graph with 0 vertices"), is not called:
+        # msim's one line alone, at 2 ranks and at 4 (where METIS spoke)
+        if 2 in nps:
+            for np, n in ((2, 3), (4, 3), (4, 5)):
+                out = os.path.join(tmp, f"few_free_{np}_{n}")
+                r = run(["-msim_scene", "chain", "-msim_chain_n", str(n), "-msim_steps", "2", "-msim_output", out], tmp, np)
+                lines, free = mt.lines(r.stderr), n - 2
+                want = f"msim: error: the chain scene has {free} free {'vertex' if free == 1 else 'vertices'} for {np} ranks: every rank must own one; use at most {free} rank"
+                check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith(want) and not r.stdout.strip() and not os.path.exists(out),
+                      f"np={np} a chain of {n} ({free} free): rc {r.returncode}, stderr {lines!r}, stdout {r.stdout.strip()[-200:]!r}, want '{want}' alone")
         for np in nps:
             for args in ACCEPTED:
                 r = run(["-msim_integrator", "implicit_euler", "-msim_cloth_n", "6", "-msim_dt", "0.01", "-msim_steps", "2", "-snes_max_it", "500"] + args, tmp, np)

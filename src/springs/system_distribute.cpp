@@ -108,6 +108,10 @@ PetscErrorCode MSimSystemDistribute(MPI_Comm comm, MSimSceneData &S, MSimPartiti
     if (f >= 0) f += fstart;
   PetscCallMPI(MPI_Allreduce(&nfl, &L.nfree, 1, MPIU_INT, MPI_SUM, comm));
   PetscCheck(L.nfree > 0, comm, PETSC_ERR_ARG_WRONG, "every vertex of the %s scene is fixed: nothing to simulate", S.name.c_str());
+  /* every rank must own a free vertex (checked again below, after partitioning): said here, before
+     the partitioner runs, because METIS asked for more parts than vertices prints its own lines
+     ("Cannot bisect a graph with 0 vertices") on stdout ahead of msim's */
+  PetscCheck(L.nfree >= size, comm, PETSC_ERR_ARG_WRONG, "the %s scene has %" PetscInt_FMT " free %s for %d ranks: every rank must own one; use at most %" PetscInt_FMT " rank%s", S.name.c_str(), L.nfree, L.nfree == 1 ? "vertex" : "vertices", size, L.nfree, L.nfree == 1 ? "" : "s");
   {
     /* a scene without springs is a cloud of free particles: always a mistake in the scene's
        options (a spring family list that makes none, a mesh with no edges) */
