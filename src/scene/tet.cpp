@@ -79,7 +79,10 @@ PetscErrorCode MSimSceneGenerate_Tet(MPI_Comm comm, MSimSceneData *s)
   PetscFunctionBeginUser;
   PetscOptionsBegin(comm, NULL, "msim tet scene (a solid: springs on tet edges)", NULL);
   PetscCall(MSimSceneMeshFileOptions(PetscOptionsObject, file, sizeof(file), &scale, &set, format, sizeof(format)));
-  PetscCall(PetscOptionsString("-msim_tetgen_switches", "TetGen switches for a surface (p: keep the surface, q1.414: radius-edge ratio bound, Y: no new vertices on the surface, a0.1: tet volume bound)", NULL, switches, switches, sizeof(switches), NULL));
+  /* the switches go to TetGen as given (plus z and Q): a volume bound is TetGen's, and with Y,
+     msim's default for fewer vertices, TetGen cannot meet it next to the surface (-help says how
+     far it misses) */
+  PetscCall(PetscOptionsString("-msim_tetgen_switches", "TetGen switches for a surface (p: keep the surface, q1.414: radius-edge ratio bound, Y: no new vertices on the surface, a0.1: tet volume bound). With Y the bound holds away from the surface only: TetGen leaves a tet whose refinement would split a surface triangle, so tets at and near the surface keep the size of its triangles (the bunny at pq1.414Ya0.001: up to 42 times the bound). Without Y every tet meets it but a few that TetGen's final smoothing moves past it (pq1.414a0.01: up to 1.04 times; O0 turns the smoothing off)", NULL, switches, switches, sizeof(switches), NULL));
   PetscOptionsEnd();
   if (s->options_only) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCheck(set && file[0], comm, PETSC_ERR_ARG_WRONG, "-msim_scene tet needs -msim_mesh_file F (a closed surface .off/.obj/.stl, TetGen .node/.ele, Gmsh .msh, or Medit .mesh)");
