@@ -176,3 +176,32 @@ inline PetscReal MSimContactAnchorExcess(PetscReal dmin, PetscReal dhat, PetscRe
 {
   return dmin - dhat - 1e-9 * (dhat + PetscAbsReal(dmin) + xmax);
 }
+
+/* The anchored loops' query of the rank's vertex v at xv (the obstacles where they are at time t),
+   shared by the obstacles term's (NearLoop) and friction's (Collect): f(o, d, n, H) for each of its
+   contacts with reach dhat (MSimObstacleContacts, every obstacle in turn; H only when hessian),
+   then its anchor (3 coordinates) set to xv. Returns its excess (MSimContactAnchorExcess) from a
+   lower bound on each obstacle's distance: the distance, but where a mesh answers "band" (at least
+   dhat) beyond its band the larger of that and the vertex's clearance
+   (MSimMeshObstacleVertexClearance: the depth of its point in the vertex's far balls), so that the
+   anchor's ball skips the vertex while it falls past the mesh instead of after every small move.
+   *dmin (when not NULL): the least distance itself. */
+template <class F>
+inline PetscReal MSimContactAnchorVertex(const _n_MSimContact *ct, PetscInt v, const PetscScalar *xv, PetscReal t, PetscBool hessian, PetscReal anchor[3], PetscReal *dmin, F &&f)
+{
+  PetscReal dm = PETSC_MAX_REAL, dlow = PETSC_MAX_REAL, xmax = 0;
+  for (const MSimObstacle &o : ct->obs) {
+    const PetscReal d = MSimObstacleContacts(o, v, xv, t, ct->dhat, hessian, [&](PetscReal dc, const PetscReal *n, const PetscReal *H) { f(o, dc, n, H); });
+    dm                = PetscMin(dm, d);
+    if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
+      const PetscReal y[3] = {xv[0] - o.v[0] * t, xv[1] - o.v[1] * t, xv[2] - o.v[2] * t}; /* MSimObstacleContacts' point */
+      dlow                 = PetscMin(dlow, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
+    } else dlow = PetscMin(dlow, d);
+  }
+  for (int c = 0; c < 3; c++) {
+    anchor[c] = xv[c];
+    xmax      = PetscMax(xmax, PetscAbsReal(xv[c]));
+  }
+  if (dmin) *dmin = dm;
+  return MSimContactAnchorExcess(dlow, ct->dhat, xmax);
+}

@@ -91,7 +91,7 @@ static void Collect(MSimSystem sys, MSimContact ct, Lagged *L, const PetscScalar
   }
   /* MSimContactForEachNear's queries, in its order, less the vertices within ex of their anchors.
      A mesh answers "band" beyond band, which would leave no ball to skip in, but knows a larger
-     lower bound there (MSimMeshObstacleVertexClearance, as the barrier's anchors take it): each
+     lower bound there (MSimContactAnchorVertex, the barrier's anchors' query too): each
      step's x_n queries on the 101 x 101 drape on the 20,480-triangle ball were 1.7 M instructions
      of its 114 M PD-10 step, most of them for vertices far from the mesh */
   if ((PetscInt)L->ex.size() != sys->nown) {
@@ -101,20 +101,8 @@ static void Collect(MSimSystem sys, MSimContact ct, Lagged *L, const PetscScalar
   for (PetscInt v = 0; v < sys->nown; v++) {
     const PetscReal *an = L->anchor.data() + 3 * v, ev = L->ex[v];
     const PetscReal  dx = xp[3 * v] - an[0], dy = xp[3 * v + 1] - an[1], dz = xp[3 * v + 2] - an[2];
-    PetscReal        dmin = PETSC_MAX_REAL, xmax = 0;
     if (ev > 0 && dx * dx + dy * dy + dz * dz <= ev * ev) continue;
-    for (const MSimObstacle &o : ct->obs) {
-      const PetscReal d = MSimObstacleContacts(o, v, xp + 3 * v, tp, ct->dhat, PETSC_FALSE, [&](PetscReal dc, const PetscReal *n, const PetscReal *) { add(v, o, dc, n, NULL); }); /* each contact, a mesh's creases' too */
-      if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
-        const PetscReal y[3] = {xp[3 * v] - o.v[0] * tp, xp[3 * v + 1] - o.v[1] * tp, xp[3 * v + 2] - o.v[2] * tp}; /* MSimObstacleContacts' point */
-        dmin                 = PetscMin(dmin, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
-      } else dmin = PetscMin(dmin, d);
-    }
-    for (int c = 0; c < 3; c++) {
-      L->anchor[3 * v + c] = xp[3 * v + c];
-      xmax                 = PetscMax(xmax, PetscAbsReal(xp[3 * v + c]));
-    }
-    L->ex[v] = MSimContactAnchorExcess(dmin, ct->dhat, xmax);
+    L->ex[v] = MSimContactAnchorVertex(ct, v, xp + 3 * v, tp, PETSC_FALSE, L->anchor.data() + 3 * v, NULL, [&](const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *) { add(v, o, d, n, NULL); }); /* each contact, a mesh's creases' too */
   }
 }
 

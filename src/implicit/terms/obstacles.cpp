@@ -286,30 +286,12 @@ static void NearLoop(PDWeights *pw, MSimContact ct, PetscReal moved, PetscInt no
   FarFlags(pw, ct->dhat, moved, nown, x, far);
   if (dmins)
     for (PetscInt v = 0; v < nown; v++) dmins[v] = ct->dhat; /* the queried ones' below */
-  for (PetscInt v = NextFlagged(far, 0, nown, 0); v < nown; v = NextFlagged(far, v + 1, nown, 0)) {
-    /* dlow: a lower bound on each obstacle's distance, for the anchor. A mesh answers "band" (dhat)
-       beyond band, but knows a larger bound there: the depth of y in the vertex's far balls
-       (MSimMeshObstacleVertexClearance), so the anchor's ball skips the vertex while it falls past
-       the mesh instead of after every small move (101 x 101 drape on the 20,480-triangle ball: the
-       mesh's calls 67,000 -> 22,000 a step, the step -6.6% in instructions, the same sums:
-       runs/contact/README.md, h2's eighth-session section) */
-    PetscReal dmin = PETSC_MAX_REAL, dlow = PETSC_MAX_REAL, xmax = 0;
-    for (const MSimObstacle &o : ct->obs) {
-      const PetscReal d = MSimObstacleContacts(o, v, x + 3 * v, t, ct->dhat, hessian, [&](PetscReal dc, const PetscReal *n, const PetscReal *H) { f(v, o, dc, n, H); });
-      dmin              = PetscMin(dmin, d);
-      if (o.kind == MSIM_OBSTACLE_MESH && d >= ct->dhat) {
-        const PetscReal y[3] = {x[3 * v] - o.v[0] * t, x[3 * v + 1] - o.v[1] * t, x[3 * v + 2] - o.v[2] * t}; /* MSimObstacleContacts' point */
-        dlow                 = PetscMin(dlow, PetscMax(d, MSimMeshObstacleVertexClearance(o.mesh, v, y)));
-      } else dlow = PetscMin(dlow, d);
-    }
-    /* the margin covers the distances' roundoff (a few eps of the coordinates and the distance) */
-    for (int c = 0; c < 3; c++) {
-      pw->anchor[3 * v + c] = x[3 * v + c];
-      xmax                  = PetscMax(xmax, PetscAbsReal(x[3 * v + c]));
-    }
-    pw->ex[v] = MSimContactAnchorExcess(dlow, ct->dhat, xmax);
-    if (dmins) dmins[v] = dmin;
-  }
+  /* each queried vertex's anchor and margin (MSimContactAnchorVertex; its mesh bound beyond the
+     band, on the 101 x 101 drape on the 20,480-triangle ball: the mesh's calls 67,000 -> 22,000 a
+     step, the step -6.6% in instructions, the same sums: runs/contact/README.md, h2's
+     eighth-session section) */
+  for (PetscInt v = NextFlagged(far, 0, nown, 0); v < nown; v = NextFlagged(far, v + 1, nown, 0))
+    pw->ex[v] = MSimContactAnchorVertex(ct, v, x + 3 * v, t, hessian, pw->anchor.data() + 3 * v, dmins ? dmins + v : NULL, [&](const MSimObstacle &o, PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, o, d, n, H); });
 }
 
 /* f(v, d, n, H, m) for every owned vertex v and obstacle within dhat (d may be <= 0), the
