@@ -383,8 +383,12 @@ PetscErrorCode MSimContactRefuseSqueezed(MSimContact ct, PetscReal tx, const std
   PetscCall(VecRestoreArray(flag, &f));
   ierr = RefuseFirstFlagged(sys, flag, [&](PetscInt id, const PetscScalar *e, char *buf, size_t len) -> PetscErrorCode {
     const PetscInt k = (PetscInt)(PetscRealPart(e[0]) + 0.5) - 1, c = (PetscInt)(PetscRealPart(e[1]) + 0.5) - 1;
+    /* carried by none: only the moving obstacles carry, one that reaches a vertex always does
+       (FeasibleStart_Obstacles), and a static one is where it was, so the vertex was on or inside
+       obstacle k at the step's start already; no obstacle squeezed or pushed it */
+    if (c < 0) PetscCall(PetscSNPrintf(buf, len, "vertex %d is on or inside obstacle %d (%s) at t = %g s though no moving obstacle carried it: it was there at the step's start already", (int)id, (int)k, KindOption(ct->obs[k].kind), (double)tx));
     /* carried by the obstacle it ends in: it keeps its distance, so it is inside by roundoff */
-    if (c < 0 || c == k) PetscCall(PetscSNPrintf(buf, len, "vertex %d, pushed by the moving obstacle %d (%s), is inside it at t = %g s: no position outside it (a smaller -msim_dt)", (int)id, (int)k, KindOption(ct->obs[k].kind), (double)tx));
+    else if (c == k) PetscCall(PetscSNPrintf(buf, len, "vertex %d, pushed by the moving obstacle %d (%s), is inside it at t = %g s: no position outside it (a smaller -msim_dt)", (int)id, (int)k, KindOption(ct->obs[k].kind), (double)tx));
     /* the carry keeps the vertex's distance to its carrier whatever the step, so a smaller step
        does not help where the two come that near */
     else PetscCall(PetscSNPrintf(buf, len, "vertex %d is squeezed between obstacles %d (%s), which carries it, and %d (%s) at t = %g s: they come within its distance to the first, so no position is outside both, whatever the step: move them apart or change their -msim_contact_velocity", (int)id, (int)c, KindOption(ct->obs[c].kind), (int)k, KindOption(ct->obs[k].kind), (double)tx));
