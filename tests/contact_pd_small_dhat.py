@@ -24,9 +24,11 @@ tests the vertex that cut the global step; the flag was reduced over every rank'
 at 2 and 3 ranks a vertex that cut no step took the weights again at step 9 (iteration 6), where 1
 rank did not, and 1 and 2 ranks were 1.1e-5 m apart after 11 steps (1.1e-9 m now; 3 ranks 2.5e-10
 m). Checks: positions after 11 steps within 1e-7 m of 1 rank's at 2 and 3 ranks, and the weights
-taken again (-info) as many times, at least 3 (the scene exercises the rule; not the same
-vertices: at step 9's last iteration two of them cut the step to alpha 1 - 2e-8 and 1 - 6e-8, and
-each rank count's roundoff picks either). msimllt's low-rank update is off there: it corrects 1
+taken again (-info) at least twice at each rank count (the scene exercises the rule). Not how
+many times, nor at which vertices: at step 9's last iteration two of them cut the step to alpha
+1 - 2e-8 and 1 - 6e-8, and each rank count's roundoff picks either; on another CPU (AMD EPYC,
+AVX-512 OpenBLAS kernels) 1 rank took them 2 times and 2 and 3 ranks 3 times, with positions still
+within 1e-7 m: the positions are what the old rule failed (1.1e-5 m). msimllt's low-rank update is off there: it corrects 1
 rank's solves alone (the ranks refactor), with roundoff up to 1e-10 |x| (src/solvers/pc_llt.cpp),
 which moved a blocker's distance across the rule's threshold at step 9: an extra reweighting at 1
 rank, and 1 and 2 ranks 1.1e-5 m apart after 11 steps.
@@ -79,9 +81,9 @@ def main():
         x[np_], r = mt.final_positions(exe, TWO_BALLS, np_, tmp, "two_balls", info="vec")
         ids[np_] = [int(v) for v in RETAKEN.findall(r.info)] if x[np_] is not None else None
     if check(all(x[n] is not None for n in x), "two balls at 1, 2 and 3 ranks: run"):
-        check(len(ids[1]) >= 3, f"two balls: the weights taken again within a step {len(ids[1])} times at 1 rank (>= 3)")
+        for np_ in (1, 2, 3):
+            check(len(ids[np_]) >= 2, f"two balls: the weights taken again within a step {len(ids[np_])} times at {np_} rank(s) (vertices {ids[np_]}; >= 2)")
         for np_ in (2, 3):
-            check(len(ids[np_]) == len(ids[1]), f"two balls: the weights taken again {len(ids[np_])} times at {np_} ranks (vertices {ids[np_]}), as at 1 rank (vertices {ids[1]})")
             d = float(np.abs(x[1] - x[np_]).max())
             check(d < 1e-7, f"two balls: 1 and {np_} ranks agree after 11 steps, max |x1 - x{np_}| = {d:.3g} m (< 1e-7)")
     return check.exit_code()
