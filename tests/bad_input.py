@@ -191,6 +191,10 @@ CASES = [
     # theta 0 failed at the first solve (a NaN residual), after the output was made
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "0"], "-ts_theta_theta must be in (0, 1] (got 0.)"),
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "1.5"], "-ts_theta_theta must be in (0, 1]"),
+    # theta below 0.99 (cn: 0.5) weighs the penalty at x_n: a cloth dropped on a sphere gained 42 J from rest, exit 0
+    (["-msim_integrator", "ts", "-ts_type", "theta", "-msim_contact_sphere", "0.5,0.5,-0.4,0.3"], "-ts_type theta with theta = 0.5 < 0.99 and an obstacle is not supported"),
+    (["-msim_integrator", "ts", "-ts_type", "cn", "-msim_contact_plane", "0,0,1,-0.1"], "-ts_type cn with theta = 0.5 < 0.99 and an obstacle is not supported"),
+    (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "0.95", "-ts_theta_endpoint", "-msim_contact_plane", "0,0,1,-0.1"], "-ts_type theta with theta = 0.95 < 0.99 and an obstacle is not supported"),
     # a negative tolerance turned bdf's error control off in effect (one internal step per -msim_dt)
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_atol", "-1"], "-ts_atol must be >= 0 (got -1.)"),
     # -msim_spectrum alone took the spectrum of inverted tets, whose barrier Hessian K holds (the check was the implicit term's only)
