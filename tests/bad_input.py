@@ -200,6 +200,11 @@ CASES = [
     # -msim_spectrum alone took the spectrum of inverted tets, whose barrier Hessian K holds (the check was the implicit term's only)
     (["-msim_scene", "box", "-msim_box_n", "3,2,2", "-msim_box_size", "0.3,0.1,0.1", "-msim_fix_plane", "x_min", "-msim_density", "1000", "-msim_young", "5e4",
       "-msim_perturb", "0.1", "-msim_volume", "1", "-msim_spectrum"], "-msim_volume: 32 tets are inverted or flat at the start"),
+    # TSSolve's trajectory, adjoint and DM-VTK monitor: read by PETSc (no unused-option warning) and never acted on under msim's TSStep loop, no file, no word
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_save_trajectory"], "-ts_save_trajectory is not supported with -msim_integrator ts"),
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_trajectory_type", "visualization"], "-ts_trajectory_type is not supported with -msim_integrator ts"),
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_adjoint_solve"], "-ts_adjoint_solve is not supported with -msim_integrator ts"),
+    (["-msim_integrator", "ts", "-ts_monitor_solution_vtk", "ts-%03d.vts"], "-ts_monitor_solution_vtk is not supported with -msim_integrator ts"),
     # a fixed-step TS reads no error tolerance: both 0 were refused as if an error control read them
     (["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_adapt_type", "none", "-ts_atol", "0", "-ts_rtol", "0"], "-ts_atol is not read by a fixed-step TS"),
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_rtol", "1e-3"], "-ts_rtol is not read by a fixed-step TS"),

@@ -44,6 +44,7 @@ under gravity, to T = 0.3 s; the reference is RK4 at h = 1e-5. Checked at each r
   failed step does, its last finite state kept (the latter was an error from inside the step)."""
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -118,6 +119,18 @@ def main():
             e = float(np.abs(x - ref).max()) if ok else float("nan")
             check(ok and sub > 2 * round(T / 0.01) and e < 1e-3,
                   f"np={np_}: adaptive bdf: {sub} internal steps over {round(T / 0.01)} intervals, error {e:.3e} at T")
+
+            # -ts_monitor: msim steps with TSStep, and PETSc calls the monitors in TSSolve only, so it
+            # printed nothing; now a line for the start and one per internal step (once at any rank
+            # count), times increasing to the last interval's end, as many steps as -msim_view counts
+            r = mt.run(MSIM, SCENE + ["-msim_integrator", "ts", "-ts_type", "bdf", "-ts_adapt_type", "basic", "-ts_atol", "1e-6", "-ts_rtol", "0",
+                                      "-msim_dt", "0.01", "-msim_steps", "3", "-msim_view", "-ts_monitor"], np_)
+            mon = [m.groups() for m in re.finditer(r"^\s*(\d+) TS dt \S+ time (\S+)\s*$", r.stdout, re.M)]
+            sub = [int(l.split("ts:")[1].split()[0]) for l in (r.stdout + r.stderr).splitlines() if "internal steps" in l]
+            times = [float(t) for _, t in mon]
+            check(r.returncode == 0 and len(sub) == 1 and sub[0] > 3 and [int(k) for k, _ in mon] == list(range(sub[0] + 1)) and times[0] == 0
+                  and all(b > a for a, b in zip(times, times[1:])) and abs(times[-1] - 0.03) < 1e-12,
+                  f"np={np_}: -ts_monitor prints the start and each internal step: {len(mon)} lines for {sub} internal steps, times {times[:2]}..{times[-1:]} (exit {r.returncode})")
 
             # irk's stages need an AIJ Jacobian (MatKAIJ), msim's is a nest: refused in one line
             mt.refusals(check, MSIM, SCENE + ["-msim_integrator", "ts", "-msim_dt", "1e-3", "-msim_steps", "1"],

@@ -41,6 +41,7 @@ typedef struct {
   PetscReal   stage_atol, stage_rtol; /* an adaptive TS's -ts_atol, -ts_rtol, for StageConverged */
   PetscReal   stage_fprev;     /* the stage solve's |F| at the iteration before (StageConverged) */
   PetscInt    substeps, nrejected; /* internal steps and rejections in the run so far */
+  PetscBool   monitored_start; /* -ts_monitor and kin called on the start state, as TSSolve does before its first step */
   Vec         H;               /* the checkpoint's history: h_next in every entry */
   PetscReal   fnorm0, fnorm;   /* the current stage solve's first and latest |F| (StageMonitor) */
   char        refused[192];    /* the last stage solve CheckStage refused, in words */
@@ -459,6 +460,16 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       PetscCall(PetscOptionsHasName(NULL, prefix, name, &given));
       PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "%s is not read by -msim_integrator ts: msim steps the TS itself, -msim_steps intervals of -msim_dt from t = 0, each landed exactly; set those", name);
     }
+    /* TSSolve's other work, read by TSSetFromOptions and never done under TSStep: a trajectory
+       (-ts_save_trajectory and -ts_trajectory_type stored nothing) and the adjoint solve after
+       it (-ts_trajectory_type visualization wrote no file); and -ts_monitor_solution_vtk, which
+       Step_TS's TSMonitor calls but which wrote no file either (its VTK viewer writes a DM's
+       vector; the TS has no DM), all without a word */
+    for (const char *name : {"-ts_save_trajectory", "-ts_trajectory_type", "-ts_adjoint_solve", "-ts_monitor_solution_vtk"}) {
+      PetscCall(PetscOptionsHasName(NULL, prefix, name, &given));
+      PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "%s is not supported with -msim_integrator ts: msim steps the TS itself (TSStep), without TSSolve's %s; %s", name, strcmp(name, "-ts_monitor_solution_vtk") ? "trajectory or adjoint" : "VTK output of a DM's solution",
+                 strcmp(name, "-ts_monitor_solution_vtk") ? "msim has no sensitivities; -msim_output DIR writes the states as a series, -msim_monitor_csv the energies" : "-msim_output DIR writes the states as a series (-msim_output_every k); -ts_monitor prints each internal step");
+    }
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_dt", &given));
     PetscCheck(!given || d->adaptive, integ->comm, PETSC_ERR_SUP, "-ts_dt with a fixed-step TS is not read: each -msim_dt is one of its steps; set -msim_dt (an adaptive TS, -ts_adapt_type basic or dsp, starts from -ts_dt)");
     if (given) PetscCall(TSGetTimeStep(d->ts, &d->h_next));
@@ -526,11 +537,29 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
     h = PetscMin(d->h_next, tend - tcur);
     if (tend - tcur - h <= eps) h = tend - tcur;
     PetscCall(TSSetTimeStep(d->ts, h));
+    /* msim steps with TSStep, and only TSSolve calls the monitors set by -ts_monitor (and
+       -ts_monitor_solution etc.): call them as it does, on the start state (with the step about to
+       be tried) and after each internal step below; nothing runs where none is set */
+    if (!d->monitored_start) {
+      PetscInt step;
+      Vec      U;
+      PetscCall(TSGetStepNumber(d->ts, &step));
+      PetscCall(TSGetSolution(d->ts, &U));
+      PetscCall(TSMonitor(d->ts, step, t, U));
+      d->monitored_start = PETSC_TRUE;
+    }
     PetscCall(TSStep(d->ts));
     if (MSimStopSignalAgreedInStep()) break; /* inside a stage solve */
     PetscCall(TSGetConvergedReason(d->ts, &reason));
     if (reason < 0) break;
     PetscCall(TSGetTime(d->ts, &tcur));
+    {
+      PetscInt step;
+      Vec      U;
+      PetscCall(TSGetStepNumber(d->ts, &step));
+      PetscCall(TSGetSolution(d->ts, &U));
+      PetscCall(TSMonitor(d->ts, step, tcur, U));
+    }
     PetscCall(TSGetTimeStep(d->ts, &h));
     /* a step shortened to land on t + dt says little of the next: keep the proposal before it */
     if (tend - tcur > eps || n == 0) d->h_next = h > 0 ? h : d->h_next;
