@@ -187,6 +187,9 @@ CASES = [
     (["-msim_scene", "box", "-msim_volume", "-msim_volume_stiffness", "-3"], "-msim_volume_stiffness must be >= 0 Pa, or -1 for its default"),
     (["-msim_scene", "box", "-msim_volume", "-msim_integrator", "symplectic_euler"], "-msim_volume's inversion barrier with -msim_integrator symplectic_euler is not supported"),
     (["-msim_scene", "box", "-msim_volume", "-msim_integrator", "ts", "-ts_type", "beuler"], "-msim_volume's inversion barrier with -msim_integrator ts is not supported"),
+    # an implicit -ts_type was told "an explicit step has no line search"
+    (["-msim_self_contact", "-msim_integrator", "ts", "-ts_type", "beuler"], "-msim_self_contact with -msim_integrator ts is not supported: its steps, explicit or implicit -ts_type, have no line search"),
+    (["-msim_self_contact", "-msim_integrator", "symplectic_euler"], "-msim_self_contact with -msim_integrator symplectic_euler is not supported: an explicit step has no line search"),
     (["-msim_integrator", "discrete_gradient", "-msim_psd", "0"], "-msim_psd with -msim_integrator discrete_gradient is not supported"),
     # theta 0 failed at the first solve (a NaN residual), after the output was made
     (["-msim_integrator", "ts", "-ts_type", "theta", "-ts_theta_theta", "0"], "-ts_theta_theta must be in (0, 1] (got 0.)"),

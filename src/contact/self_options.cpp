@@ -47,6 +47,9 @@ PetscErrorCode MSimSelfContactCheckIntegrator(MSimSystem sys, const char type[],
 {
   PetscFunctionBeginUser;
   if (implicit) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCheck(!sys->self_contact.on, sys->comm, PETSC_ERR_SUP, "-msim_self_contact with -msim_integrator %s is not supported: an explicit step has no line search to keep the surface from passing through itself; use an implicit integrator (implicit_euler or bdf2)", type);
+  /* ts is refused whatever its -ts_type: its implicit types solve their stages without msim's
+     feasible line search too (the message said "an explicit step" under -ts_type beuler) */
+  PetscCheck(!sys->self_contact.on, sys->comm, PETSC_ERR_SUP, "-msim_self_contact with -msim_integrator %s is not supported: %s no line search to keep the surface from passing through itself; use an implicit integrator (implicit_euler or bdf2)", type,
+             strcmp(type, "ts") ? "an explicit step has" : "its steps, explicit or implicit -ts_type, have");
   PetscFunctionReturn(PETSC_SUCCESS);
 }
