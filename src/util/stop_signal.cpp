@@ -170,7 +170,10 @@ static PetscErrorCode StopMonitor(SNES snes, PetscInt, PetscReal, void *)
 
   PetscFunctionBeginUser;
   PetscCall(MSimStopSignalPollInStep(&sig));
-  if (sig) PetscCall(SNESSetConvergedReason(snes, MSIM_SNES_STOPPED));
+  if (sig) {
+    PetscCall(SNESSetConvergedReason(snes, MSIM_SNES_STOPPED));
+    snes->errorifnotconverged = PETSC_FALSE; /* -snes_error_if_not_converged: the stop is no failure (its error lost the checkpoint) */
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
