@@ -90,23 +90,33 @@ PetscErrorCode MSimStopSignalBegin(MPI_Comm comm, MSimStopSignal *s)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* one round of agreement over comm: the code the reduction started at the last round gives (0 while
+   none), and a new round started with this rank's code where it gave none; at one rank, this rank's */
+static PetscErrorCode Agree(MPI_Comm comm, PetscMPIInt size, MPI_Request *request, int *local, int *global, int *code)
+{
+  PetscFunctionBeginUser;
+  *code = 0;
+  if (size == 1) *code = LocalCode();
+  else {
+    if (*request != MPI_REQUEST_NULL) {
+      PetscCallMPI(MPI_Wait(request, MPI_STATUS_IGNORE));
+      *code = *global;
+    }
+    if (!*code) {
+      *local = LocalCode();
+      PetscCallMPI(MPI_Iallreduce(local, global, 1, MPI_INT, MPI_MAX, comm, request));
+    }
+  }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 PetscErrorCode MSimStopSignalPoll(MSimStopSignal *s, int *signal_seen)
 {
-  int code = 0;
+  int code;
 
   PetscFunctionBeginUser;
   if (in_step.agreed) code = CodeOf(in_step.agreed); /* agreed inside the step: every rank knows */
-  else if (s->size == 1) code = LocalCode();
-  else {
-    if (s->request != MPI_REQUEST_NULL) {
-      PetscCallMPI(MPI_Wait(&s->request, MPI_STATUS_IGNORE));
-      code = s->global;
-    }
-    if (!code) {
-      s->local = LocalCode();
-      PetscCallMPI(MPI_Iallreduce(&s->local, &s->global, 1, MPI_INT, MPI_MAX, s->comm, &s->request));
-    }
-  }
+  else PetscCall(Agree(s->comm, s->size, &s->request, &s->local, &s->global, &code));
   *signal_seen    = SignalOf(code);
   msim_stopped_by = *signal_seen;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -116,18 +126,8 @@ PetscErrorCode MSimStopSignalPollInStep(int *signal_seen)
 {
   PetscFunctionBeginUser;
   if (!in_step.agreed && in_step.comm != MPI_COMM_NULL) {
-    int code = 0;
-    if (in_step.size == 1) code = LocalCode();
-    else {
-      if (in_step.request != MPI_REQUEST_NULL) {
-        PetscCallMPI(MPI_Wait(&in_step.request, MPI_STATUS_IGNORE));
-        code = in_step.global;
-      }
-      if (!code) {
-        in_step.local = LocalCode();
-        PetscCallMPI(MPI_Iallreduce(&in_step.local, &in_step.global, 1, MPI_INT, MPI_MAX, in_step.comm, &in_step.request));
-      }
-    }
+    int code;
+    PetscCall(Agree(in_step.comm, in_step.size, &in_step.request, &in_step.local, &in_step.global, &code));
     in_step.agreed = SignalOf(code);
   }
   *signal_seen = in_step.agreed;
@@ -166,7 +166,7 @@ typedef struct {
 
 static PetscErrorCode StopMonitor(SNES snes, PetscInt, PetscReal, void *)
 {
-  int sig;
+  int sig = 0;
 
   PetscFunctionBeginUser;
   PetscCall(MSimStopSignalPollInStep(&sig));

@@ -522,7 +522,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
   PetscCall(TSSetTime(d->ts, t));
   while (tend - tcur > eps) {
     if (n > 0) { /* SIGINT or SIGTERM: the time loop polls after each step, which may never end here */
-      int sig;
+      int sig = 0;
       PetscCall(MSimStopSignalPollInStep(&sig));
       if (sig) break;
     }
