@@ -386,10 +386,13 @@ static PetscErrorCode SNESIsMinimizer(SNES snes, PetscBool *minimizer)
    CR) and the symmetric factorizations (Cholesky, ICC; a block's too) take its symmetric part or
    half of it. PETSc runs them without a word: with -pc_type cholesky (as examples/box.opts sets)
    Newton took 183 iterations where LU took 80 on a 16 x 4 x 4 box, 40 steps, and the energy
-   error was 7e-7 where LU's was 9e-12. Refused in one line naming the option and what to use. */
+   error was 7e-7 where LU's was 9e-12. Refused in one line naming the option and what to use.
+   The same for vinewtonssls's semismooth Jacobian (SetUpSemismooth): examples/cloth_table.opts'
+   Cholesky under it diverged at step 6 (the energy rose by 2043 J) where LU ran through. */
 static PetscErrorCode RefuseSymmetricOnly(MSimIntegrator integ, ImplicitData *ie, KSP ksp)
 {
   const char *reason = ie->imp->scheme->no_objective;
+  char        with[64];
   PC          pc;
   KSPType     ktype;
   PCType      ptype;
@@ -398,23 +401,27 @@ static PetscErrorCode RefuseSymmetricOnly(MSimIntegrator integ, ImplicitData *ie
   char        sub[64];
 
   PetscFunctionBeginUser;
-  if (!reason) PetscFunctionReturn(PETSC_SUCCESS);
+  if (reason) PetscCall(PetscSNPrintf(with, sizeof(with), "-msim_integrator %s", integ->type));
+  else if (ie->semismooth) {
+    reason = "vinewtonssls solves the Fischer-Burmeister equation of the bounds, whose Jacobian scales J's rows near a bound";
+    PetscCall(PetscStrncpy(with, "-snes_type vinewtonssls", sizeof(with)));
+  } else PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(KSPGetOptionsPrefix(ksp, &prefix));
   if (!prefix) prefix = "";
   PetscCall(KSPGetType(ksp, &ktype));
   PetscCall(PetscObjectTypeCompareAny((PetscObject)ksp, &sym, KSPCG, KSPGROPPCG, KSPPIPECG, KSPPIPECGRR, KSPPIPELCG, KSPPIPECG2, KSPFCG, KSPPIPEFCG, KSPNASH, KSPSTCG, KSPGLTR, KSPQCG, KSPMINRES, KSPSYMMLQ, KSPCR, KSPPIPECR, ""));
-  PetscCheck(!sym, integ->comm, PETSC_ERR_SUP, "-%sksp_type %s with -msim_integrator %s is not supported: it needs a symmetric matrix, and the scheme's Jacobian is not symmetric (%s); use -%sksp_type gmres", prefix, ktype, integ->type, reason, prefix);
+  PetscCheck(!sym, integ->comm, PETSC_ERR_SUP, "-%sksp_type %s with %s is not supported: it needs a symmetric matrix, and the Jacobian is not symmetric (%s); use -%sksp_type gmres", prefix, ktype, with, reason, prefix);
   if (ie->pc_pd) PetscFunctionReturn(PETSC_SUCCESS); /* the PD factor is the PC: an SPD approximation GMRES solves with */
   PetscCall(KSPGetPC(ksp, &pc));
   PetscCall(PCGetType(pc, &ptype));
   PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &sym, PCCHOLESKY, PCICC, ""));
-  PetscCheck(!sym, integ->comm, PETSC_ERR_SUP, "-%spc_type %s with -msim_integrator %s is not supported: it factors a symmetric matrix, and the scheme's Jacobian is not symmetric (%s); use -%spc_type %s", prefix, ptype, integ->type, reason, prefix,
+  PetscCheck(!sym, integ->comm, PETSC_ERR_SUP, "-%spc_type %s with %s is not supported: it factors a symmetric matrix, and the Jacobian is not symmetric (%s); use -%spc_type %s", prefix, ptype, with, reason, prefix,
              !strcmp(ptype, PCICC) ? "ilu" : "lu");
   /* a block's PC is made at the first solve: its type is read from the options */
   PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &block, PCBJACOBI, PCASM, ""));
   if (!block) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(PetscOptionsGetString(((PetscObject)pc)->options, prefix, "-sub_pc_type", sub, sizeof(sub), &sym));
-  PetscCheck(!sym || (strcmp(sub, PCCHOLESKY) && strcmp(sub, PCICC)), integ->comm, PETSC_ERR_SUP, "-%ssub_pc_type %s with -msim_integrator %s is not supported: it factors a symmetric matrix, and the scheme's Jacobian is not symmetric (%s); use -%ssub_pc_type %s", prefix, sub, integ->type, reason, prefix,
+  PetscCheck(!sym || (strcmp(sub, PCCHOLESKY) && strcmp(sub, PCICC)), integ->comm, PETSC_ERR_SUP, "-%ssub_pc_type %s with %s is not supported: it factors a symmetric matrix, and the Jacobian is not symmetric (%s); use -%ssub_pc_type %s", prefix, sub, with, reason, prefix,
              !strcmp(sub, PCICC) ? "ilu" : "lu");
   PetscFunctionReturn(PETSC_SUCCESS);
 }
