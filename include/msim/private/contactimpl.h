@@ -93,6 +93,10 @@ inline void MSimContactForEachNear(const _n_MSimContact *ct, PetscInt nown, cons
     for (const MSimObstacle &o : ct->obs) MSimObstacleContacts(o, v, x + 3 * v, t, reach, hessian, [&](PetscReal d, const PetscReal *n, const PetscReal *H) { f(v, o, d, n, H); });
 }
 
+/* -msim_friction_lag_iterations and -msim_friction_lag_rtol, checked (src/implicit/terms/friction.cpp):
+   IPC's lag iterations, for the obstacles' friction and self-friction alike */
+PetscErrorCode MSimFrictionLagOptions(MSimSystem sys, PetscInt *lag_max, PetscReal *lag_rtol);
+
 /* A contact's normal force lambda and tangent projector P for friction, from the barrier's force
    f = kappa m |b'(d)| and its direction n: lambda = f |n|, P = I - n n^T / |n|^2. n is a unit vector
    but at an open surface's rim corner (grad E / b'(d), |n| from 0.16 to 8.7 around the open box's),

@@ -364,25 +364,44 @@ static PetscErrorCode Destroy_Friction(MSimImplicitTerm term)
 
 static const MSimImplicitTermOps FrictionOps = {.energy = Energy_Friction, .gradient = Gradient_Friction, .hessian = Hessian_Friction, .pd_rhs = PDRHS_Friction, .lag = Lag_Friction, .view = View_Friction, .destroy = Destroy_Friction};
 
-/* The lag's options are read by every implicit problem, so that -help lists them, and refused
-   where there is no friction with an obstacle for them to act on */
-PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
+/* The lag's options, for the obstacles' friction and self-friction (terms/self_friction.cpp) */
+PetscErrorCode MSimFrictionLagOptions(MSimSystem sys, PetscInt *lag_max, PetscReal *lag_rtol)
 {
-  MSimSystem  sys = term->imp->sys;
-  MSimContact ct;
-  PetscInt    lag_max  = 1;
-  PetscReal   lag_rtol = 1e-2;
-  PetscBool   set_max, set_rtol;
+  PetscBool set_max, set_rtol;
 
   PetscFunctionBeginUser;
-  PetscOptionsBegin(sys->comm, NULL, "msim friction with obstacles", NULL);
-  PetscCall(MSimOptionsInt("-msim_friction_lag_iterations", "Friction with obstacles: at most this many solves a step, each taking the normal forces and tangent bases at the previous one's result (IPC's lag iterations) until they change by less than -msim_friction_lag_rtol with the same vertices in contact; 1: taken at the step's start only, so a step that lands has no friction and one that leaves keeps it", NULL, lag_max, &lag_max, &set_max));
-  PetscCall(MSimOptionsReal("-msim_friction_lag_rtol", "Friction's lag iterations: done once no vertex's normal force changed by more than this fraction of the largest one (and the same vertices are in contact)", NULL, lag_rtol, &lag_rtol, &set_rtol));
+  *lag_max  = 1;
+  *lag_rtol = 1e-2;
+  PetscOptionsBegin(sys->comm, NULL, "msim friction", NULL);
+  PetscCall(MSimOptionsInt("-msim_friction_lag_iterations", "Friction (with obstacles, and between surfaces in self-contact): at most this many solves a step, each taking the normal forces and tangent bases at the previous one's result (IPC's lag iterations) until they change by less than -msim_friction_lag_rtol with the same contacts; 1: taken at the step's start only, so a step that lands has no friction and one that leaves keeps it", NULL, *lag_max, lag_max, &set_max));
+  PetscCall(MSimOptionsReal("-msim_friction_lag_rtol", "Friction's lag iterations: done once no contact's normal force changed by more than this fraction of the largest one (and the same contacts are there)", NULL, *lag_rtol, lag_rtol, &set_rtol));
   PetscOptionsEnd();
-  PetscCheck(lag_max >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_lag_iterations must be >= 1 (got %" PetscInt_FMT ")", lag_max);
-  PetscCheck(lag_rtol >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_lag_rtol must be >= 0 (got %g)", (double)lag_rtol);
+  PetscCheck(*lag_max >= 1, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_lag_iterations must be >= 1 (got %" PetscInt_FMT ")", *lag_max);
+  PetscCheck(*lag_rtol >= 0, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_friction_lag_rtol must be >= 0 (got %g)", (double)*lag_rtol);
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The lag's options are read by every implicit problem, so that -help lists them, and refused
+   where there is no friction for them to act on: with an obstacle, or between surfaces in
+   self-contact (the contact object carries -msim_friction even where there is no obstacle) */
+PetscErrorCode MSimImplicitTermCreate_Friction(MSimImplicitTerm term)
+{
+  MSimSystem     sys = term->imp->sys;
+  MSimContact    ct, any = NULL;
+  PetscContainer container;
+  PetscInt       lag_max;
+  PetscReal      lag_rtol;
+  PetscBool      set_max, set_rtol;
+
+  PetscFunctionBeginUser;
+  PetscCall(MSimFrictionLagOptions(sys, &lag_max, &lag_rtol));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_friction_lag_iterations", &set_max));
+  PetscCall(PetscOptionsHasName(NULL, NULL, "-msim_friction_lag_rtol", &set_rtol));
   PetscCall(MSimContactGet(sys, &ct));
-  PetscCheck((ct && ct->mu > 0) || !(set_max || set_rtol), sys->comm, PETSC_ERR_ARG_WRONG, "%s acts on friction with obstacles only (-msim_friction > 0 with -msim_contact_plane, _sphere, _box or _mesh), and there is none", set_max ? "-msim_friction_lag_iterations" : "-msim_friction_lag_rtol");
+  PetscCall(PetscObjectQuery((PetscObject)sys->X0, "MSimContact", (PetscObject *)&container));
+  if (container) PetscCall(PetscContainerGetPointer(container, (void **)&any));
+  const PetscBool self_friction = (PetscBool)(sys->self_contact.on && any && any->mu > 0);
+  PetscCheck((ct && ct->mu > 0) || self_friction || !(set_max || set_rtol), sys->comm, PETSC_ERR_ARG_WRONG, "%s acts on friction (-msim_friction > 0 with -msim_contact_plane, _sphere, _box or _mesh, or with -msim_self_contact), and there is none", set_max ? "-msim_friction_lag_iterations" : "-msim_friction_lag_rtol");
   if (!ct || ct->mu == 0) PetscFunctionReturn(PETSC_SUCCESS); /* nothing per iteration */
   Lagged *L   = new Lagged();
   L->lag_max  = lag_max;

@@ -17,7 +17,13 @@
    of this term's own, made at each lag (the self-contact surface's local numbering may be
    re-planned within a step), and the gradient goes back by its reverse (ADD_VALUES); the Hessian's
    rows that other ranks own go to them over that scatter's neighbours (MSimSelfHessian). PD: the
-   gradient at the current iterate in the right-hand side, as the barrier's. */
+   gradient at the current iterate in the right-hand side, as the barrier's.
+   Lagged at x_n alone, a step that lands has no friction (the pairs are beyond dhat at its start)
+   and one that leaves keeps it: IPC's lag iterations (-msim_friction_lag_iterations N,
+   -msim_friction_lag_rtol r, the options the obstacles' friction reads; op lag) solve the step
+   again with the pairs, weights, normals and forces taken at its result (the handles at tx; the
+   slip still measured from x_n), at most N solves, until the same pairs are within dhat and no
+   pair's normal force changed by more than r of the largest. */
 #include <msim/implicit.h>
 #include <msim/contact.h>
 #include <msim/self_contact.h>
@@ -40,16 +46,19 @@ typedef struct {
   Vec                              dl, D;  /* the slots' displacements; X - x_n */
   std::vector<PetscReal>           d, g;
   MSimSelfHessian                  hess;   /* the Hessian's rows to their owners (msim/self_contact.h) */
+  /* the lag iterations: at most lag_max solves a step (lags taken so far), to lag_rtol; next: the
+     pairs at a solve's result, the candidate lag */
+  PetscInt                         lag_max, lags;
+  PetscReal                        lag_rtol;
+  std::vector<MSimSelfContactPair> next;
 } FrictionData;
 
-static PetscErrorCode Lag(MSimImplicitTerm term, FrictionData *fd)
+/* the scatter of the pairs' free vertices (fd->pairs, just taken) into dl */
+static PetscErrorCode PlanPairs(MSimImplicit imp, FrictionData *fd)
 {
-  MSimImplicit imp = term->imp;
-  IS           is;
+  IS is;
 
   PetscFunctionBeginUser;
-  if (fd->lagged && imp->step.t == fd->t && imp->step.h2 == fd->h2) PetscFunctionReturn(PETSC_SUCCESS);
-  PetscCall(MSimSelfContactGetPairs(fd->self, imp->step.t, imp->Xn, fd->pairs));
   fd->gfree.clear();
   for (const MSimSelfContactPair &p : fd->pairs)
     for (int k = 0; k < 4; k++)
@@ -69,9 +78,21 @@ static PetscErrorCode Lag(MSimImplicitTerm term, FrictionData *fd)
   PetscCall(VecScatterCreate(imp->Xn, is, fd->dl, NULL, &fd->scatter));
   PetscCall(ISDestroy(&is));
   if (!fd->D) PetscCall(VecDuplicate(imp->Xn, &fd->D));
-  fd->t        = imp->step.t;
-  fd->h2       = imp->step.h2;
-  fd->lagged   = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+static PetscErrorCode Lag(MSimImplicitTerm term, FrictionData *fd)
+{
+  MSimImplicit imp = term->imp;
+
+  PetscFunctionBeginUser;
+  if (fd->lagged && imp->step.t == fd->t && imp->step.h2 == fd->h2) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSelfContactGetPairs(fd->self, imp->step.t, imp->Xn, fd->pairs));
+  PetscCall(PlanPairs(imp, fd));
+  fd->t      = imp->step.t;
+  fd->h2     = imp->step.h2;
+  fd->lagged = PETSC_TRUE;
+  fd->lags   = 0;
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -175,12 +196,52 @@ static PetscErrorCode Hessian_SelfFriction(MSimImplicitTerm term, Vec X, PetscBo
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* A lag iteration: the pairs at X (the handles at tx) against those the solve used, each list in
+   the order of its pairs' vertices (the candidates' order otherwise; a tie keeps it, and at worst
+   costs one more solve). Where the same pairs are within dhat and no pair's normal force vector
+   changed by more than lag_rtol of the largest force, the solve stands; otherwise X's pairs are
+   the lag for another solve, while lag_max allows one. */
+static PetscErrorCode Lag_SelfFriction(MSimImplicitTerm term, Vec X, PetscBool *again)
+{
+  FrictionData *fd = (FrictionData *)term->data;
+  MSimImplicit  imp = term->imp;
+
+  PetscFunctionBeginUser;
+  PetscCall(Lag(term, fd)); /* the step's, taken at x_n where the step is new */
+  if (fd->lags + 1 >= fd->lag_max) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(MSimSelfContactGetPairs(fd->self, imp->step.tx, X, fd->next));
+  auto order = [](const std::vector<MSimSelfContactPair> &p) {
+    std::vector<size_t> o(p.size());
+    for (size_t k = 0; k < o.size(); k++) o[k] = k;
+    std::stable_sort(o.begin(), o.end(), [&](size_t a, size_t b) { return std::lexicographical_compare(p[a].gnum, p[a].gnum + 4, p[b].gnum, p[b].gnum + 4); });
+    return o;
+  };
+  const std::vector<size_t> oa = order(fd->pairs), ob = order(fd->next);
+  PetscReal                 w[3] = {0, 0, (PetscReal)(oa.size() != ob.size())}; /* largest change, largest force, pairs differ */
+  for (size_t k = 0; k < oa.size() && !w[2]; k++) {
+    const MSimSelfContactPair &a = fd->pairs[oa[k]], &b = fd->next[ob[k]];
+    PetscReal                  d2 = 0;
+    if (!std::equal(a.gnum, a.gnum + 4, b.gnum)) w[2] = 1;
+    for (int c = 0; c < 3; c++) d2 += PetscSqr(a.force * a.n[c] - b.force * b.n[c]);
+    w[0] = PetscMax(w[0], PetscSqrtReal(d2));
+    w[1] = PetscMax(w[1], PetscMax(a.force, b.force));
+  }
+  PetscCall(MPIU_Allreduce(MPI_IN_PLACE, w, 3, MPIU_REAL, MPIU_MAX, imp->sys->comm));
+  if (!w[2] && w[0] <= fd->lag_rtol * w[1]) PetscFunctionReturn(PETSC_SUCCESS);
+  fd->pairs.swap(fd->next);
+  PetscCall(PlanPairs(imp, fd));
+  fd->lags++;
+  *again = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode View_SelfFriction(MSimImplicitTerm term, PetscViewer viewer)
 {
   FrictionData *fd = (FrictionData *)term->data;
 
   PetscFunctionBeginUser;
-  PetscCall(PetscViewerASCIIPrintf(viewer, "self-friction: mu %g between the surface's pairs in self-contact, normal forces and tangents lagged at each step's start, smoothing eps_v %g m/s\n", (double)fd->mu, (double)fd->eps_v));
+  if (fd->lag_max > 1) PetscCall(PetscViewerASCIIPrintf(viewer, "self-friction: mu %g between the surface's pairs in self-contact, normal forces and tangents lagged up to %" PetscInt_FMT " solves a step (relative tolerance %g), smoothing eps_v %g m/s\n", (double)fd->mu, fd->lag_max, (double)fd->lag_rtol, (double)fd->eps_v));
+  else PetscCall(PetscViewerASCIIPrintf(viewer, "self-friction: mu %g between the surface's pairs in self-contact, normal forces and tangents lagged at each step's start, smoothing eps_v %g m/s\n", (double)fd->mu, (double)fd->eps_v));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -198,7 +259,7 @@ static PetscErrorCode Destroy_SelfFriction(MSimImplicitTerm term)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-static const MSimImplicitTermOps SelfFrictionOps = {.energy = MSimTermSummedEnergy<LocalEnergy>, .gradient = MSimTermGradient<AddGradient>, .hessian = Hessian_SelfFriction, .pd_rhs = MSimTermPDRHS<LocalEnergy, AddGradient>, .view = View_SelfFriction, .destroy = Destroy_SelfFriction};
+static const MSimImplicitTermOps SelfFrictionOps = {.energy = MSimTermSummedEnergy<LocalEnergy>, .gradient = MSimTermGradient<AddGradient>, .hessian = Hessian_SelfFriction, .pd_rhs = MSimTermPDRHS<LocalEnergy, AddGradient>, .lag = Lag_SelfFriction, .view = View_SelfFriction, .destroy = Destroy_SelfFriction};
 
 PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
 {
@@ -224,6 +285,7 @@ PetscErrorCode MSimImplicitTermCreate_SelfFriction(MSimImplicitTerm term)
   fd->mu           = ct->mu;
   fd->eps_v        = ct->eps_v;
   fd->self         = self;
+  PetscCall(MSimFrictionLagOptions(imp->sys, &fd->lag_max, &fd->lag_rtol));
   term->data       = fd;
   term->ops        = SelfFrictionOps;
   PetscCall(MSimSelfHessianCreate(imp->sys->comm, &fd->hess));
