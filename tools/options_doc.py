@@ -148,9 +148,9 @@ def render(groups):
             if kind == "array":
                 shown = "see above"
             elif kind == "viewer":
-                shown = "none"
+                shown = "not set"
             else:
-                shown = f"`{default}`" if default else "none"
+                shown = f"`{default}`" if default else "not set"
             out.append(f"| `{name}` | {cell(shown)} | {cell(desc)} |")
         out.append("")
     return "\n".join(out).rstrip("\n")
