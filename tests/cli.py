@@ -8,7 +8,8 @@
   in one line naming the option (failed after the whole run, naming none);
 - -msim_view lists the energy terms that act (it listed every registered one: drag, obstacles,
   friction, self-contact and volume for a cloth with none of them) and names PD's global solve,
-  which msim chooses by the scene's size;
+  which msim chooses by the scene's size, and counts its PC's set-ups as factorizations only where
+  it factors;
 - -log_view names every stage it prints (those no rank pushed printed as "Unknown") and has the
   run's frames, the first one's too, in Stepping, none in the main stage (the first frame and the
   run's set-up were there), and the system's setup event (MSimSetup) in Setup, where it ran in the
@@ -56,6 +57,13 @@ def main():
         got = [l.strip() for l in r.stdout.splitlines() if "energy terms:" in l or "global solve:" in l]
         want = [f"implicit problem: scheme implicit_euler (beta 1.), energy terms: {terms}"] + ([f"projective dynamics' global solve: {solve}"] if solve else [])
         check(r.returncode == 0 and got == want, f"-msim_view with {' '.join(extra)}: {got!r}")
+    # PD's count of its global solve's set-ups: factorizations where the PC factors, not where a
+    # multigrid sets up (it said "1 numeric factorization(s)" of CG + GAMG, which factors nothing)
+    for extra, want in (([], "projective dynamics: 1 numeric factorization(s) of the 25 x 25 PD matrix"),
+                        (["-pd_ksp_type", "cg", "-pd_pc_type", "gamg"], "projective dynamics: 1 set-up(s) of the global solve's -pd_pc_type gamg on the 25 x 25 PD matrix (no factorization)")):
+        r = mt.run(MSIM, implicit + ["-msim_fix", "none", "-snes_type", "pd"] + extra)
+        got = [l.strip() for l in r.stdout.splitlines() if l.strip().startswith("projective dynamics:")]
+        check(r.returncode == 0 and got == [want], f"-msim_view with pd {' '.join(extra)}: {got!r}")
     # a friction lag's solves run to their own atol (the first solve's max(atol, rtol |g0|), here
     # 4.3e-11): the unconverged steps' warning names the user's -snes_atol, not the lag's
     r = mt.run(MSIM, ["-msim_cloth_n", "5", "-msim_cloth_size", "0.2", "-msim_fix", "none", "-msim_integrator", "implicit_euler",

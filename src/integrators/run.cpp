@@ -225,7 +225,7 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
     if (integ->saddle_steps)
       PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps Newton converged to a saddle point of Phi, not a minimum (up to %" PetscInt_FMT " negative eigenvalues of the exact Hessian): an unstable state, usually a cloth compressed flat; -msim_inertia_correction or a descent method (-msim_psd 1, pd, qn) moves off it\n", integ->saddle_steps, n - step0, integ->saddle_negative));
     if (integ->unconverged_steps)
-      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)\n", integ->unconverged_steps, n - step0, integ->tolerance));
+      PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps %s\n", integ->unconverged_steps, n - step0, integ->tolerance));
     if (integ->stalled_steps)
       PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: in %" PetscInt_FMT " of %" PetscInt_FMT " steps the solve stalled and did not converge: %s\n", integ->stalled_steps, n - step0, integ->stall));
     {

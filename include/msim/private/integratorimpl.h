@@ -51,7 +51,7 @@ struct _n_MSimIntegrator {
      fixed iteration count, asked for with zero tolerances or -snes_pd_fixed, is not counted),
      and that tolerance in words, for the warning at the end of the run */
   PetscInt          unconverged_steps;
-  char              tolerance[160];
+  char              tolerance[320];
   /* steps that ended on the step-length test (-snes_stol) with the last step cut short (a contact
      barrier's largest feasible step, or backtracking) while |g| was above its tolerance: a jam,
      not a converged step (elements locked against each other), and the last one in words */

@@ -1113,7 +1113,7 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
        (|g|^2 / |H| against eps |Phi|), so no line search can accept a step: the iterate is as
        converged as this precision allows. Counted with the steps that stopped short, not failed. */
     integ->unconverged_steps++;
-    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (roundoff)", type, (double)integ->residual, (double)atol0));
+    PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s: the line search found no decrease at |g| = %g, within 10 x -snes_atol %g (roundoff; raise -snes_max_it, or for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)", type, (double)integ->residual, (double)atol0));
   }
   else if (reason == SNES_DIVERGED_MAX_IT) {
     if (atol0 > 0 || rtol0 > 0 || ie->step_atol > 0) {
@@ -1121,7 +1121,9 @@ static PetscErrorCode Step_Implicit(MSimIntegrator integ, PetscReal t, Vec X, Ve
       char step_rule[96] = "";
       if (ie->step_atol > 0 && ie->step_gtol < PETSC_MAX_REAL) PetscCall(PetscSNPrintf(step_rule, sizeof(step_rule), " or |dx| < %g with |g| <= %g", (double)ie->step_atol, (double)ie->step_gtol));
       else if (ie->step_atol > 0) PetscCall(PetscSNPrintf(step_rule, sizeof(step_rule), " or |dx| < %g", (double)ie->step_atol));
-      PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)%s", type, maxit0, (double)atol0, (double)rtol0, step_rule));
+      if (atol0 > 0 || rtol0 > 0) PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before |g| <= max(%g, %g |g0|)%s (raise -snes_max_it; for a fixed count set -snes_rtol 0 -snes_atol 0, or -snes_pd_fixed with pd)", type, maxit0, (double)atol0, (double)rtol0, step_rule));
+      else /* -snes_rtol 0 -snes_atol 0 already: the step rule alone ends a solve before the count */
+        PetscCall(PetscSNPrintf(integ->tolerance, sizeof(integ->tolerance), "-snes_type %s stopped at -snes_max_it %" PetscInt_FMT " before%s (raise -snes_max_it or -msim_step_atol)", type, maxit0, step_rule + 3));
     }
   }
   else if (reason < 0) {
@@ -1157,7 +1159,20 @@ static PetscErrorCode View_Implicit(MSimIntegrator integ, PetscViewer viewer)
   if (ie->inertia && ie->check_saddle) PetscCall(PetscViewerASCIIPrintf(viewer, "steps converged to a saddle point of Phi (negative pivots in the exact Hessian's LDL^T): %" PetscInt_FMT ", at most %" PetscInt_FMT " negative eigenvalues\n", integ->saddle_steps, integ->saddle_negative));
   if (ie->ls.descent) PetscCall(PetscViewerASCIIPrintf(viewer, "Newton directions of the exact Hessian replaced by the PSD-projected Hessian's: %" PetscInt_FMT "\n", ie->ls.nfallback));
   if (ie->imp) PetscCall(MSimImplicitView(ie->imp, viewer));
-  if (ie->imp && ie->imp->A) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
+  if (ie->imp && ie->imp->A) {
+    /* the count is of the global solve's PC set-ups, which are numeric factorizations where the
+       PC factors (a multigrid's set-up, e.g. -pd_pc_type gamg, is not one) */
+    PC        pc;
+    PCType    type;
+    PetscBool factors = PETSC_TRUE;
+    if (ie->imp->pdksp) {
+      PetscCall(KSPGetPC(ie->imp->pdksp, &pc));
+      PetscCall(PCGetType(pc, &type));
+      PetscCall(PetscObjectTypeCompareAny((PetscObject)pc, &factors, PCLU, PCCHOLESKY, PCILU, PCICC, "msimllt", PCBJACOBI, PCASM, ""));
+    }
+    if (factors) PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " numeric factorization(s) of the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix\n", ie->imp->nfactor, ie->imp->sys->nfree, ie->imp->sys->nfree));
+    else PetscCall(PetscViewerASCIIPrintf(viewer, "projective dynamics: %" PetscInt_FMT " set-up(s) of the global solve's -pd_pc_type %s on the %" PetscInt_FMT " x %" PetscInt_FMT " PD matrix (no factorization)\n", ie->imp->nfactor, type, ie->imp->sys->nfree, ie->imp->sys->nfree));
+  }
   if (ie->snes) PetscCall(SNESView(ie->snes, viewer));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
