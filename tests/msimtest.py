@@ -14,11 +14,14 @@ Usage in a script (registered by one line in tests/CMakeLists.txt's MSIM_SCRIPT_
       r = mt.run(msim, ["-msim_steps", "3"], np)
       check(r.returncode == 0, f"np={np}: runs")
   sys.exit(check.exit_code())"""
+import atexit
 import csv
 import os
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -31,6 +34,30 @@ for _k, _v in (("OMPI_ALLOW_RUN_AS_ROOT", "1"), ("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM
                ("OMPI_MCA_rmaps_base_oversubscribe", "1"), ("OMPI_MCA_mpi_yield_when_idle", "1"),
                ("OMPI_MCA_pml", "ob1"), ("OPENBLAS_NUM_THREADS", "1")):
     ENV.setdefault(_k, _v)
+
+# Open MPI's session directory: a singleton started with OMPI_MCA_ess_singleton_isolated (ctest's
+# environment, tests/CMakeLists.txt) always takes <tmpdir>/ompi.<host>.<uid>/jf.0/1, so singletons
+# running at once (two tests side by side, or one test's runs in parallel) create and remove the
+# same directory: "A call to mkdir was unable to create the desired directory ... File exists",
+# MPI_Init aborted (bad_input_np1, once, next to another test's singletons). Each script gets a
+# directory of its own under /tmp (short: the daemons' sockets live there), and each singleton
+# run() starts a subdirectory of it; all removed at exit.
+_SESSIONS = tempfile.mkdtemp(prefix="msim-ompi-", dir="/tmp")
+atexit.register(shutil.rmtree, _SESSIONS, True)
+ENV["OMPI_MCA_orte_tmpdir_base"] = _SESSIONS
+
+
+def _own_session(np, kw):
+    """kw's env with a session directory of this run's own for a singleton (mpirun's jobs are
+    named by mpirun, uniquely); returns the directory made, or None"""
+    if np != 1:
+        return None
+    env = dict(kw.get("env") or ENV)
+    if env.get("OMPI_MCA_orte_tmpdir_base") != _SESSIONS:  # a caller's own choice stands
+        return None
+    env["OMPI_MCA_orte_tmpdir_base"] = tempfile.mkdtemp(dir=_SESSIONS)
+    kw["env"] = env
+    return env["OMPI_MCA_orte_tmpdir_base"]
 
 
 def msim_path(argv=None):
@@ -84,7 +111,12 @@ RUN_ENV.setdefault("OMPI_MCA_odls_base_sigkill_timeout", "0")
 def run(exe, args=(), np=1, cwd=None, **kw):
     """runs exe to its end; stdout and stderr captured as text"""
     kw.setdefault("env", RUN_ENV)
-    return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, **kw)
+    own = _own_session(np, kw)
+    try:
+        return subprocess.run(command(exe, args, np), cwd=cwd, capture_output=True, text=True, **kw)
+    finally:
+        if own:
+            shutil.rmtree(own, True)
 
 
 def run_info(exe, args=(), np=1, classes="", cwd=None, **kw):
@@ -106,6 +138,7 @@ def popen(exe, args=(), np=1, cwd=None, **kw):
     """starts exe in the background (a new session, so that kill_all reaches its ranks)"""
     kw.setdefault("start_new_session", True)
     kw.setdefault("env", ENV)
+    _own_session(np, kw)  # removed with the script's directory at exit
     return subprocess.Popen(command(exe, args, np), cwd=cwd, **kw)
 
 
