@@ -233,6 +233,13 @@ CASES = [
     (["-msim_integrator", "implicit_euler", "-msim_self_contact", "-msim_friction", "0.3", "-msim_implicit_terms", "springs,self_friction,self_contact"], "-msim_implicit_terms: 'self_friction' must come after 'self_contact'"),
     (["-msim_scene", "box", "-msim_box_n", "3,2,2", "-msim_fix_plane", "x_min", "-msim_volume", "1", "-msim_integrator", "implicit_euler", "-msim_implicit_terms", "springs"], "-msim_implicit_terms leaves out 'volume', the term of the tets' volume (-msim_volume)"),
     (["-msim_integrator", "implicit_euler", "-msim_drag", "0.1", "-msim_implicit_terms", "springs"], "-msim_implicit_terms leaves out 'drag', the term of -msim_drag"),
+    # the spectrum's counts name their option (the eigensolver's check named none; a negative
+    # -msim_spectrum_lowest computed no mode without a word); the default cloth has 6 x 6 - 2 free
+    (["-msim_spectrum", "-msim_cloth_n", "6", "-msim_spectrum_largest", "0"], "-msim_spectrum_largest must be in [1, 102], the scene's unknowns (got 0)"),
+    (["-msim_spectrum", "-msim_cloth_n", "6", "-msim_spectrum_lowest", "-1"], "-msim_spectrum_lowest must be in [0, 102], the scene's unknowns (got -1)"),
+    (["-msim_spectrum", "-msim_cloth_n", "6", "-msim_spectrum_lowest", "5000"], "-msim_spectrum_lowest must be in [0, 102]"),
+    # the springs too: `-msim_implicit_terms drag -msim_drag 0.1` ran a cloth with drag alone, no note
+    (["-msim_integrator", "implicit_euler", "-msim_drag", "0.1", "-msim_implicit_terms", "drag"], "-msim_implicit_terms leaves out 'springs', the term of the scene's springs"),
     # options files, read inside PetscInitialize (written by main() below)
     (["-options_file", "missing.opts"], "-options_file missing.opts: cannot open it"),
     (["-options_file", "malformed.opts"], "malformed.opts line 2: msim_steps"),

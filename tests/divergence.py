@@ -5,7 +5,8 @@ over 10 x the scene's old energy scale, m g times its diagonal: the test compare
 stopped it at step 88), one falling at its terminal velocity in air drag (stopped at step 182),
 one lifted 20 m by its handles (their work, 196 J, stopped it at step 180). Explicit Euler past
 its stability limit still stops at step 16, as it did, its line naming the test and its numbers
-(the energy's rise, the factor and the scale). At 1 and 2 ranks, or with `--np N` at N alone."""
+(the energy's rise, the factor and the scale), and a misspelled option is named after that line.
+At 1 and 2 ranks, or with `--np N` at N alone."""
 import re
 import sys
 
@@ -35,6 +36,12 @@ def main():
         check(r.returncode != 0 and m is not None and int(m.group(1)) == 16 and int(m.group(4)) == int(m.group(1)) - 1
               and float(m.group(2)) > 10 * float(m.group(3)),
               f"np={np}: explicit Euler past its limit stops early, its line naming the test ({lines!r})")
+        # a misspelled option, which may be the failure's cause, is named after the error line as a
+        # finished run names it (a failing run said nothing of it)
+        r = mt.run(MSIM, ["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_spectrum_check", "0", "-msim_stifness", "3"], np)
+        lines = mt.lines(r.stderr)
+        check(r.returncode != 0 and len(lines) == 2 and lines[0].startswith("msim: error: diverged at step") and lines[1].startswith("msim: warning: -msim_stifness was set but never used"),
+              f"np={np}: the blow-up with a misspelled option names both, the error first ({lines!r})")
     return check.exit_code()
 
 

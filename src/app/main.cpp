@@ -14,7 +14,7 @@ static PetscErrorCode MSimMain(void)
   MSimScene      scene;
   MSimSystem     sys;
   MSimIntegrator integ;
-  MSimRunInfo    info;
+  MSimRunInfo    info = {};
   Vec            X, V, X0, V0;
   PetscBool      spectrum_only, view = PETSC_FALSE;
 
@@ -49,6 +49,10 @@ static PetscErrorCode MSimMain(void)
       PetscCall(VecDestroy(&V));
       PetscCall(MSimIntegratorDestroy(&integ));
       PetscCall(MSimSystemDestroy(&sys));
+      /* a divergence may come of a misspelled option (-msim_stifness left the default stiffness):
+         named after the error line, as a finished run names it. Only there: an error at set-up
+         comes before the options msim would read after it, which are not misspelled */
+      if (info.diverged) PetscCall(MSimWarnUnusedOptions(PETSC_COMM_WORLD));
       return rerr;
     }
   }

@@ -153,6 +153,7 @@ PetscErrorCode MSimImplicitCheckTermsCoverScene(MSimImplicit imp)
     const char *term, *what;
     PetscBool   needed;
   } need[] = {
+    {MSIMTERMSPRINGS, "the scene's springs",                                 (PetscBool)(sys->nspring_global > 0)                },
     {MSIMTERMDRAG,    "-msim_drag",                                          (PetscBool)(sys->drag != 0)                         },
     {"obstacles",     "the obstacles (-msim_contact_*)",                     (PetscBool)(ct != NULL)                             },
     {"friction",      "-msim_friction with obstacles",                      (PetscBool)(ct && ct->mu > 0)                       },
@@ -209,7 +210,7 @@ PetscErrorCode MSimImplicitCreateWithScheme(MSimSystem sys, const char scheme[],
     PetscCall(PetscStrlcat(help, k ? ", " : " ", sizeof(help)));
     PetscCall(PetscStrlcat(help, names[k], sizeof(help)));
   }
-  PetscCall(PetscStrlcat(help, "); a term the scene needs (its drag, obstacles, friction, self-contact, volume) cannot be left out", sizeof(help)));
+  PetscCall(PetscStrlcat(help, "); default: all of them; a term the scene needs (its springs, drag, obstacles, friction, self-contact, volume) cannot be left out", sizeof(help)));
   PetscOptionsBegin(sys->comm, NULL, "msim implicit problem", NULL);
   PetscCall(PetscOptionsStringArray("-msim_implicit_terms", help, NULL, list, &nlist, &set));
   PetscCall(PetscOptionsEList("-msim_implicit_guess", "First iterate of each implicit step: constant_velocity (x_n + h v_n), extrapolate (the scheme's position at v_{n+1} = 2 v_n - v_{n-1}: O(h^3), exact under constant acceleration), filtered (v_{n+1} = v_n + A^-1 M (v_n - v_{n-1}), A the PD matrix: one PD solve a step, stable with PD-10) or inertial (the scheme's y)", NULL, kGuessTypes, 4, kGuessTypes[(*imp)->guess_type], &(*imp)->guess_type, NULL));

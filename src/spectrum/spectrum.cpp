@@ -120,6 +120,13 @@ PetscErrorCode MSimSpectrumFromOptions(MSimSystem sys, Vec X, PetscBool *ran)
       if (set[k]) PetscCall(PetscFPrintf(sys->comm, PETSC_STDERR, "msim: warning: %s has no effect without -msim_spectrum (which computes the spectrum instead of the run's steps)\n", names[k]));
     PetscFunctionReturn(PETSC_SUCCESS);
   }
+  {
+    /* the counts against the unknowns (3 per free vertex), naming the option (the solver's own
+       check named none, and a negative -msim_spectrum_lowest computed no mode without a word) */
+    const PetscInt n = 3 * sys->nfree;
+    PetscCheck(nlargest >= 1 && nlargest <= n, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_spectrum_largest must be in [1, %" PetscInt_FMT "], the scene's unknowns (got %" PetscInt_FMT ")", n, nlargest);
+    PetscCheck(nlow >= 0 && nlow <= n, sys->comm, PETSC_ERR_ARG_OUTOFRANGE, "-msim_spectrum_lowest must be in [0, %" PetscInt_FMT "], the scene's unknowns (got %" PetscInt_FMT ")", n, nlow);
+  }
   PetscCall(MSimSystemVolumeCheckStart(sys, 0.0, X, NULL)); /* K holds the inversion barrier's Hessian */
   PetscCall(MSimSpectrumLargest(sys, X, nlargest, lambda));
   const PetscReal wmax = PetscSqrtReal(PetscMax(lambda[0], 0.0));
