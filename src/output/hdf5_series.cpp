@@ -18,6 +18,7 @@
 #include <msim/contact_force.h>
 #include <msim/private/systemimpl.h>
 #include <msim/destroy.h>
+#include <msim/errors.h>
 #include <petscviewerhdf5.h>
 #include <algorithm>
 #include <cstdio>
@@ -129,7 +130,7 @@ PetscErrorCode MSimHDF5SeriesDestroy(MSimHDF5Series *h)
 {
   PetscFunctionBeginUser;
   PetscCall(MSimDestroy(&h->fetch, &h->xcell, &h->strain, &h->ratio));
-  PetscCall(MSimCollectionClose(&h->xdmf));
+  if (h->sys) PetscCall(MSimCallOnRankZero(h->sys->comm, [&]() { return MSimCollectionClose(&h->xdmf); })); /* its last rewrite, rank 0's (none before MSimHDF5SeriesSetUp) */
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -245,7 +246,9 @@ PetscErrorCode MSimHDF5SeriesWriteFrame(MSimHDF5Series *h, PetscInt step, PetscR
   PetscCall(PetscSNPrintf(name, sizeof(name), "frame_%06" PetscInt_FMT, step));
   const std::string file = std::string(name) + ".h5";
   PetscCall(WriteFields(h, file, t, X, V));
-  if (h->sys->rank == 0) PetscCall(MSimCollectionAppend(&h->xdmf, GridXML(h, name, t, file)));
+  /* series.xdmf on rank 0, its outcome every rank's: a failed write is one error on all ranks
+     (the others went on into the next step's collectives and waited there for ever) */
+  PetscCall(MSimCallOnRankZero(h->sys->comm, [&]() { return MSimCollectionAppend(&h->xdmf, GridXML(h, name, t, file)); }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -255,9 +258,9 @@ PetscErrorCode MSimHDF5SeriesWriteExtra(MSimHDF5Series *h, const char name[], Pe
 
   PetscFunctionBeginUser;
   PetscCall(WriteFields(h, file, t, X, V));
-  if (h->sys->rank == 0) {
+  PetscCall(MSimCallOnRankZero(h->sys->comm, [&]() {
     const std::string doc = Document(GridXML(h, name, t, file));
-    PetscCall(MSimWriteFileAtomic((h->dir + "/" + name + ".xdmf").c_str(), doc.data(), doc.size()));
-  }
+    return MSimWriteFileAtomic((h->dir + "/" + name + ".xdmf").c_str(), doc.data(), doc.size());
+  }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }

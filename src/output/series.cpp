@@ -230,7 +230,10 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], Pets
     PetscCall(MSimSystemGatherVector(sys, F, fc));
     PetscCall(VecDestroy(&F));
   }
-  if (sys->rank == 0) {
+  /* rank 0 writes the files; the others wait for its outcome, so that a failed write (disk full,
+     an unwritable directory) is one error on every rank, not rank 0's alone while the others go
+     on into the next step's collectives and wait there for ever */
+  PetscCall(MSimCallOnRankZero(sys->comm, [&]() -> PetscErrorCode {
     const int                  k = sys->out_cell_size;
     const size_t               ncell = out->cells.size() / k, nspring = out->spring_L.size();
     const bool                 lines = out->springs.empty(); /* the cells are the springs */
@@ -251,7 +254,8 @@ static PetscErrorCode MSimOutputWriteVTU(MSimOutput out, const char base[], Pets
       PetscCall(PetscSNPrintf(path, sizeof(path), "%s/%s_springs.vtu", out->dir, base));
       PetscCall(MSimWriteVTUPiece(path, sys->nv, x.data(), (PetscInt)nspring, 2, out->springs.data(), npoint, point, 1, &cellstrain));
     }
-  }
+    return PETSC_SUCCESS;
+  }));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -269,7 +273,8 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
   }
   PetscCall(PetscSNPrintf(base, sizeof(base), "frame_%06" PetscInt_FMT, step));
   PetscCall(MSimOutputWriteVTU(out, base, t, X, V));
-  if (out->sys->rank == 0) {
+  /* series.pvd on rank 0, its outcome every rank's (MSimOutputWriteVTU says why) */
+  PetscCall(MSimCallOnRankZero(out->sys->comm, [&]() -> PetscErrorCode {
     /* a mesh's springs are part 1 of the timestep: ParaView's .pvd reader makes the two a
        multiblock data set */
     PetscCall(PetscSNPrintf(line, sizeof(line), "    <DataSet timestep=\"%.9g\" part=\"0\" file=\"%s.vtu\"/>\n", (double)t, base));
@@ -279,7 +284,8 @@ PetscErrorCode MSimOutputWriteFrame(MSimOutput out, PetscInt step, PetscReal t, 
       entry += line;
     }
     PetscCall(MSimCollectionAppend(&out->pvd, entry));
-  }
+    return PETSC_SUCCESS;
+  }));
   PetscCall(PetscLogEventEnd(MSIM_Output, X, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -300,7 +306,7 @@ PetscErrorCode MSimOutputDestroy(MSimOutput *out)
 {
   PetscFunctionBeginUser;
   if (*out && (*out)->hdf5) PetscCall(MSimHDF5SeriesDestroy(&(*out)->h5));
-  if (*out) PetscCall(MSimCollectionClose(&(*out)->pvd));
+  if (*out) PetscCall(MSimCallOnRankZero((*out)->sys->comm, [&]() { return MSimCollectionClose(&(*out)->pvd); })); /* its last rewrite */
   delete *out;
   *out = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);
