@@ -275,77 +275,91 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
   };
   PetscCall(MSimProgressBegin(&progress, step0));
   PetscCall(MSimStopSignalBegin(sys->comm, &stop));
-  for (PetscInt n = step0 + 1; n <= integ->steps; n++) {
-    const PetscReal t0 = time_at(n - 1), t = time_at(n);
-    int             signal_seen;
-    PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
+  /* the time loop. Every way out of it ends the stop poll: an error inside a step (a solver's
+     -ksp_error_if_not_converged, a frame that cannot be written) returned with the in-step
+     poll's MPI_Iallreduce still pending at MPI_Finalize, and SIGINT/SIGTERM only noted, never
+     acted on, for the rest of the run's teardown */
+  auto Steps = [&]() -> PetscErrorCode {
+    for (PetscInt n = step0 + 1; n <= integ->steps; n++) {
+      const PetscReal t0 = time_at(n - 1), t = time_at(n);
+      int             signal_seen;
+      PetscBool       check = (PetscBool)(want_mon || n % check_every == 0 || n == integ->steps), bad = PETSC_FALSE, solver_failed;
 
-    if (last_good != n - 1) { /* x_{n-1} was not checked: kept, so a failure here can still save it */
-      PetscCall(VecCopy(X, Xprev));
-      PetscCall(VecCopy(V, Vprev));
-    }
-    PetscCall(MSimIntegratorStep(integ, t0, X, V));
-    if (n == 1) {
-      /* the energy the contact barriers held at the start (known once the first step began),
-         which pairs that start within the contact distance release as kinetic energy: part of
-         the start's energy, as a checkpoint then carries it (a restarted run has E0 from it) */
-      E0 += integ->barrier_energy0;
-      scale += integ->barrier_energy0;
-    }
-    if (integ->stopped) { /* a signal inside the step: X, V are step n - 1's again */
-      PetscFunctionReturn(Stop(MSimStopSignalAgreedInStep(), n - 1, t0, PETSC_TRUE));
-    }
-    PetscCall(MSimContactWatchHandles(sys, n, t0, t));
-    solver_failed = integ->failed; /* the implicit solver gave up on this step */
-    if (solver_failed) bad = PETSC_TRUE;
-    if (check && !bad) PetscCall(Diverged(t, X, V, &kin, &pot, &Ug, &bad));
-    if (bad) {
-      char limit[128] = "", why[256] = "";
-      if (info->critical_dt < PETSC_INFINITY) PetscCall(PetscSNPrintf(limit, sizeof(limit), ", predicted limit h <= %g", (double)info->critical_dt));
-      if (!solver_failed) {
-        if (PetscIsInfOrNanReal(kin + pot)) PetscCall(PetscSNPrintf(why, sizeof(why), ": the state is not finite"));
-        else snprintf(why, sizeof(why), ": the total energy rose by %g J (%g -> %g J), more than -msim_divergence_factor %g x the energy scale %g J", (double)(kin + pot - E0), (double)E0, (double)(kin + pot), (double)factor, (double)(scale + PetscMax(Ug - Ug0, 0))); /* C's %g: PETSc's prints 10 as "10." */
+      if (last_good != n - 1) { /* x_{n-1} was not checked: kept, so a failure here can still save it */
+        PetscCall(VecCopy(X, Xprev));
+        PetscCall(VecCopy(V, Vprev));
       }
-      info->diverged   = PETSC_TRUE;
-      info->steps_done = n;
-      info->t          = t;
-      if (last_good != n - 1) {
-        /* the steps since the last check were not checked (-msim_divergence_check_every): the one
-           before this is the last finite state if it passes the same test (a failed solve at step
-           2 named and saved step 0, up to k - 1 good steps lost) */
-        PetscReal k0, p0, u0;
-        PetscBool bad0 = PETSC_TRUE;
-        PetscCall(Diverged(t0, Xprev, Vprev, &k0, &p0, &u0, &bad0));
-        if (!bad0) {
-          last_good = n - 1;
-          PetscCall(VecSwap(Xgood, Xprev));
-          PetscCall(VecSwap(Vgood, Vprev));
+      PetscCall(MSimIntegratorStep(integ, t0, X, V));
+      if (n == 1) {
+        /* the energy the contact barriers held at the start (known once the first step began),
+           which pairs that start within the contact distance release as kinetic energy: part of
+           the start's energy, as a checkpoint then carries it (a restarted run has E0 from it) */
+        E0 += integ->barrier_energy0;
+        scale += integ->barrier_energy0;
+      }
+      if (integ->stopped) { /* a signal inside the step: X, V are step n - 1's again */
+        return Stop(MSimStopSignalAgreedInStep(), n - 1, t0, PETSC_TRUE);
+      }
+      PetscCall(MSimContactWatchHandles(sys, n, t0, t));
+      solver_failed = integ->failed; /* the implicit solver gave up on this step */
+      if (solver_failed) bad = PETSC_TRUE;
+      if (check && !bad) PetscCall(Diverged(t, X, V, &kin, &pot, &Ug, &bad));
+      if (bad) {
+        char limit[128] = "", why[256] = "";
+        if (info->critical_dt < PETSC_INFINITY) PetscCall(PetscSNPrintf(limit, sizeof(limit), ", predicted limit h <= %g", (double)info->critical_dt));
+        if (!solver_failed) {
+          if (PetscIsInfOrNanReal(kin + pot)) PetscCall(PetscSNPrintf(why, sizeof(why), ": the state is not finite"));
+          else snprintf(why, sizeof(why), ": the total energy rose by %g J (%g -> %g J), more than -msim_divergence_factor %g x the energy scale %g J", (double)(kin + pot - E0), (double)E0, (double)(kin + pot), (double)factor, (double)(scale + PetscMax(Ug - Ug0, 0))); /* C's %g: PETSc's prints 10 as "10." */
         }
+        info->diverged   = PETSC_TRUE;
+        info->steps_done = n;
+        info->t          = t;
+        if (last_good != n - 1) {
+          /* the steps since the last check were not checked (-msim_divergence_check_every): the one
+             before this is the last finite state if it passes the same test (a failed solve at step
+             2 named and saved step 0, up to k - 1 good steps lost) */
+          PetscReal k0, p0, u0;
+          PetscBool bad0 = PETSC_TRUE;
+          PetscCall(Diverged(t0, Xprev, Vprev, &k0, &p0, &u0, &bad0));
+          if (!bad0) {
+            last_good = n - 1;
+            PetscCall(VecSwap(Xgood, Xprev));
+            PetscCall(VecSwap(Vgood, Vprev));
+          }
+        }
+        PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
+        PetscCall(VecCopy(Xgood, X));
+        PetscCall(VecCopy(Vgood, V));
+        PetscCall(Summarise(n));
+        PetscCall(EndEarly());
+        SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s)%s; %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, why, integ->type, (double)integ->dt, limit, last_good);
       }
-      PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
-      PetscCall(VecCopy(Xgood, X));
-      PetscCall(VecCopy(Vgood, V));
-      PetscCall(Summarise(n));
-      PetscCall(EndEarly());
-      SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s)%s; %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, why, integ->type, (double)integ->dt, limit, last_good);
+      if (check) {
+        last_good = n;
+        PetscCall(VecCopy(X, Xgood));
+        PetscCall(VecCopy(V, Vgood));
+      }
+      if (want_mon) {
+        PetscReal contact[5]; /* at the step's result, as the frame's contact_force */
+        PetscCall(MSimContactForce(sys, t, X, NULL, contact));
+        PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi, contact));
+      }
+      PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
+      if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X, V));
+      PetscCall(MSimStopSignalPoll(&stop, &signal_seen));
+      PetscCall(MSimCheckpointWanted(ck, n, integ->steps, &want_out));
+      if (want_out && !signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));
+      if (signal_seen) return Stop(signal_seen, n, t, PETSC_FALSE);
+      PetscCall(MSimProgressUpdate(&progress, n, t));
     }
-    if (check) {
-      last_good = n;
-      PetscCall(VecCopy(X, Xgood));
-      PetscCall(VecCopy(V, Vgood));
+    return PETSC_SUCCESS;
+  };
+  {
+    const PetscErrorCode serr = Steps();
+    if (serr) {
+      PetscCall(MSimStopSignalEnd(&stop)); /* done already where the loop stopped for a signal or a divergence */
+      PetscFunctionReturn(serr);
     }
-    if (want_mon) {
-      PetscReal contact[5]; /* at the step's result, as the frame's contact_force */
-      PetscCall(MSimContactForce(sys, t, X, NULL, contact));
-      PetscCall(MSimMonitorWrite(sys->comm, &mon, n, t, kin, pot, integ->nonlinear_its, integ->linear_its, integ->residual, integ->phi, contact));
-    }
-    PetscCall(MSimOutputWanted(out, n, integ->steps, &want_out));
-    if (want_out) PetscCall(MSimOutputWriteFrame(out, n, t, X, V));
-    PetscCall(MSimStopSignalPoll(&stop, &signal_seen));
-    PetscCall(MSimCheckpointWanted(ck, n, integ->steps, &want_out));
-    if (want_out && !signal_seen) PetscCall(MSimCheckpointWrite(ck, n, t, integ->dt, E0, X, V));
-    if (signal_seen) PetscFunctionReturn(Stop(signal_seen, n, t, PETSC_FALSE));
-    PetscCall(MSimProgressUpdate(&progress, n, t));
   }
   PetscCall(MSimStopSignalEnd(&stop));
   PetscCall(MSimCheckpointDestroy(&ck));
