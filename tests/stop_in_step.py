@@ -9,10 +9,13 @@
 - the same for ts, whose one interval takes thousands of internal steps (adaptive, a tight
   tolerance): stopped between them, step 1's state kept (was: a failed step, no checkpoint);
 - the run restarted from that checkpoint takes step 2 and ends without a word;
-- inside the run's first step (bdf2) nothing is saved, and the line says so.
+- inside the run's first step (bdf2) nothing is saved, and the line says so; -snes_converged_reason
+  says "Nonlinear solve stopped by SIGTERM" for the stopped solve (PETSc's own line named the
+  stand-in reason DIVERGED_FUNCTION_DOMAIN, a failure that was none).
 The steps' length is set by a fixed PD iteration count (ts: by the tolerance), about 3 s here;
 the checks hold as long as a step lasts well over the test's 5 ms poll of the monitor file."""
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -98,15 +101,20 @@ with tempfile.TemporaryDirectory() as tmp:
     for np in mt.ranks():
         ck = os.path.join(tmp, f"first{np}.ck")
         mon = os.path.join(tmp, f"first{np}.csv")
-        p = mt.popen(MSIM, scene + ["-msim_steps", "4", "-msim_checkpoint", ck, "-msim_monitor_csv", mon], np, cwd=tmp,
-                     start_new_session=False, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        # with -snes_converged_reason: the stopped solve says so (PETSc's own line named the stand-in
+        # reason, "did not converge due to DIVERGED_FUNCTION_DOMAIN")
+        p = mt.popen(MSIM, scene + ["-msim_steps", "4", "-msim_checkpoint", ck, "-msim_monitor_csv", mon, "-snes_converged_reason"], np, cwd=tmp,
+                     start_new_session=False, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         t0 = time.time()
         while len(rows(mon)) < 2 and time.time() - t0 < 120 and p.poll() is None:  # header, step 0
             time.sleep(0.005)
         for pid in ranks_of(p, np):
             os.kill(pid, signal.SIGTERM)
-        err = p.communicate(timeout=120)[1]
+        out, err = p.communicate(timeout=120)
         lines = [l for l in mt.lines(err) if not l.startswith(("[warn] Epoll", "msim: step "))]
+        reason = mt.lines(out)
+        check(len(reason) == 1 and re.fullmatch(r"Nonlinear solve stopped by SIGTERM iterations \d+", reason[0].strip()),
+              f"first step np={np}: -snes_converged_reason says the solve was stopped, in one line ({reason[:3]})")
         said = len(lines) == 1 and "after step 0 of 4" in lines[0] and "step 1 given up" in lines[0] and "nothing was saved" in lines[0]
         check(p.returncode != 0 and said and not os.path.exists(ck), f"first step np={np}: nothing saved, said in one line (rc {p.returncode}, {lines[:3]})")
 sys.exit(check.exit_code())

@@ -23,6 +23,7 @@
 
 static volatile sig_atomic_t msim_signal_seen = 0, msim_pipe_closed = 0;
 static int                   msim_stopped_by  = 0; /* the signal the ranks stopped for */
+static PetscBool             viewers_off      = PETSC_FALSE; /* StopReasonView pushed PetscOptionsGetViewer off */
 
 /* inside the steps (MSimStopSignalPollInStep): the stepping's ranks, the reduction in flight, and
    the signal agreed (0: none yet) */
@@ -145,6 +146,8 @@ PetscErrorCode MSimStopSignalEnd(MSimStopSignal *s)
   if (!s->active) PetscFunctionReturn(PETSC_SUCCESS);
   if (s->request != MPI_REQUEST_NULL) PetscCallMPI(MPI_Wait(&s->request, MPI_STATUS_IGNORE));
   if (in_step.request != MPI_REQUEST_NULL) PetscCallMPI(MPI_Wait(&in_step.request, MPI_STATUS_IGNORE));
+  if (viewers_off) PetscCall(PetscOptionsPopGetViewerOff());
+  viewers_off    = PETSC_FALSE;
   in_step.comm   = MPI_COMM_NULL;
   in_step.agreed = 0;
   sigaction(SIGINT, &s->old_int, NULL);
@@ -187,6 +190,39 @@ static PetscErrorCode StopConverged(SNES snes, PetscInt it, PetscReal xnorm, Pet
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
+/* -snes_converged_reason for a stopped solve: PETSc 3.18 has no reason of its own for it, and its
+   viewer said "Nonlinear solve did not converge due to DIVERGED_FUNCTION_DOMAIN" right before
+   msim's "stopped by SIGTERM" line, a failure that was none. PETSc calls the views set with
+   SNESConvergedReasonViewSet first, then its own where the option asks: this one says "Nonlinear
+   solve stopped by SIGTERM" where the option's viewer goes (nothing for a closed standard output),
+   then turns PetscOptionsGetViewer off, so that PETSc's finds no viewer, until MSimStopSignalEnd.
+   That also leaves out the stopped solve's other end-of-solve views (-snes_view), and any view
+   asked for between the stop and the run's end; the run then only saves its checkpoint. */
+static PetscErrorCode StopReasonView(SNES snes, void *)
+{
+  PetscViewer       viewer;
+  PetscViewerFormat format;
+  PetscBool         set, ascii;
+  const char       *prefix;
+
+  PetscFunctionBeginUser;
+  if (!in_step.agreed || snes->reason != MSIM_SNES_STOPPED || viewers_off) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(SNESGetOptionsPrefix(snes, &prefix));
+  PetscCall(PetscOptionsGetViewer(PetscObjectComm((PetscObject)snes), ((PetscObject)snes)->options, prefix, "-snes_converged_reason", &viewer, &format, &set));
+  if (set) {
+    PetscCall(PetscObjectTypeCompare((PetscObject)viewer, PETSCVIEWERASCII, &ascii));
+    if (ascii && in_step.agreed != SIGPIPE) {
+      PetscCall(PetscViewerASCIIAddTab(viewer, ((PetscObject)snes)->tablevel));
+      PetscCall(PetscViewerASCIIPrintf(viewer, "Nonlinear %s%ssolve stopped by %s iterations %" PetscInt_FMT "\n", prefix ? prefix : "", prefix ? " " : "", in_step.agreed == SIGINT ? "SIGINT" : "SIGTERM", snes->iter));
+      PetscCall(PetscViewerASCIISubtractTab(viewer, ((PetscObject)snes)->tablevel));
+    }
+    PetscCall(PetscViewerDestroy(&viewer));
+  }
+  PetscCall(PetscOptionsPushGetViewerOff(PETSC_TRUE));
+  viewers_off = PETSC_TRUE;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 static PetscErrorCode StopTestDestroy(void *ctx)
 {
   StopTest *st = (StopTest *)ctx;
@@ -211,5 +247,6 @@ PetscErrorCode MSimStopSignalSetSNES(SNES snes)
   snes->ops->convergeddestroy  = NULL;
   PetscCall(SNESSetConvergenceTest(snes, StopConverged, st, StopTestDestroy));
   PetscCall(SNESMonitorSet(snes, StopMonitor, NULL, NULL));
+  PetscCall(SNESConvergedReasonViewSet(snes, StopReasonView, NULL, NULL));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
