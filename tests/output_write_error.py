@@ -7,7 +7,11 @@ collectives, waiting for ever (the 2-rank runs below hung until killed). The fai
 directory where msim writes a file under a temporary name before renaming it:
 - vtu: frame_000004.vtu.tmp, so frame 4 cannot be written (frames 0..3 were, and are listed);
 - vtu and hdf5: a restart whose first frame rewrites the collection whole finds series.pvd.tmp or
-  series.xdmf.tmp a directory; the collection the first run left (frames 0..5) stays as it was.
+  series.xdmf.tmp a directory; the collection the first run left (frames 0..5) stays as it was;
+- vtu: series.pvd cannot grow past 4 KB (ulimit -f 4, SIGXFSZ ignored: the write fails with EFBIG
+  as on a full disk), so a frame's entry written in place fails (the .vtu files are ~1 KB); the
+  collection lists the frames before it. Under mpirun at 1 rank too (a singleton's MPI_Init
+  writes files over the limit).
 Usage: output_write_error.py path/to/msim --np N"""
 import os
 import subprocess
@@ -24,9 +28,14 @@ LIMIT = 60  # s: a run that ends takes about 1 s
 check = mt.Checks()
 
 
-def run(args):
-    """msim to its end, or killed (mpirun and its ranks) after LIMIT s: (exit status or None, stderr's lines)"""
-    p = mt.popen(MSIM, args, NP, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=mt.RUN_ENV)
+def run(args, limit_kb=None):
+    """msim to its end, or killed (mpirun and its ranks) after LIMIT s: (exit status or None,
+    stderr's lines); limit_kb: each rank's files limited to that size"""
+    if limit_kb is None:
+        p = mt.popen(MSIM, args, NP, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=mt.RUN_ENV)
+    else:
+        cmd = mt.mpirun(NP) + ["bash", "-c", f'trap "" XFSZ; ulimit -f {limit_kb}; exec "$0" "$@"', MSIM] + list(args)
+        p = subprocess.Popen(cmd, start_new_session=True, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=mt.RUN_ENV)
     try:
         _, err = p.communicate(timeout=LIMIT)
         return p.returncode, mt.lines(err)
@@ -53,8 +62,8 @@ def readable(out, f):
         return h["positions"].shape == (9, 3)  # the 3 x 3 cloth's vertices
 
 
-def expect(label, args, out, fmt, bad, frames):
-    rc, err = run(args)
+def expect(label, args, out, fmt, bad, frames, limit_kb=None):
+    rc, err = run(args, limit_kb)
     try:
         names = listed(out, fmt)
         ok_files = all(readable(out, f) for f in names)
@@ -73,6 +82,16 @@ def main():
         out = os.path.join(tmp, "mid")
         os.makedirs(os.path.join(out, "frame_000004.vtu.tmp"))
         expect("vtu frame 4 unwritable", SCENE + ["-msim_steps", "10", "-msim_output", out], out, "vtu", "frame_000004.vtu.tmp", 4)
+        # the entries are ~70 bytes after a ~140-byte head: the one that crosses 4096 bytes fails
+        out = os.path.join(tmp, "full")
+        entry = len('    <DataSet timestep="0.0002" part="0" file="frame_000001.vtu"/>\n')
+        rc, err = run(SCENE + ["-msim_steps", "100", "-msim_output", out], 4)
+        names = listed(out, "vtu") if os.path.exists(os.path.join(out, "series.pvd")) else []
+        m = len(names)
+        check(rc not in (None, 0) and len(err) == 1 and os.path.join(out, "series.pvd") + " failed" in err[0],
+              f"np={NP} series.pvd limited to 4 KB: exit {rc}, one error line naming it ({err[:3]})")
+        check(m > 4096 // (2 * entry) and names == [f"frame_{k:06d}.vtu" for k in range(m)] and all(readable(out, f) for f in names),
+              f"np={NP} series.pvd limited to 4 KB: it lists frames 0..{m - 1}, each readable")
         for fmt, coll in (("vtu", "series.pvd"), ("hdf5", "series.xdmf")):
             out, ck = os.path.join(tmp, fmt), os.path.join(tmp, fmt + ".ck")
             first = SCENE + ["-msim_output", out, "-msim_output_format", fmt]
