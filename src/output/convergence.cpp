@@ -1,7 +1,9 @@
 #include <msim/convergence.h>
 #include <msim/output.h>
+#include <msim/errors.h>
 #include <msim/private/systemimpl.h>
 #include <cstdio>
+#include <string>
 
 struct _n_MSimConvergenceMonitor {
   MSimSystem          sys;
@@ -42,11 +44,15 @@ static PetscErrorCode MSimConvergenceMonitorIterate(SNES snes, PetscInt its, Pet
   PetscCall(PetscTime(&t0));
   PetscCall(SNESGetSolution(snes, &X));
   PetscCall((*mon->eval)(mon->eval_ctx, X, &phi, &gnorm));
+  PetscBool written = PETSC_TRUE;
   if (mon->sys->rank == 0) {
     /* rows flushed as they are made: a killed run keeps its history up to the last row */
     const int wrote = fprintf(mon->fp, "%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.17e,%.6e\n", mon->step, its, t0 - mon->start - mon->spent, (double)phi, (double)gnorm);
-    PetscCheck(wrote > 0 && fflush(mon->fp) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_convergence: write to %s failed", mon->path);
+    written         = (PetscBool)(wrote > 0 && fflush(mon->fp) == 0);
   }
+  /* a failed write (disk full) is an error on every rank: rank 0's alone left the others in the
+     solver's next collectives, waiting for ever */
+  PetscCall(MSimCollectiveCheck(mon->sys->comm, written, std::string("-msim_monitor_convergence: write to ") + mon->path + " failed"));
   PetscCall(PetscTime(&t1));
   mon->spent += t1 - t0;
   PetscFunctionReturn(PETSC_SUCCESS);
@@ -97,11 +103,10 @@ PetscErrorCode MSimConvergenceMonitorDestroy(MSimConvergenceMonitor *mon)
 {
   PetscFunctionBeginUser;
   if (!*mon) PetscFunctionReturn(PETSC_SUCCESS);
-  if ((*mon)->fp) {
-    const int closed = fclose((*mon)->fp);
-    (*mon)->fp       = NULL;
-    PetscCheck(closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_convergence: write to %s failed", (*mon)->path);
-  }
+  PetscBool closed = PETSC_TRUE;
+  if ((*mon)->fp) closed = (PetscBool)(fclose((*mon)->fp) == 0); /* rank 0's */
+  (*mon)->fp = NULL;
+  PetscCall(MSimCollectiveCheck((*mon)->sys->comm, closed, std::string("-msim_monitor_convergence: write to ") + (*mon)->path + " failed"));
   delete *mon;
   *mon = NULL;
   PetscFunctionReturn(PETSC_SUCCESS);

@@ -3,6 +3,7 @@
    (their sum, the energy the divergence test compares); the CSV adds the obstacles' contact
    energy, which potential leaves out (msim/contact_force.h). */
 #include <msim/output.h>
+#include <msim/errors.h>
 #include <msim/log.h>
 #include <msim/private/systemimpl.h>
 #include <algorithm>
@@ -162,11 +163,15 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
   const PetscReal fc[3] = {contact ? contact[0] : 0, contact ? contact[1] : 0, contact ? contact[2] : 0};
   const PetscInt  nc    = contact ? (PetscInt)(contact[3] + 0.5) : 0;
   const PetscReal ec    = contact ? contact[4] : 0;
-  if (mon->csv) {
+  PetscBool written = PETSC_TRUE;
+  if (mon->csv) { /* rank 0's */
     PetscCall(PetscTime(&now));
     const int wrote = fprintf(mon->csv, "%" PetscInt_FMT ",%.9e,%.12e,%.12e,%.12e,%" PetscInt_FMT ",%" PetscInt_FMT ",%.6e,%.12e,%.9e,%.9e,%.9e,%" PetscInt_FMT ",%.12e,%.6f\n", step, (double)t, (double)kinetic, (double)potential, (double)(kinetic + potential), nl, lin, (double)residual, (double)phi, (double)fc[0], (double)fc[1], (double)fc[2], nc, (double)ec, now - mon->wall0);
-    PetscCheck(wrote > 0 && fflush(mon->csv) == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
+    written = (PetscBool)(wrote > 0 && fflush(mon->csv) == 0);
   }
+  /* a failed write (disk full) is an error on every rank: rank 0's alone left the others in the
+     next step's collectives, waiting for ever */
+  if (mon->csv_path[0]) PetscCall(MSimCollectiveCheck(comm, written, std::string("-msim_monitor_csv: write to ") + mon->csv_path + " failed"));
   PetscCall(PetscLogEventEnd(MSIM_Monitor, 0, 0, 0, 0));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
@@ -174,11 +179,10 @@ PetscErrorCode MSimMonitorWrite(MPI_Comm comm, MSimMonitor *mon, PetscInt step, 
 PetscErrorCode MSimMonitorDestroy(MPI_Comm comm, MSimMonitor *mon)
 {
   PetscFunctionBeginUser;
-  if (mon->csv) {
-    const int closed = fclose(mon->csv);
-    mon->csv         = NULL;
-    PetscCheck(closed == 0, PETSC_COMM_SELF, PETSC_ERR_FILE_WRITE, "-msim_monitor_csv: write to %s failed", mon->csv_path);
-  }
+  PetscBool closed = PETSC_TRUE;
+  if (mon->csv) closed = (PetscBool)(fclose(mon->csv) == 0); /* rank 0's */
+  mon->csv = NULL;
+  if (mon->csv_path[0]) PetscCall(MSimCollectiveCheck(comm, closed, std::string("-msim_monitor_csv: write to ") + mon->csv_path + " failed"));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
