@@ -19,3 +19,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
 
 /* omega_max bound used by the guard: Gershgorin, or SLEPc with -msim_spectrum_guard slepc. */
 PetscErrorCode MSimStabilityLimit(MSimSystem sys, MSimIntegrator integ, PetscReal omega_max, PetscReal *hcrit);
+
+/* The largest x = h omega with |R(x' mu)| <= 1 on [0, x] for the stability polynomial
+   R(z) = sum_{k <= degree} c[k] z^k, mu = -s + i sqrt(1 - s^2) (s = gamma / (2 omega), 0 undamped:
+   the imaginary axis); 0 where no step is stable (src/integrators/run.cpp) */
+PetscErrorCode MSimStabilityPolynomialLimit(PetscInt degree, const PetscReal c[], PetscReal s, PetscReal *x);

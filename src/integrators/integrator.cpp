@@ -58,6 +58,7 @@ PetscErrorCode MSimIntegratorSetType(MSimIntegrator integ, const char type[])
   integ->ops             = MSimIntegratorOps();
   integ->data            = NULL;
   integ->stability_limit = PETSC_INFINITY;
+  integ->stability_degree = 0;
   integ->setupcalled     = PETSC_FALSE;
   PetscCall(PetscStrncpy(integ->type, type, sizeof(integ->type)));
   PetscCall((*create)(integ));

@@ -11,9 +11,78 @@
 #include <msim/private/systemimpl.h>
 #include <cmath>
 
+/* |R(x mu)|^2 - 1 = sum_m p[m] x^m for R(z) = sum_k c[k] z^k and mu = -s + i sqrt(1 - s^2) */
+static void StabilityModulusPolynomial(PetscInt degree, const PetscReal c[], PetscReal s, PetscReal p[])
+{
+  PetscReal are[MSIM_STABILITY_MAX_DEGREE + 1], aim[MSIM_STABILITY_MAX_DEGREE + 1], mre = -s, mim = PetscSqrtReal(1 - s * s), zre = 1, zim = 0;
+
+  for (PetscInt k = 0; k <= degree; k++) { /* a_k = c_k mu^k */
+    are[k] = c[k] * zre;
+    aim[k] = c[k] * zim;
+    const PetscReal t = zre * mre - zim * mim;
+    zim = zre * mim + zim * mre;
+    zre = t;
+  }
+  for (PetscInt m = 0; m <= 2 * degree; m++) {
+    p[m] = 0;
+    for (PetscInt j = PetscMax(0, m - degree); j <= PetscMin(m, degree); j++) p[m] += are[j] * are[m - j] + aim[j] * aim[m - j];
+  }
+  p[0] -= 1;
+}
+
+/* The largest x = h omega with |R(x' mu)| <= 1 for every x' in [0, x], where R(z) = sum_k c[k] z^k
+   is an explicit method's stability polynomial and mu = -s + i sqrt(1 - s^2) the direction of the
+   eigenvalue h lambda of a spring mode of frequency omega with drag (s = gamma / (2 omega); 0:
+   undamped, the imaginary axis); 0 where no step is stable. |R(x mu)|^2 - 1 is a polynomial in x
+   whose lowest terms vanish by the method's order conditions, which the tableau's rounding leaves
+   at ~1e-16: those below 1e-10 are taken as 0 (the first true one is 1/72 for RK4, 2s for any
+   method with drag), the rest divided by the lowest power left, and the first root is found on a
+   geometric grid to the Cauchy bound, then by bisection. */
+PetscErrorCode MSimStabilityPolynomialLimit(PetscInt degree, const PetscReal c[], PetscReal s, PetscReal *x)
+{
+  PetscReal       p[2 * MSIM_STABILITY_MAX_DEGREE + 1], bound = 0, lo, hi;
+  PetscInt        m0 = 1, top = 2 * degree;
+  const PetscInt  n  = 100000;
+  auto            Q  = [&](PetscReal xx) {
+    PetscReal q = 0;
+    for (PetscInt m = top; m >= m0; m--) q = q * xx + p[m];
+    return q;
+  };
+
+  PetscFunctionBeginUser;
+  PetscCheck(degree >= 1 && degree <= MSIM_STABILITY_MAX_DEGREE, PETSC_COMM_SELF, PETSC_ERR_ARG_OUTOFRANGE, "stability polynomial of degree %" PetscInt_FMT " (1 to %d)", degree, MSIM_STABILITY_MAX_DEGREE);
+  StabilityModulusPolynomial(degree, c, PetscMin(PetscMax(s, 0), 1), p);
+  while (top > 0 && p[top] == 0) top--;
+  while (m0 < top && PetscAbsReal(p[m0]) < 1e-10) m0++;
+  *x = 0;
+  if (p[m0] > 0 || top <= m0) PetscFunctionReturn(PETSC_SUCCESS);
+  for (PetscInt m = m0; m < top; m++) bound = PetscMax(bound, PetscAbsReal(p[m] / p[top]));
+  bound += 1;
+  lo = 0;
+  hi = bound;
+  for (PetscInt i = 0; i <= n; i++) {
+    const PetscReal xi = bound * PetscPowReal(10.0, -12.0 + 12.0 * i / n);
+    if (Q(xi) > 0) {
+      hi = xi;
+      break;
+    }
+    lo = xi;
+  }
+  for (int it = 0; it < 200 && hi - lo > 1e-15 * hi; it++) {
+    const PetscReal mid = 0.5 * (lo + hi);
+    if (Q(mid) > 0) hi = mid;
+    else lo = mid;
+  }
+  *x = lo;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
 /* Largest stable h for an explicit method given omega_max. Without damping: limit / omega_max.
    Explicit Euler has limit 0 undamped; with drag rate gamma = c/m it is stable iff
-   h <= gamma / omega_max^2 (|1 + h lambda| <= 1 for lambda = -gamma/2 +- i omega_d). */
+   h <= gamma / omega_max^2 (|1 + h lambda| <= 1 for lambda = -gamma/2 +- i omega_d), and any other
+   method with limit 0 and a stability polynomial where |R(h lambda)| <= 1 first fails (the same
+   for Euler's 1 + z). Drag is not counted where the limit is above 0 (RK4's 2 sqrt(2) / omega_max
+   either way). */
 PetscErrorCode MSimStabilityLimit(MSimSystem sys, MSimIntegrator integ, PetscReal omega_max, PetscReal *hcrit)
 {
   PetscReal mmax;
@@ -25,6 +94,11 @@ PetscErrorCode MSimStabilityLimit(MSimSystem sys, MSimIntegrator integ, PetscRea
   else {
     PetscCall(VecMax(sys->mass, NULL, &mmax));
     *hcrit = sys->drag > 0 ? (sys->drag / mmax) / (omega_max * omega_max) : 0.0;
+    if (sys->drag > 0 && integ->stability_degree > 0) {
+      PetscReal x;
+      PetscCall(MSimStabilityPolynomialLimit(integ->stability_degree, integ->stability_poly, (sys->drag / mmax) / (2 * omega_max), &x));
+      *hcrit = x / omega_max;
+    }
   }
   PetscFunctionReturn(PETSC_SUCCESS);
 }

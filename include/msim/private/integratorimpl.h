@@ -4,6 +4,9 @@
 #pragma once
 #include <msim/integrator.h>
 
+/* the highest degree of an explicit method's stability polynomial the guard takes (its stages) */
+#define MSIM_STABILITY_MAX_DEGREE 64
+
 /* An integrator type's ops: each NULL unless its type sets it (one static table per type, with
    designated initializers, copied into integ->ops by its create function). */
 typedef struct {
@@ -36,6 +39,11 @@ struct _n_MSimIntegrator {
   /* stability of an explicit method without damping: stable iff dt * omega_max <= stability_limit
      (0: no step is stable; PETSC_INFINITY: unconditionally stable) */
   PetscReal         stability_limit;
+  /* an explicit Runge-Kutta method's stability polynomial R(z) = sum_k stability_poly[k] z^k
+     (stability_degree 0: not given), from which the guard's limit with drag is found where
+     stability_limit is 0 (MSimStabilityLimit) */
+  PetscInt          stability_degree = 0;
+  PetscReal         stability_poly[MSIM_STABILITY_MAX_DEGREE + 1] = {};
   /* what the last step reports to monitors */
   PetscInt          nonlinear_its, linear_its;
   PetscReal         residual;

@@ -24,6 +24,7 @@
 #include <msim/private/systemimpl.h>
 #include <msim/destroy.h>
 #include <msim/signals.h>
+#include <msim/run.h>
 
 typedef enum { TS_FORM_EXPLICIT, TS_FORM_FIRST_ORDER, TS_FORM_SECOND_ORDER } TSForm;
 
@@ -239,19 +240,118 @@ static PetscErrorCode ClassifyType(TSType type, TSForm *form, PetscBool *known)
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
-/* Stability limits for the guard: the explicit types with a known one; implicit ones have none */
-static PetscErrorCode SetStabilityLimit(MSimIntegrator integ, TSInteg *d, TSType type)
+/* du/dt = N u with N the lower shift (N e_k = e_{k+1}): one step of h = 1 from e_0 of any
+   Runge-Kutta method is R(N) e_0 = (c_0, c_1, ...), its stability polynomial's coefficients */
+static PetscErrorCode RHS_Shift(TS ts, PetscReal t, Vec U, Vec F, void *ctx)
+{
+  const PetscScalar *u;
+  PetscScalar       *f;
+  PetscInt           n;
+
+  PetscFunctionBeginUser;
+  PetscCall(VecGetLocalSize(U, &n));
+  PetscCall(VecGetArrayRead(U, &u));
+  PetscCall(VecGetArray(F, &f));
+  f[0] = 0;
+  for (PetscInt k = 1; k < n; k++) f[k] = u[k - 1];
+  PetscCall(VecRestoreArray(F, &f));
+  PetscCall(VecRestoreArrayRead(U, &u));
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* The stability polynomial of the explicit TS ts (degree 0 where it has none msim knows: basicsymplectic
+   is a splitting). rk: c_k = b^T A^(k-1) 1 from its tableau; ssp, whose schemes (rks2, rks3, rk104)
+   PETSc writes as low-storage loops with no tableau: one step of a TS of the same scheme and
+   stage count on du/dt = N u (RHS_Shift), on each rank alone */
+static PetscErrorCode StabilityPolynomial(TS ts, TSType type, PetscInt *degree, PetscReal c[])
 {
   PetscFunctionBeginUser;
-  integ->stability_limit = PETSC_INFINITY;
-  if (d->form != TS_FORM_EXPLICIT) PetscFunctionReturn(PETSC_SUCCESS);
-  if (!strcmp(type, TSBASICSYMPLECTIC)) integ->stability_limit = 2.0;
-  if (!strcmp(type, TSEULER)) integ->stability_limit = 0.0;
-  if (!strcmp(type, TSRK)) {
-    TSRKType rktype;
-    PetscCall(TSRKGetType(d->ts, &rktype));
-    if (!strcmp(rktype, TSRK4)) integ->stability_limit = 2.0 * PETSC_SQRT2;
+  *degree = 0;
+  if (!strcmp(type, TSEULER)) {
+    *degree = 1;
+    c[0] = c[1] = 1;
+  } else if (!strcmp(type, TSRK)) {
+    PetscInt         s;
+    const PetscReal *A, *b;
+    PetscReal        v[MSIM_STABILITY_MAX_DEGREE], w[MSIM_STABILITY_MAX_DEGREE];
+    PetscCall(TSRKGetTableau(ts, &s, &A, &b, NULL, NULL, NULL, NULL, NULL));
+    if (s > MSIM_STABILITY_MAX_DEGREE) PetscFunctionReturn(PETSC_SUCCESS);
+    for (PetscInt i = 0; i < s; i++) v[i] = 1;
+    c[0] = 1;
+    for (PetscInt k = 1; k <= s; k++) { /* v = A^(k-1) 1 */
+      c[k] = 0;
+      for (PetscInt i = 0; i < s; i++) c[k] += b[i] * v[i];
+      for (PetscInt i = 0; i < s; i++) {
+        w[i] = 0;
+        for (PetscInt j = 0; j < s; j++) w[i] += A[i * s + j] * v[j];
+      }
+      for (PetscInt i = 0; i < s; i++) v[i] = w[i];
+    }
+    *degree = s;
+  } else if (!strcmp(type, TSSSP)) {
+    TS                 probe;
+    TSAdapt            adapt;
+    TSSSPType          ssptype;
+    PetscInt           s, n;
+    Vec                u;
+    const PetscScalar *a;
+    PetscCall(TSSSPGetType(ts, &ssptype));
+    PetscCall(TSSSPGetNumStages(ts, &s));
+    n = PetscMax(s, 10) + 1; /* rk104 takes 10 stages whatever the count says */
+    if (n > MSIM_STABILITY_MAX_DEGREE + 1) PetscFunctionReturn(PETSC_SUCCESS);
+    PetscCall(TSCreate(PETSC_COMM_SELF, &probe));
+    PetscCall(TSSetProblemType(probe, TS_NONLINEAR));
+    PetscCall(TSSetType(probe, TSSSP));
+    PetscCall(TSSSPSetType(probe, ssptype));
+    PetscCall(TSSSPSetNumStages(probe, s));
+    PetscCall(TSGetAdapt(probe, &adapt));
+    PetscCall(TSAdaptSetType(adapt, TSADAPTNONE));
+    PetscCall(VecCreateSeq(PETSC_COMM_SELF, n, &u));
+    PetscCall(VecSet(u, 0));
+    PetscCall(VecSetValue(u, 0, 1, INSERT_VALUES));
+    PetscCall(VecAssemblyBegin(u));
+    PetscCall(VecAssemblyEnd(u));
+    PetscCall(TSSetRHSFunction(probe, NULL, RHS_Shift, NULL));
+    PetscCall(TSSetSolution(probe, u));
+    PetscCall(TSSetTimeStep(probe, 1));
+    PetscCall(TSSetMaxSteps(probe, 1)); /* TSSetUp wants an end */
+    PetscCall(TSStep(probe));
+    PetscCall(VecGetArrayRead(u, &a));
+    for (PetscInt k = 0; k < n; k++) c[k] = PetscRealPart(a[k]);
+    PetscCall(VecRestoreArrayRead(u, &a));
+    PetscCall(VecDestroy(&u));
+    PetscCall(TSDestroy(&probe));
+    for (*degree = n - 1; *degree > 0 && c[*degree] == 0; (*degree)--) { }
   }
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Stability limits for the guard: an explicit type's largest h omega_max on the imaginary axis
+   (undamped springs), from its stability polynomial where it has one (rk 4: 2 sqrt(2); 3: sqrt(3);
+   euler, rk 1fe and 2a, ssp rks2: 0, unstable at every step without drag), basicsymplectic's 2;
+   implicit ones have none. An adaptive TS with an error estimate takes its own steps inside
+   -msim_dt, which is then no step of its: no guard (one without an estimate, as rk 4, cannot
+   adapt: PETSc refuses it at its first step, after the guard's warning as before) */
+static PetscErrorCode SetStabilityLimit(MSimIntegrator integ, TSInteg *d, TSType type)
+{
+  TSAdapt   adapt;
+  PetscBool none, estimate = PETSC_FALSE;
+
+  PetscFunctionBeginUser;
+  integ->stability_limit  = PETSC_INFINITY;
+  integ->stability_degree = 0;
+  if (d->form != TS_FORM_EXPLICIT) PetscFunctionReturn(PETSC_SUCCESS);
+  PetscCall(TSGetAdapt(d->ts, &adapt));
+  PetscCall(PetscObjectTypeCompare((PetscObject)adapt, TSADAPTNONE, &none));
+  if (!strcmp(type, TSRK)) {
+    const PetscReal *bembed;
+    PetscCall(TSRKGetTableau(d->ts, NULL, NULL, NULL, NULL, &bembed, NULL, NULL, NULL));
+    estimate = (PetscBool)(bembed != NULL);
+  }
+  if (!none && estimate) PetscFunctionReturn(PETSC_SUCCESS);
+  if (!strcmp(type, TSBASICSYMPLECTIC)) integ->stability_limit = 2.0;
+  PetscCall(StabilityPolynomial(d->ts, type, &integ->stability_degree, integ->stability_poly));
+  if (integ->stability_degree > 0) PetscCall(MSimStabilityPolynomialLimit(integ->stability_degree, integ->stability_poly, 0, &integ->stability_limit));
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
