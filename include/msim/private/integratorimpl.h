@@ -50,7 +50,7 @@ struct _n_MSimIntegrator {
   PetscReal         phi;      /* implicit: Phi at the step's result, when want_phi (else 0) */
   PetscBool         want_phi; /* set by the time loop when a monitor prints Phi */
   PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
-  char              failure[256]; /* why, in the solver's words (" (-snes_type qn: DIVERGED_LINE_SEARCH)") */
+  char              failure[512]; /* why, in the solver's words (" (-snes_type qn: DIVERGED_LINE_SEARCH)") */
   const char       *failed_what; /* what gave up, where not the nonlinear solver (a TS's error control); NULL: the solver */
   /* a stop signal cut the step short (msim/signals.h, MSimStopSignalAgreedInStep): X and V are
      the step's start again and the step counts as not taken */

@@ -47,6 +47,8 @@ typedef struct {
   PetscReal   fnorm0, fnorm;   /* the current stage solve's first and latest |F| (StageMonitor) */
   char        refused[192];    /* the last stage solve CheckStage refused, in words */
   PetscBool   linearised_noted; /* the note that a fixed-count solve (ksponly) makes a linearised scheme is out */
+  PetscInt    stage_failures;  /* stage solves that failed in the current interval (StageReasonView) */
+  SNESConvergedReason stage_failed_reason; /* the last one's reason */
 } TSInteg;
 
 /* du/dt = [v; M^-1 f(x, v)] */
@@ -96,6 +98,23 @@ static PetscErrorCode StageMonitor(SNES snes, PetscInt it, PetscReal fnorm, void
   PetscFunctionBeginUser;
   if (it == 0) d->fnorm0 = fnorm;
   d->fnorm = fnorm;
+  PetscFunctionReturn(PETSC_SUCCESS);
+}
+
+/* Called at the end of every stage solve (SNESSolve's reason views): counts the failed ones, which
+   the TS retries at a quarter of the step, for the message of a fixed-step run that runs out of
+   internal steps */
+static PetscErrorCode StageReasonView(SNES snes, void *ctx)
+{
+  TSInteg            *d = (TSInteg *)ctx;
+  SNESConvergedReason reason;
+
+  PetscFunctionBeginUser;
+  PetscCall(SNESGetConvergedReason(snes, &reason));
+  if (reason < 0) {
+    d->stage_failures++;
+    d->stage_failed_reason = reason;
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
@@ -533,6 +552,7 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       SNES snes;
       PetscCall(TSGetSNES(d->ts, &snes));
       PetscCall(SNESMonitorSet(snes, StageMonitor, d, NULL));
+      PetscCall(SNESConvergedReasonViewSet(snes, StageReasonView, d, NULL));
       PetscCall(TSSetApplicationContext(d->ts, integ));
       PetscCall(TSAdaptSetCheckStage(adapt, CheckStage));
       if (d->adaptive && strcmp(type, TSROSW)) PetscCall(SetStageTolerance(integ, d, snes, type)); /* rosw's stages are linear solves */
@@ -570,6 +590,12 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "%s is not supported with -msim_integrator ts: msim steps the TS itself (TSStep), without TSSolve's %s; %s", name, strcmp(name, "-ts_monitor_solution_vtk") ? "trajectory or adjoint" : "VTK output of a DM's solution",
                  strcmp(name, "-ts_monitor_solution_vtk") ? "msim has no sensitivities; -msim_output DIR writes the states as a series, -msim_monitor_csv the energies" : "-msim_output DIR writes the states as a series (-msim_output_every k); -ts_monitor prints each internal step");
     }
+    /* PETSc counts failed stage solves over the TS's whole life (TSSolve's, here the run's: a
+       restart counts afresh) and stops at the N-th, which is not msim's retry count: each failed
+       solve is retried at a quarter of the step up to -ts_max_reject times per internal step,
+       within -msim_ts_max_substeps internal steps per -msim_dt */
+    PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_max_snes_failures", &given));
+    PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "-ts_max_snes_failures is not supported by -msim_integrator ts: PETSc counts failed stage solves over the whole run (afresh at a restart), not per step; each failed solve is retried at a quarter of the step up to -ts_max_reject times, within -msim_ts_max_substeps internal steps per -msim_dt: set those");
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_dt", &given));
     PetscCheck(!given || d->adaptive, integ->comm, PETSC_ERR_SUP, "-ts_dt with a fixed-step TS is not read: each -msim_dt is one of its steps; set -msim_dt (an adaptive TS, -ts_adapt_type basic or dsp, starts from -ts_dt)");
     if (given) PetscCall(TSGetTimeStep(d->ts, &d->h_next));
@@ -610,8 +636,9 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
 
   PetscFunctionBeginUser;
   PetscCall(CopyState(d, X, V, PETSC_TRUE));
-  integ->residual = 0;
-  d->refused[0]   = 0;
+  integ->residual     = 0;
+  d->refused[0]       = 0;
+  d->stage_failures   = 0;
   /* a fixed-step TS tries the whole -msim_dt again in every interval (a failed solve shortens only
      the step that failed) */
   if (!d->adaptive) d->h_next = integ->dt;
@@ -628,10 +655,24 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
     }
     if (n >= d->max_substeps) { /* stops as a failed step does, the last finite state kept (was an error from inside the step: no such state, no frame of it) */
       TSType type;
+      char   why[256];
       PetscCall(TSGetType(d->ts, &type));
+      if (d->adaptive) PetscCall(PetscStrncpy(why, "raise it, or loosen -ts_atol/-ts_rtol", sizeof(why)));
+      else if (d->stage_failures > 0) {
+        /* a fixed-step TS keeps the quarter step a failed solve left for the rest of the interval */
+        SNES      snes;
+        SNESType  stype;
+        PetscReal atol, rtol, stol;
+        PetscInt  maxit, maxf;
+        PetscCall(TSGetSNES(d->ts, &snes));
+        PetscCall(SNESGetType(snes, &stype));
+        PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
+        if (d->stage_failed_reason == SNES_DIVERGED_MAX_IT) PetscCall(PetscSNPrintf(why, sizeof(why), "%" PetscInt_FMT " stage solves stopped at -snes_max_it %" PetscInt_FMT " (-snes_type %s: DIVERGED_MAX_IT), each retried at a quarter step, which a fixed-step TS keeps: raise -snes_max_it or lower -msim_dt", d->stage_failures, maxit, stype));
+        else PetscCall(PetscSNPrintf(why, sizeof(why), "%" PetscInt_FMT " stage solves failed (-snes_type %s: %s last), each retried at a quarter step, which a fixed-step TS keeps: lower -msim_dt", d->stage_failures, stype, SNESConvergedReasons[d->stage_failed_reason]));
+      } else PetscCall(PetscStrncpy(why, "raise it or lower -msim_dt", sizeof(why)));
       integ->failed      = PETSC_TRUE;
       integ->failed_what = "the TS ran out of internal steps";
-      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g reached t = %g of %g, the last proposing h = %g: %s)", type, d->max_substeps, (double)integ->dt, (double)tcur, (double)tend, (double)d->h_next, d->adaptive ? "raise it, or loosen -ts_atol/-ts_rtol" : "stage solves kept failing, each retried at a quarter step: lower -msim_dt"));
+      PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g reached t = %g of %g, the last proposing h = %g: %s)", type, d->max_substeps, (double)integ->dt, (double)tcur, (double)tend, (double)d->h_next, why));
       break;
     }
     h = PetscMin(d->h_next, tend - tcur);
