@@ -213,8 +213,9 @@ static PetscErrorCode StageConverged(SNES snes, PetscInt it, PetscReal xnorm, Pe
 }
 
 /* An adaptive TS with nonlinear stages: the stage solves tied to -ts_atol/-ts_rtol where the user
-   set none of -snes_atol/-snes_rtol/-snes_stol (StageConverged); where -snes_rtol was set above a
-   hundredth of the TS's tolerance (alpha2's 1e-8 at 1e-7: 29 x the tolerance off), one warning */
+   set none of -snes_atol/-snes_rtol/-snes_stol (StageConverged); where -snes_rtol or -snes_atol was
+   set above a hundredth of the TS's tolerance (alpha2's -snes_rtol 1e-8 at 1e-7: 29 x the tolerance
+   off), one warning */
 static PetscErrorCode SetStageTolerance(MSimIntegrator integ, TSInteg *d, SNES snes, TSType type)
 {
   const char *prefix;
@@ -234,7 +235,15 @@ static PetscErrorCode SetStageTolerance(MSimIntegrator integ, TSInteg *d, SNES s
   }
   PetscCall(SNESGetTolerances(snes, &atol, &rtol, &stol, &maxit, &maxf));
   tol = d->stage_atol > 0 && d->stage_rtol > 0 ? PetscMin(d->stage_atol, d->stage_rtol) : PetscMax(d->stage_atol, d->stage_rtol);
-  if (rtol > 1e-2 * tol) PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: adaptive -ts_type %s: the stage solves stop at -snes_rtol %g of their first residual, looser than the error control's tolerance %g needs (1e-2 of it), so the solves' error can exceed the scheme's and a tighter -ts_atol/-ts_rtol give a worse answer; lower -snes_rtol, or leave -snes_atol/-snes_rtol/-snes_stol unset and msim ties the stage solves to -ts_atol/-ts_rtol\n", type, (double)rtol, (double)tol));
+  /* -snes_atol alike: an absolute |F| the solves may stop at, loose against the same hundredth of
+     the tolerance (was not warned about: -snes_atol 1e-2 at -ts_atol 1e-4 ran silently) */
+  if (rtol > 1e-2 * tol || atol > 1e-2 * tol) {
+    char what[128];
+    if (rtol > 1e-2 * tol && atol > 1e-2 * tol) PetscCall(PetscSNPrintf(what, sizeof(what), "-snes_rtol %g of their first residual or at |F| <= -snes_atol %g", (double)rtol, (double)atol));
+    else if (rtol > 1e-2 * tol) PetscCall(PetscSNPrintf(what, sizeof(what), "-snes_rtol %g of their first residual", (double)rtol));
+    else PetscCall(PetscSNPrintf(what, sizeof(what), "|F| <= -snes_atol %g", (double)atol));
+    PetscCall(PetscFPrintf(integ->comm, PETSC_STDERR, "msim: warning: adaptive -ts_type %s: the stage solves stop at %s, looser than the error control's tolerance %g needs (1e-2 of it), so the solves' error can exceed the scheme's and a tighter -ts_atol/-ts_rtol give a worse answer; lower %s, or leave -snes_atol/-snes_rtol/-snes_stol unset and msim ties the stage solves to -ts_atol/-ts_rtol\n", type, what, (double)tol, rtol > 1e-2 * tol && atol > 1e-2 * tol ? "-snes_rtol and -snes_atol" : rtol > 1e-2 * tol ? "-snes_rtol" : "-snes_atol"));
+  }
   PetscFunctionReturn(PETSC_SUCCESS);
 }
 
