@@ -244,7 +244,8 @@ def stage_failures_capped(check, np_, tmp):
     landing hard with -msim_volume under beuler, a scene now refused: down to 1e-11 s, for 11+
     minutes inside one -msim_dt, up to -msim_ts_max_substeps 100000): its default cap of 20 ends the
     run in one line. Here the stage solves fail by Newton's 2-iteration limit on a cloth falling
-    5 cm a step, and pass only at a fraction of the step (the old binary runs on to its end)."""
+    5 cm a step, and pass only at a fraction of the step (the old binary runs on to its end); the
+    line names -snes_max_it as what failed them."""
     box = ["-msim_cloth_n", "8", "-msim_fix", "corners", "-msim_integrator", "ts", "-ts_type", "beuler", "-snes_max_it", "2",
            "-msim_dt", "0.05", "-msim_steps", "4"]
     try:  # a guard against the old endless retries, not a timing check
@@ -253,7 +254,8 @@ def stage_failures_capped(check, np_, tmp):
         check(False, f"np={np_}: beuler's failing stages end the run (still running after 600 s)")
         return
     lines = mt.lines(r.stderr)
-    check(r.returncode != 0 and len(lines) == 1 and "-msim_ts_max_substeps 20" in lines[0] and "stage solves kept failing" in lines[0] and "last finite state is step" in lines[0],
+    check(r.returncode != 0 and len(lines) == 1 and "-msim_ts_max_substeps 20" in lines[0] and "stopped at -snes_max_it 2" in lines[0] and "raise -snes_max_it" in lines[0]
+          and "last finite state is step" in lines[0],
           f"np={np_}: beuler's failing stages end the run in one line at 20 internal steps (exit {r.returncode}, {lines[-1:]})")
 
 
