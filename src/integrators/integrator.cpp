@@ -152,6 +152,7 @@ PetscErrorCode MSimIntegratorStep(MSimIntegrator integ, PetscReal t, Vec X, Vec 
   integ->phi                               = 0;
   integ->failed                            = PETSC_FALSE;
   integ->failed_what                       = NULL;
+  integ->failed_t                          = -1;
   integ->stopped                           = PETSC_FALSE;
   integ->step++;
   PetscCall((*integ->ops.step)(integ, t, X, V));

@@ -379,7 +379,8 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
       if (solver_failed) bad = PETSC_TRUE;
       if (check && !bad) PetscCall(Diverged(t, X, V, &kin, &pot, &Ug, &bad));
       if (bad) {
-        char limit[128] = "", why[256] = "";
+        char      limit[128] = "", why[256] = "";
+        PetscBool prev_finite = PETSC_FALSE; /* step n - 1, where it was not checked before: finite */
         if (info->critical_dt < PETSC_INFINITY) PetscCall(PetscSNPrintf(limit, sizeof(limit), ", predicted limit h <= %g", (double)info->critical_dt));
         if (!solver_failed) {
           if (PetscIsInfOrNanReal(kin + pot)) PetscCall(PetscSNPrintf(why, sizeof(why), ": the state is not finite"));
@@ -395,18 +396,31 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
           PetscReal k0, p0, u0;
           PetscBool bad0 = PETSC_TRUE;
           PetscCall(Diverged(t0, Xprev, Vprev, &k0, &p0, &u0, &bad0));
+          prev_finite = (PetscBool)!PetscIsInfOrNanReal(k0 + p0);
           if (!bad0) {
             last_good = n - 1;
             PetscCall(VecSwap(Xgood, Xprev));
             PetscCall(VecSwap(Vgood, Vprev));
           }
         }
+        /* the state kept: the last that passed the test, with what is known of the steps after it
+           (not checked between checks; the step before this one checked just above) */
+        char last[256], when[128];
+        if (last_good == n - 1) PetscCall(PetscSNPrintf(last, sizeof(last), "last finite state is step %" PetscInt_FMT, last_good));
+        else {
+          char between[128] = "";
+          if (n - 2 > last_good) PetscCall(PetscSNPrintf(between, sizeof(between), "steps %" PetscInt_FMT " to %" PetscInt_FMT " not checked at -msim_divergence_check_every %" PetscInt_FMT ", ", last_good + 1, n - 2, check_every));
+          PetscCall(PetscSNPrintf(last, sizeof(last), "last state that passed the divergence test is step %" PetscInt_FMT ", kept as the last finite state (%sstep %" PetscInt_FMT " %s)", last_good, between, n - 1, prev_finite ? "finite but already past its energy bound" : "not finite"));
+        }
+        /* a failed step that got part of the way (a TS's internal steps): where it stopped */
+        if (solver_failed && integ->failed_t >= 0) snprintf(when, sizeof(when), "stopped at t = %g s, within %g -> %g s", (double)integ->failed_t, (double)t0, (double)t); /* C's %g */
+        else snprintf(when, sizeof(when), "t = %g s", (double)t);
         PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
         PetscCall(VecCopy(Xgood, X));
         PetscCall(VecCopy(Vgood, V));
         PetscCall(Summarise(n));
         PetscCall(EndEarly());
-        SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (t = %g s)%s; %s, h = %g%s; last finite state is step %" PetscInt_FMT, solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, (double)t, why, integ->type, (double)integ->dt, limit, last_good);
+        SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (%s)%s; %s, h = %g%s; %s", solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, when, why, integ->type, (double)integ->dt, limit, last);
       }
       if (check) {
         last_good = n;

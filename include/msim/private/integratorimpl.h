@@ -52,6 +52,7 @@ struct _n_MSimIntegrator {
   PetscBool         failed; /* the step's solver diverged: the run stops as diverged */
   char              failure[512]; /* why, in the solver's words (" (-snes_type qn: DIVERGED_LINE_SEARCH)") */
   const char       *failed_what; /* what gave up, where not the nonlinear solver (a TS's error control); NULL: the solver */
+  PetscReal         failed_t; /* a failed step that got part of the way (a TS's internal steps): the time it reached; < 0 where none */
   /* a stop signal cut the step short (msim/signals.h, MSimStopSignalAgreedInStep): X and V are
      the step's start again and the step counts as not taken */
   PetscBool         stopped;

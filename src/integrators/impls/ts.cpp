@@ -681,6 +681,7 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
       } else PetscCall(PetscStrncpy(why, "raise it or lower -msim_dt", sizeof(why)));
       integ->failed      = PETSC_TRUE;
       integ->failed_what = "the TS ran out of internal steps";
+      integ->failed_t    = tcur;
       PetscCall(PetscSNPrintf(integ->failure, sizeof(integ->failure), " (-ts_type %s: -msim_ts_max_substeps %" PetscInt_FMT " steps within one -msim_dt %g reached t = %g of %g, the last proposing h = %g: %s)", type, d->max_substeps, (double)integ->dt, (double)tcur, (double)tend, (double)d->h_next, why));
       break;
     }
@@ -743,7 +744,8 @@ static PetscErrorCode Step_TS(MSimIntegrator integ, PetscReal t, Vec X, Vec V)
       PetscCall(SNESGetConvergedReason(snes, &sreason));
       PetscCall(SNESGetType(snes, &stype));
     }
-    integ->failed = PETSC_TRUE;
+    integ->failed   = PETSC_TRUE;
+    integ->failed_t = tcur; /* the internal steps before the one that failed were taken */
     /* the last try's solves converged: the error control, not the solver, gave up on the step
        (the time loop then stops as for a failed solve, keeping the last finite state) */
     PetscCall(TSGetTimeStep(d->ts, &h));
