@@ -227,6 +227,9 @@ CASES = [
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_rtol", "1e-3"], "-ts_rtol is not read by a fixed-step TS"),
     # PETSc counts failed stage solves over the TS's whole life (the run; afresh at a restart), which
     # is not msim's retry count (was accepted: run-wide, and no word of it in the stop's message)
+    # read by TSSetFromOptions after msim set it false: a failed step, or a stop signal inside one,
+    # became PETSc's bare "TSStep has failed due to DIVERGED_STEP_REJECTED", nothing kept
+    (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_error_if_step_fails"], "-ts_error_if_step_fails is not supported by -msim_integrator ts"),
     (["-msim_integrator", "ts", "-ts_type", "beuler", "-ts_max_snes_failures", "3"], "-ts_max_snes_failures is not supported by -msim_integrator ts: PETSc counts failed stage solves over the whole run"),
     # -msim_implicit_terms leaving out a term the scene needs: the feature was dropped silently (a
     # cloth fell through the obstacle while the monitor reported its contact force)

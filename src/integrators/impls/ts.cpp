@@ -603,6 +603,16 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
        restart counts afresh) and stops at the N-th, which is not msim's retry count: each failed
        solve is retried at a quarter of the step up to -ts_max_reject times per internal step,
        within -msim_ts_max_substeps internal steps per -msim_dt */
+    /* msim ends a run whose step fails in a line of its own, the last finite state kept, and a
+       stop signal inside a step (a stage solve told to stop) ends as a failed TSStep that msim
+       turns into the last whole step's checkpoint; TSSetFromOptions reads -ts_error_if_step_fails
+       after msim set it false, and with it either became PETSc's bare "TSStep has failed due to
+       DIVERGED_STEP_REJECTED", nothing kept */
+    {
+      PetscBool fail = PETSC_FALSE;
+      PetscCall(PetscOptionsGetBool(NULL, prefix, "-ts_error_if_step_fails", &fail, &given));
+      PetscCheck(!given || !fail, integ->comm, PETSC_ERR_SUP, "-ts_error_if_step_fails is not supported by -msim_integrator ts: msim ends a run whose step fails with an error line of its own, keeping the last finite state (and a stop signal's checkpoint), which PETSc's error would lose; drop it");
+    }
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_max_snes_failures", &given));
     PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "-ts_max_snes_failures is not supported by -msim_integrator ts: PETSc counts failed stage solves over the whole run (afresh at a restart), not per step; each failed solve is retried at a quarter of the step up to -ts_max_reject times, within -msim_ts_max_substeps internal steps per -msim_dt: set those");
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_dt", &given));
