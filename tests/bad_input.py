@@ -377,6 +377,7 @@ def main():
         with open(os.path.join(tmp, "huge.obj"), "w") as f:
             f.write("v 0 0 -0.5\nv 1e300 0 -0.5\nv 0 1e300 -0.5\nf 1 2 3\n")
         for np in nps:
+            todo = []  # (args, message, out, the command line's arguments)
             for i, (args, message) in enumerate(CASES + (PARALLEL_CASES if np > 1 else [])):
                 if np > 1 and tuple(args) in ONE_RANK:
                     continue
@@ -384,7 +385,9 @@ def main():
                 # options given in the case (or in its options file) are not overridden
                 given = " ".join(args) + (open(os.path.join(tmp, args[1])).read() if args[0] == "-options_file" and os.path.exists(os.path.join(tmp, args[1])) else "")
                 extra = ([] if "-msim_output" in given else ["-msim_output", out]) + ([] if "-msim_steps" in given else ["-msim_steps", "5"])
-                r = run(args + extra, tmp, np)
+                todo.append((args, message, out, args + extra))
+            # each case its own output directory, reading only files written above: run side by side
+            for (args, message, out, _), r in zip(todo, mt.run_many(MSIM, [t[3] for t in todo], np, cwd=tmp)):
                 lines = mt.lines(r.stderr)
                 problems = []
                 if r.returncode == 0:
@@ -407,8 +410,8 @@ def main():
                 check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith(want) and not r.stdout.strip() and not os.path.exists(out),
                       f"np={np} a chain of {n} ({free} free): rc {r.returncode}, stderr {lines!r}, stdout {r.stdout.strip()[-200:]!r}, want '{want}' alone")
         for np in nps:
-            for args in ACCEPTED:
-                r = run(["-msim_integrator", "implicit_euler", "-msim_cloth_n", "6", "-msim_dt", "0.01", "-msim_steps", "2", "-snes_max_it", "500"] + args, tmp, np)
+            accepted = [["-msim_integrator", "implicit_euler", "-msim_cloth_n", "6", "-msim_dt", "0.01", "-msim_steps", "2", "-snes_max_it", "500"] + args for args in ACCEPTED]
+            for args, r in zip(ACCEPTED, mt.run_many(MSIM, accepted, np, cwd=tmp)):
                 check(r.returncode == 0 and not r.stderr.strip(), f"np={np} {' '.join(args)}: read by the run's solvers, runs without a word (rc {r.returncode}, stderr {r.stderr.strip()[-300:]!r})")
         # a misspelled option runs with the defaults, so it is named in a warning (one line, exit 0)
         for np in nps:

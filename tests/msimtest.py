@@ -119,6 +119,24 @@ def run(exe, args=(), np=1, cwd=None, **kw):
             shutil.rmtree(own, True)
 
 
+# run_many's runs at once: a short run (bad input refused at set-up, a mesh file read) spends much
+# of its wall time where its core idles (the loader mapping PETSc's ~110 libraries, mpirun starting
+# and reaping its ranks): a refused run takes ~0.45 s wall for ~0.3 s CPU alone, at 2 ranks 0.5-1.5 s
+# for ~0.45 s. Two at a time keep both of CI's 2 cores busy; tests that use run_many say
+# PROCESSORS 2 (tests/CMakeLists.txt). MSIM_TEST_JOBS=1 runs them one after another.
+JOBS = max(1, int(os.environ.get("MSIM_TEST_JOBS", "2")))
+
+
+def run_many(exe, arglists, np=1, cwd=None, jobs=None, **kw):
+    """run() of exe with each of arglists at np ranks, up to jobs (JOBS) at a time: independent
+    runs only (none reads what another writes). The results come in arglists' order, so that a
+    script checks them, and prints its checks, in the order it did when it ran them one by one"""
+    from concurrent.futures import ThreadPoolExecutor
+    arglists = [list(a) for a in arglists]
+    with ThreadPoolExecutor(max_workers=jobs or JOBS) as pool:
+        return list(pool.map(lambda a: run(exe, a, np, cwd=cwd, **kw), arglists))
+
+
 def run_info(exe, args=(), np=1, classes="", cwd=None, **kw):
     """runs exe like run() with PETSc's -info written to one file per rank (PETSc names them
     info.RANK in a temporary directory): ranks that share stdout can cut a line of one rank into
@@ -150,8 +168,9 @@ def lines(text):
 def refusals(check, exe, base, cases, np):
     """bad input: for each (label, args, words) of cases, msim with base + args exits non-zero with
     one error line that holds every one of words"""
-    for label, args, words in cases:
-        err = lines((r := run(exe, list(base) + list(args), np)).stderr)
+    cases = list(cases)
+    for (label, args, words), r in zip(cases, run_many(exe, [list(base) + list(args) for _, args, _ in cases], np)):
+        err = lines(r.stderr)
         check(r.returncode != 0 and len(err) == 1 and all(w in err[0] for w in words), f"np {np}: {label}: one error line naming it ({err})")
 
 
