@@ -122,8 +122,8 @@ def run(exe, args=(), np=1, cwd=None, **kw):
 # run_many's runs at once: a short run (bad input refused at set-up, a mesh file read) spends much
 # of its wall time where its core idles (the loader mapping PETSc's ~110 libraries, mpirun starting
 # and reaping its ranks): a refused run takes ~0.45 s wall for ~0.3 s CPU alone, at 2 ranks 0.5-1.5 s
-# for ~0.45 s. Two at a time keep both of CI's 2 cores busy; tests that use run_many say
-# PROCESSORS 2 (tests/CMakeLists.txt). MSIM_TEST_JOBS=1 runs them one after another.
+# for ~0.45 s. ctest sets MSIM_TEST_JOBS to the test's PROCESSORS, capped at 2 (tests/CMakeLists.txt
+# says why): a 2-rank test's runs go two at a time, a 1-rank test's one after another; by hand, 2.
 JOBS = max(1, int(os.environ.get("MSIM_TEST_JOBS", "2")))
 
 
