@@ -58,6 +58,10 @@ def main():
               f"np={np_}: a fixed-step rosw with an obstacle is warned about ({lines})")
         r = mt.run(MSIM, plane, np_)
         check(r.returncode == 0 and not mt.lines(r.stderr), f"np={np_}: an adaptive rosw with an obstacle: no warning ({mt.lines(r.stderr)})")
+        # -ts_max_snes_failures -1 is PETSc's "unlimited", msim's own setting: accepted (any other
+        # value is refused, bad_input.py)
+        r = mt.run(MSIM, CLOTH + ["-msim_steps", "1", "-ts_type", "beuler", "-ts_max_snes_failures", "-1"], np_)
+        check(r.returncode == 0 and not mt.lines(r.stderr), f"np={np_}: -ts_max_snes_failures -1 runs without a word ({mt.lines(r.stderr)})")
     return check.exit_code()
 
 

@@ -31,13 +31,17 @@
 #include <msim/private/implicitimpl.h>
 #include <msim/private/contactimpl.h>
 #include <algorithm>
+#include <petsc/private/petscimpl.h> /* PetscObjectStateGet: the lag kept for x_n at its state */
 #include <cmath>
 
 typedef struct {
   PetscReal                        mu, eps_v;
   MSimImplicitTerm                 self;  /* the self-contact term whose pairs these are */
-  /* the lag: the step it belongs to, and per pair its free vertices' slots in dl (-1: fixed) */
-  PetscReal                        t, h2;
+  /* the lag: the step it belongs to (its x_n, at its state, and times), and per pair its free
+     vertices' slots in dl (-1: fixed) */
+  PetscObjectId                    xn_id;
+  PetscObjectState                 xn_state;
+  PetscReal                        t, tx, h2;
   PetscBool                        lagged;
   std::vector<MSimSelfContactPair> pairs;
   std::vector<PetscInt>            slot;   /* 4 per pair */
@@ -85,12 +89,22 @@ static PetscErrorCode Lag(MSimImplicitTerm term, FrictionData *fd)
 {
   MSimImplicit imp = term->imp;
 
+  PetscObjectId    id;
+  PetscObjectState state;
+
   PetscFunctionBeginUser;
-  if (fd->lagged && imp->step.t == fd->t && imp->step.h2 == fd->h2) PetscFunctionReturn(PETSC_SUCCESS);
+  /* kept while the step is the same: its x_n (a new step, or one solved again from another start,
+     changes it) and its times (a retry with a smaller h) */
+  PetscCall(PetscObjectGetId((PetscObject)imp->Xn, &id));
+  PetscCall(PetscObjectStateGet((PetscObject)imp->Xn, &state));
+  if (fd->lagged && id == fd->xn_id && state == fd->xn_state && imp->step.t == fd->t && imp->step.tx == fd->tx && imp->step.h2 == fd->h2) PetscFunctionReturn(PETSC_SUCCESS);
   PetscCall(MSimSelfContactGetPairs(fd->self, imp->step.t, imp->Xn, fd->pairs));
   PetscCall(PlanPairs(imp, fd));
-  fd->t      = imp->step.t;
-  fd->h2     = imp->step.h2;
+  fd->xn_id    = id;
+  fd->xn_state = state;
+  fd->t        = imp->step.t;
+  fd->tx       = imp->step.tx;
+  fd->h2       = imp->step.h2;
   fd->lagged = PETSC_TRUE;
   fd->lags   = 0;
   PetscFunctionReturn(PETSC_SUCCESS);

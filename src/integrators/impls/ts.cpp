@@ -633,7 +633,12 @@ static PetscErrorCode Setup_TS(MSimIntegrator integ)
       PetscCall(PetscOptionsGetBool(NULL, prefix, "-ts_error_if_step_fails", &fail, &given));
       PetscCheck(!given || !fail, integ->comm, PETSC_ERR_SUP, "-ts_error_if_step_fails is not supported by -msim_integrator ts: msim ends a run whose step fails with an error line of its own, keeping the last finite state (and a stop signal's checkpoint), which PETSc's error would lose; drop it");
     }
-    PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_max_snes_failures", &given));
+    {
+      /* -1, PETSc's "unlimited", is what msim sets itself: accepted */
+      PetscInt nfail = -1;
+      PetscCall(PetscOptionsGetInt(NULL, prefix, "-ts_max_snes_failures", &nfail, &given));
+      given = (PetscBool)(given && nfail != -1);
+    }
     PetscCheck(!given, integ->comm, PETSC_ERR_SUP, "-ts_max_snes_failures is not supported by -msim_integrator ts: PETSc counts failed stage solves over the whole run (afresh at a restart), not per step; each failed solve is retried at a quarter of the step up to -ts_max_reject times, within -msim_ts_max_substeps internal steps per -msim_dt: set those");
     PetscCall(PetscOptionsHasName(NULL, prefix, "-ts_dt", &given));
     PetscCheck(!given || d->adaptive, integ->comm, PETSC_ERR_SUP, "-ts_dt with a fixed-step TS is not read: each -msim_dt is one of its steps; set -msim_dt (an adaptive TS, -ts_adapt_type basic or dsp, starts from -ts_dt)");
