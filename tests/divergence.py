@@ -7,8 +7,10 @@ one lifted 20 m by its handles (their work, 196 J, stopped it at step 180). Expl
 its stability limit still stops at step 16, as it did, its line naming the test and its numbers
 (the energy's rise, the factor and the scale), and a misspelled option is named after that line.
 At 1 and 2 ranks, or with `--np N` at N alone."""
+import os
 import re
 import sys
+import tempfile
 
 import msimtest as mt
 
@@ -42,6 +44,14 @@ def main():
         lines = mt.lines(r.stderr)
         check(r.returncode != 0 and len(lines) == 2 and lines[0].startswith("msim: error: diverged at step") and lines[1].startswith("msim: warning: -msim_stifness was set but never used"),
               f"np={np}: the blow-up with a misspelled option names both, the error first ({lines!r})")
+        # the last finite state that cannot be written (a directory in its file's place): the
+        # divergence is still the line, the write's failure added to it (it was the line alone)
+        with tempfile.TemporaryDirectory() as tmp:
+            os.makedirs(os.path.join(tmp, "last_finite.vtu.tmp"))
+            r = mt.run(MSIM, ["-msim_integrator", "explicit_euler", "-msim_dt", "2e-3", "-msim_steps", "400", "-msim_spectrum_check", "0", "-msim_output", tmp, "-msim_output_every", "100"], np)
+            lines = mt.lines(r.stderr)
+            check(r.returncode != 0 and len(lines) == 1 and lines[0].startswith("msim: error: diverged at step") and "; writing the last finite state failed: cannot write" in lines[0],
+                  f"np={np}: a blow-up whose last finite state cannot be written says both in one line ({lines!r})")
     return check.exit_code()
 
 

@@ -1,6 +1,7 @@
 /* Time loop: stability guard, steps, monitors, output, divergence detection. */
 #include <csignal>
 #include <msim/run.h>
+#include <msim/errors.h>
 #include <msim/spectrum.h>
 #include <msim/contact.h>
 #include <msim/contact_force.h>
@@ -415,12 +416,18 @@ PetscErrorCode MSimRun(MSimSystem sys, MSimIntegrator integ, Vec X, Vec V, MSimR
         /* a failed step that got part of the way (a TS's internal steps): where it stopped */
         if (solver_failed && integ->failed_t >= 0) snprintf(when, sizeof(when), "stopped at t = %g s, within %g -> %g s", (double)integ->failed_t, (double)t0, (double)t); /* C's %g */
         else snprintf(when, sizeof(when), "t = %g s", (double)t);
-        PetscCall(MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood));
+        /* the run's outcome is the line: a write or close that fails on the way out (the disk
+           full) is added to it, not raised in its place (the divergence went unsaid). Collective:
+           every rank gets the same code from the writes' agreement */
+        std::string    wmsg, emsg;
+        PetscErrorCode werr = MSimCaptureError([&]() -> PetscErrorCode { return MSimOutputWriteExtra(out, "last_finite", time_at(last_good), Xgood, Vgood); }, wmsg);
         PetscCall(VecCopy(Xgood, X));
         PetscCall(VecCopy(Vgood, V));
         PetscCall(Summarise(n));
-        PetscCall(EndEarly());
-        SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (%s)%s; %s, h = %g%s; %s", solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, when, why, integ->type, (double)integ->dt, limit, last);
+        PetscErrorCode eerr = MSimCaptureError([&]() -> PetscErrorCode { return EndEarly(); }, emsg);
+        std::string    also = werr ? "; writing the last finite state failed: " + wmsg : "";
+        if (eerr) also += "; closing the run's files failed: " + emsg;
+        SETERRQ(sys->comm, PETSC_ERR_NOT_CONVERGED, "%s%s at step %" PetscInt_FMT " (%s)%s; %s, h = %g%s; %s%s", solver_failed ? (integ->failed_what ? integ->failed_what : "the nonlinear solver failed") : "diverged", solver_failed ? integ->failure : "", n, when, why, integ->type, (double)integ->dt, limit, last, also.c_str());
       }
       if (check) {
         last_good = n;

@@ -12,7 +12,7 @@ static PetscErrorCode MSimCaptureHandler(MPI_Comm comm, int line, const char *fu
 }
 
 /* Runs fn with errors kept quiet: returns fn's error code and its first message. */
-static PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, std::string &message)
+PetscErrorCode MSimCaptureError(const std::function<PetscErrorCode(void)> &fn, std::string &message)
 {
   PetscErrorCode ierr;
 
