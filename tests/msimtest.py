@@ -39,23 +39,21 @@ for _k, _v in (("OMPI_ALLOW_RUN_AS_ROOT", "1"), ("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM
 # environment, tests/CMakeLists.txt) always takes <tmpdir>/ompi.<host>.<uid>/jf.0/1, so singletons
 # running at once (two tests side by side, or one test's runs in parallel) create and remove the
 # same directory: "A call to mkdir was unable to create the desired directory ... File exists",
-# MPI_Init aborted (bad_input_np1, once, next to another test's singletons). Each script gets a
-# directory of its own under /tmp (short: the daemons' sockets live there), and each singleton
-# run() starts a subdirectory of it; all removed at exit.
-_SESSIONS = tempfile.mkdtemp(prefix="msim-ompi-", dir="/tmp")
-atexit.register(shutil.rmtree, _SESSIONS, True)
-ENV["OMPI_MCA_orte_tmpdir_base"] = _SESSIONS
+# MPI_Init aborted (bad_input_np1, once, next to another test's singletons). Each singleton run
+# gets a directory of its own under /tmp (short, as Open MPI's paths want), removed after it (a
+# popen's at exit). mpirun's jobs keep the base they are given: mpirun names them uniquely, and a
+# fresh base shared by concurrent mpiruns made them race to create its ompi.<host>.<uid> (seen:
+# bad_input_np2, "ORTE_ERROR_LOG: Error in file session_dir.c").
+_SESSIONS = []
+atexit.register(lambda: [shutil.rmtree(d, True) for d in _SESSIONS])
 
 
 def _own_session(np, kw):
-    """kw's env with a session directory of this run's own for a singleton (mpirun's jobs are
-    named by mpirun, uniquely); returns the directory made, or None"""
+    """kw's env with a session directory of this run's own for a singleton; returns it, or None"""
     if np != 1:
         return None
     env = dict(kw.get("env") or ENV)
-    if env.get("OMPI_MCA_orte_tmpdir_base") != _SESSIONS:  # a caller's own choice stands
-        return None
-    env["OMPI_MCA_orte_tmpdir_base"] = tempfile.mkdtemp(dir=_SESSIONS)
+    env["OMPI_MCA_orte_tmpdir_base"] = tempfile.mkdtemp(prefix="msim-ompi-", dir="/tmp")
     kw["env"] = env
     return env["OMPI_MCA_orte_tmpdir_base"]
 
@@ -156,7 +154,9 @@ def popen(exe, args=(), np=1, cwd=None, **kw):
     """starts exe in the background (a new session, so that kill_all reaches its ranks)"""
     kw.setdefault("start_new_session", True)
     kw.setdefault("env", ENV)
-    _own_session(np, kw)  # removed with the script's directory at exit
+    own = _own_session(np, kw)
+    if own:
+        _SESSIONS.append(own)  # removed at exit
     return subprocess.Popen(command(exe, args, np), cwd=cwd, **kw)
 
 
